@@ -1,0 +1,222 @@
+/*
+ * nfdecode.h — decoder for .nfc neural-field compressed 3D shapes (libnfdecode).
+ *
+ * The only public header of libnfdecode. C99/C++ compatible; no exception crosses it, no function
+ * calls exit() or abort(). The bitstream is specified in FORMAT.md.
+ *
+ * Typical use:
+ *
+ *     nfd_context* ctx;  nfd_asset* asset;  nfd_mesh* mesh;
+ *     if (nfd_context_create(NULL, &ctx) != NFD_SUCCESS) ...        // Vulkan, else CPU
+ *     if (nfd_asset_create(bytes, size, &asset) != NFD_SUCCESS) ... // parse + verify + dequantize
+ *     nfd_mesh_options mo = {0};                                    // zero = defaults
+ *     if (nfd_mesh_extract(ctx, asset, &mo, &mesh) != NFD_SUCCESS) ...
+ *     nfd_mesh_data data;  nfd_mesh_get_data(mesh, &data);          // positions/normals/indices
+ *     nfd_mesh_destroy(mesh); nfd_asset_destroy(asset); nfd_context_destroy(ctx);
+ *
+ * Objects:
+ *   nfd_context  a compute device (a Vulkan device created headless or adopted from the host
+ *                engine, or the CPU) with its pipelines. Not thread-safe: use one context per
+ *                thread, or serialise calls on it.
+ *   nfd_asset    one parsed .nfc file: verified, decompressed, dequantized. Immutable after
+ *                creation; may be shared by several contexts and threads.
+ *   nfd_mesh     a decoded triangle mesh owned by the library. Immutable; thread-safe to read.
+ *
+ * Every create function writes its handle only on NFD_SUCCESS (and NULL otherwise, when the out
+ * pointer itself is non-NULL). Every destroy function accepts NULL.
+ */
+#ifndef NFDECODE_NFDECODE_H
+#define NFDECODE_NFDECODE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define NFD_VERSION_MAJOR 0
+#define NFD_VERSION_MINOR 1
+#define NFD_VERSION_PATCH 0
+
+/* The newest bitstream version this library reads (FORMAT.md, "Version policy"). */
+#define NFD_FORMAT_MAJOR 1
+#define NFD_FORMAT_MINOR 0
+
+/* Hard caps from FORMAT.md. Inputs beyond them are rejected before any allocation. */
+#define NFD_MAX_FILE_SIZE (64u * 1024u * 1024u)
+#define NFD_MAX_CHUNK_SIZE (16u * 1024u * 1024u)
+#define NFD_MAX_FREQUENCIES 24u
+#define NFD_MAX_LAYERS 8u
+#define NFD_MAX_WIDTH 512u
+#define NFD_MAX_PARAMETERS (1024u * 1024u)
+
+/* Caps of the mesh extraction. */
+#define NFD_DEFAULT_RESOLUTION 256u
+#define NFD_MIN_RESOLUTION 8u
+#define NFD_MAX_RESOLUTION 1024u
+
+/* ---------------------------------------------------------------------------------------------
+ * Results. Zero is success; errors are negative and grouped by kind, so callers can test ranges:
+ *   -1 .. -19   the input bytes (corrupt, truncated, newer than this library)
+ *   -20 .. -39  the caller (bad argument, limits)
+ *   -40 .. -59  resources (memory, device, files)
+ * ------------------------------------------------------------------------------------------- */
+typedef enum nfd_result {
+    NFD_SUCCESS = 0,
+
+    NFD_ERROR_TRUNCATED = -1,           /* fewer bytes than the file or a structure announces */
+    NFD_ERROR_CORRUPT = -2,             /* bad magic, CRC, value, size, cap, or brotli stream */
+    NFD_ERROR_UNSUPPORTED_VERSION = -3, /* another major format version */
+    NFD_ERROR_UNSUPPORTED_FEATURE = -4, /* a critical chunk or field type this build can't decode */
+
+    NFD_ERROR_INVALID_ARGUMENT = -20,   /* NULL where a pointer is required, bad option value */
+    NFD_ERROR_LIMIT_EXCEEDED = -21,     /* request beyond a documented limit (e.g. resolution) */
+
+    NFD_ERROR_OUT_OF_MEMORY = -40,      /* host or device allocation failed */
+    NFD_ERROR_DEVICE_UNAVAILABLE = -41, /* no usable Vulkan driver/device (CPU still works) */
+    NFD_ERROR_DEVICE = -42,             /* a Vulkan call failed (device lost, ...) */
+    NFD_ERROR_IO = -43                  /* a file could not be written */
+} nfd_result;
+
+/* Static, human-readable, never NULL (unknown values give "unknown result"). */
+const char* nfd_result_string(nfd_result result);
+
+/* ---------------------------------------------------------------------------------------------
+ * Context
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_context nfd_context;
+
+typedef enum nfd_device_kind {
+    NFD_DEVICE_AUTO = 0,   /* Vulkan if a device can be created or is adopted, else CPU */
+    NFD_DEVICE_VULKAN = 1, /* Vulkan or fail with NFD_ERROR_DEVICE_UNAVAILABLE */
+    NFD_DEVICE_CPU = 2     /* the plain C++ reference path, multi-threaded */
+} nfd_device_kind;
+
+/* A Vulkan device owned by the host engine, to be used instead of creating one. Handles are passed
+ * as pointers/integers so that this header does not need vulkan.h: cast VkInstance etc. to void*.
+ * The device must have been created with a queue of `queue_family_index` supporting compute, and
+ * must outlive the context. libnfdecode submits to `queue`; the host must not use that queue from
+ * another thread during a libnfdecode call (Vulkan's external synchronisation rule). */
+typedef struct nfd_vulkan_device {
+    void* instance;            /* VkInstance */
+    void* physical_device;     /* VkPhysicalDevice */
+    void* device;              /* VkDevice */
+    void* queue;               /* VkQueue */
+    uint32_t queue_family_index;
+    void* get_instance_proc_addr; /* PFN_vkGetInstanceProcAddr; NULL = the loader's */
+} nfd_vulkan_device;
+
+/* Zero-initialise, then set what you need. */
+typedef struct nfd_context_options {
+    nfd_device_kind device;               /* default NFD_DEVICE_AUTO */
+    const nfd_vulkan_device* adopt;       /* NULL: create a headless device (first discrete GPU,
+                                             else integrated, else lavapipe/CPU implementation) */
+    uint32_t cpu_threads;                 /* CPU path threads; 0 = hardware concurrency */
+    int enable_validation;                /* non-zero: enable VK_LAYER_KHRONOS_validation if present */
+} nfd_context_options;
+
+/* options may be NULL (all defaults). Creating a Vulkan device compiles the pipelines; later
+ * contexts reuse the driver's pipeline cache where it has one. */
+nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context);
+void nfd_context_destroy(nfd_context* context);
+
+/* NFD_DEVICE_VULKAN or NFD_DEVICE_CPU: what the context actually runs on. */
+nfd_device_kind nfd_context_device_kind(const nfd_context* context);
+/* The device's name (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" or "cpu"); owned by the context. */
+const char* nfd_context_device_name(const nfd_context* context);
+
+/* ---------------------------------------------------------------------------------------------
+ * Asset: one .nfc file
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_asset nfd_asset;
+
+typedef enum nfd_field_type { NFD_FIELD_SDF = 0, NFD_FIELD_UDF = 1 } nfd_field_type;
+
+typedef struct nfd_asset_info {
+    uint32_t format_major, format_minor; /* of the file (minor may exceed NFD_FORMAT_MINOR) */
+    uint32_t file_size;                  /* bytes */
+    nfd_field_type field_type;
+    float truncation;                    /* d* in the unit frame */
+    float center[3], scale;              /* original = unit * scale + center */
+    uint32_t num_frequencies;            /* positional-encoding frequencies L */
+    uint32_t num_layers;                 /* linear layers, output layer included */
+    uint32_t layer_widths[NFD_MAX_LAYERS]; /* out_features of each layer */
+    uint32_t bits;                       /* quantization bit width */
+    uint32_t parameter_count;
+    int has_colour;                      /* a colour chunk is present (decoded in a later version) */
+} nfd_asset_info;
+
+/* Parses and fully verifies `size` bytes (magic, versions, CRCs, caps, brotli, exact sizes) and
+ * dequantizes the weights. The bytes are not retained: the caller may free them on return.
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_TRUNCATED / CORRUPT / UNSUPPORTED_VERSION / UNSUPPORTED_FEATURE
+ * for bad bytes; NFD_ERROR_INVALID_ARGUMENT for NULL pointers; NFD_ERROR_OUT_OF_MEMORY.
+ * Allocation is bounded by the caps above, whatever the bytes say. */
+nfd_result nfd_asset_create(const void* bytes, size_t size, nfd_asset** out_asset);
+void nfd_asset_destroy(nfd_asset* asset);
+nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info);
+
+/* Evaluates the field at `count` points given in the ORIGINAL frame (xyz interleaved, 3*count
+ * floats), writing `count` distances in the unit frame (multiply by info.scale for original
+ * units). Runs on the context's device. */
+nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, const float* points,
+                              size_t count, float* out_values);
+
+/* ---------------------------------------------------------------------------------------------
+ * Mesh extraction
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_mesh nfd_mesh;
+
+/* Zero-initialise, then set what you need. */
+typedef struct nfd_mesh_options {
+    uint32_t resolution; /* grid cells per axis over the unit cube; 0 = NFD_DEFAULT_RESOLUTION;
+                            NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION, else LIMIT_EXCEEDED */
+} nfd_mesh_options;
+
+typedef struct nfd_mesh_data {
+    const float* positions;   /* 3 * vertex_count floats, original frame */
+    const float* normals;     /* 3 * vertex_count floats, unit length, outward */
+    const uint32_t* indices;  /* 3 * triangle_count, counter-clockwise seen from outside */
+    size_t vertex_count;
+    size_t triangle_count;
+} nfd_mesh_data;
+
+typedef struct nfd_decode_stats {
+    double seconds_field;      /* coarse-to-fine field evaluation */
+    double seconds_mesh;       /* marching cubes, welding, normals */
+    uint64_t points_evaluated; /* field evaluations over all refinement levels */
+    uint64_t active_cells;     /* finest-level cells that produced triangles */
+} nfd_decode_stats;
+
+/* Extracts the zero level set of an SDF asset (UDF: NFD_ERROR_UNSUPPORTED_FEATURE in this version)
+ * with sparse coarse-to-fine evaluation and marching cubes: an indexed, welded mesh in original
+ * coordinates. options may be NULL. An empty mesh (field without a surface) is a success. */
+nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
+                            const nfd_mesh_options* options, nfd_mesh** out_mesh);
+void nfd_mesh_destroy(nfd_mesh* mesh);
+
+/* Pointers stay valid until nfd_mesh_destroy. */
+nfd_result nfd_mesh_get_data(const nfd_mesh* mesh, nfd_mesh_data* out_data);
+/* Timings and counts of the extraction that produced this mesh. */
+nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats);
+
+/* Samples `count` points uniformly by area on the mesh (deterministic for a seed), writing 3*count
+ * floats to out_points and, if out_normals is not NULL, 3*count floats of face normals.
+ * An empty mesh with count > 0 gives NFD_ERROR_INVALID_ARGUMENT. */
+nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, uint64_t seed,
+                                  float* out_points, float* out_normals);
+
+/* Writes the mesh as binary glTF 2.0 (.glb: POSITION, NORMAL, indices) or binary little-endian PLY
+ * (vertex x,y,z,nx,ny,nz; face vertex_indices). NFD_ERROR_IO if the file cannot be written. */
+nfd_result nfd_mesh_write_glb(const nfd_mesh* mesh, const char* path);
+nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path);
+
+/* Writes a point set (3*count floats, optional normals) as binary little-endian PLY. */
+nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
+                                const char* path);
+
+#ifdef __cplusplus
+} /* extern "C" */
+#endif
+
+#endif /* NFDECODE_NFDECODE_H */

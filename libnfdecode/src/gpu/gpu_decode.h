@@ -1,0 +1,38 @@
+// The Vulkan compute path: what api.cpp calls. Implemented in gpu/ (vk_context, gpu_decode) over
+// the shaders in shaders/; every stage has its CPU twin in network.cpp / extract_cpu.cpp.
+#pragma once
+#include <cstddef>
+#include <memory>
+
+#include "../extract.h"
+#include "../mesh.h"
+#include "../network.h"
+#include "nfdecode/nfdecode.h"
+
+namespace nfd::gpu {
+
+class Device;  // Vulkan instance/device/queue (own or adopted), pipelines, scratch buffers
+
+// Creates a headless compute device, or adopts the host's when `adopt` is not null.
+// NFD_ERROR_DEVICE_UNAVAILABLE when no Vulkan loader/ICD/device with a compute queue exists.
+nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
+                         std::unique_ptr<Device>* out);
+void destroy_device(Device* device);  // also what the unique_ptr's deleter calls
+const char* device_name(const Device& device);
+
+// Field values at n unit-frame points (xyz interleaved): the GPU twin of evaluate_cpu.
+nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,
+                    float* out);
+
+// The GPU twin of extract_mesh_cpu: same grid, same activity test, same mesh conventions.
+nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
+                        MeshData* mesh, ExtractStats* stats);
+
+}  // namespace nfd::gpu
+
+namespace std {
+template <>
+struct default_delete<nfd::gpu::Device> {
+    void operator()(nfd::gpu::Device* d) const { nfd::gpu::destroy_device(d); }
+};
+}  // namespace std

@@ -1,0 +1,43 @@
+// Dequantized neural field and its CPU reference evaluator (FORMAT.md, "Evaluation").
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace nfd {
+
+enum class FieldType : uint8_t { Sdf = 0, Udf = 1 };
+enum class OutputActivation : uint8_t { Identity = 0, Abs = 1, Sigmoid = 2 };
+
+struct Layer {
+    uint32_t in = 0, out = 0;
+    std::vector<float> weights;  // out x in, row-major: weights[o * in + i]
+    std::vector<float> bias;     // out
+};
+
+struct Network {
+    std::vector<float> frequencies;  // f[k] of FORMAT.md, already rounded to f32
+    float omega0 = 30.0f;
+    OutputActivation output = OutputActivation::Identity;
+    uint32_t bits = 8;
+    std::vector<Layer> layers;       // hidden sine layers then one linear output layer
+
+    uint32_t input_width() const { return 3u + 6u * uint32_t(frequencies.size()); }
+    uint32_t output_width() const { return layers.empty() ? 0u : layers.back().out; }
+};
+
+// Geometry chunk after parsing and dequantization. Positions in the original frame are
+// u * scale + center for u in the unit frame [-1, 1]^3.
+struct Geometry {
+    FieldType field = FieldType::Sdf;
+    float truncation = 0.1f;
+    float center[3] = {0, 0, 0};
+    float scale = 1.0f;
+    Network network;
+};
+
+// Evaluates the field at n points given in the unit frame (xyz interleaved), writing n values.
+// Plain C++17, f32 accumulation; the oracle for the GPU path and the fallback without a device.
+void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float* out);
+
+}  // namespace nfd
