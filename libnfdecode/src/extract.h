@@ -10,8 +10,17 @@
 namespace nfd {
 
 // Grid of `resolution` cells per axis over the unit frame [-1, 1]^3: vertex i sits at
-// -1 + 2 i / resolution. Refinement halves the cell size from coarse_resolution() up.
-uint32_t coarse_resolution(uint32_t resolution);
+// -1 + 2 i / resolution (computed in f32 as -1.0f + float(i) * (2.0f / float(resolution))).
+// Refinement halves the cell size from coarse_resolution() up: level l (0 = finest, up to
+// refinement_levels()) has ceil(resolution / 2^l) cells per axis, each 2^l fine cells wide, and
+// its vertices are the fine vertices whose indices are multiples of 2^l. When 2^l does not divide
+// the resolution the last cell reaches past u = 1, where the field is still defined; children
+// starting at or past fine index `resolution` are dropped, so level 0 is exactly the fine grid.
+// Any resolution works (not only c * 2^k), and no level is denser than the coarsest one needs.
+uint32_t coarse_resolution(uint32_t resolution);  // ceil(resolution / 2^refinement_levels())
+// The largest l with ceil(resolution / 2^l) >= 32, else 0: coarser grids would prune nothing for
+// d* = 0.1, since the keep test below only rejects cells whose half-diagonal is well under d*.
+uint32_t refinement_levels(uint32_t resolution);
 
 // A cell of edge length h (unit frame) is kept for refinement when its corner values change sign
 // or when min |f| over its corners <= kLipschitzMargin * h * sqrt(3) / 2: a surface point inside the
@@ -27,9 +36,15 @@ struct ExtractStats {
     double seconds_mesh = 0;        // marching cubes, welding, normals
 };
 
-// CPU reference: coarse-to-fine evaluation + marching cubes, welded vertices, normals from the
-// field gradient (central differences), positions mapped to the original frame.
+// Normals are the normalised field gradient by central differences with step
+// kNormalStepCells * (fine cell edge) around each vertex; where it vanishes, the direction of the
+// vertex's grid edge from its inside to its outside corner.
+constexpr float kNormalStepCells = 0.5f;
+
+// CPU reference: coarse-to-fine evaluation + marching cubes (mc_tables.h) on the final-level cells
+// with a sign change, one welded vertex per crossed grid edge, normals as above, positions mapped
+// to the original frame (u * scale + center). `threads` as for evaluate_cpu.
 nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshData* mesh,
-                            ExtractStats* stats);
+                            ExtractStats* stats, unsigned threads = 0);
 
 }  // namespace nfd

@@ -38,6 +38,8 @@ struct Geometry {
 
 // Evaluates the field at n points given in the unit frame (xyz interleaved), writing n values.
 // Plain C++17, f32 accumulation; the oracle for the GPU path and the fallback without a device.
-void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float* out);
+// Multithreaded over points: `threads` workers at most, 0 = hardware concurrency.
+void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float* out,
+                  unsigned threads = 0);
 
 }  // namespace nfd

@@ -61,6 +61,7 @@ extern "C" {
  *   -1 .. -19   the input bytes (corrupt, truncated, newer than this library)
  *   -20 .. -39  the caller (bad argument, limits)
  *   -40 .. -59  resources (memory, device, files)
+ *   -60         a defect in libnfdecode itself (please report it)
  * ------------------------------------------------------------------------------------------- */
 typedef enum nfd_result {
     NFD_SUCCESS = 0,
@@ -76,7 +77,9 @@ typedef enum nfd_result {
     NFD_ERROR_OUT_OF_MEMORY = -40,      /* host or device allocation failed */
     NFD_ERROR_DEVICE_UNAVAILABLE = -41, /* no usable Vulkan driver/device (CPU still works) */
     NFD_ERROR_DEVICE = -42,             /* a Vulkan call failed (device lost, ...) */
-    NFD_ERROR_IO = -43                  /* a file could not be written */
+    NFD_ERROR_IO = -43,                 /* a file could not be written */
+
+    NFD_ERROR_INTERNAL = -60            /* an unexpected internal failure, caught at the API */
 } nfd_result;
 
 /* Static, human-readable, never NULL (unknown values give "unknown result"). */

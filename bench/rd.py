@@ -1,0 +1,212 @@
+#!/usr/bin/env python3
+"""Rate–distortion benchmark: nfc against Draco (decimation envelope) and G-PCC on real shapes.
+
+For each shape: the sampling floor, nfc at every requested width and preset (bytes, CD, encode
+seconds), Draco as the lower envelope over quadric decimation x quantization (`draco_encoder -qp
+6..14 -cl 10` on `fast-simplification` decimations), and the G-PCC figures of
+../shared/baselines/baselines.csv. Prints markdown tables, writes bench/out/rd_<shape>.csv and a
+log-log plot bench/plots/rd_<shape>.png. Metric: ../shared/docs/metrics.md (nfencode.metrics).
+
+    .venv/bin/python bench/rd.py --shapes bunny armadillo --widths 16 24 32 48 64 96 --presets fast paper
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from nfencode.bitstream import read_nfc
+from nfencode.encoder import EncodeConfig, compress
+from nfencode.io import Shape, load_shape, save_mesh
+from nfencode.metrics import chamfer_distance, sampling_floor
+from nfencode.reference import extract_mesh
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared"
+
+# name -> (path under shared/data, field, name in shared/baselines)
+SHAPES: dict[str, tuple[str, str, str]] = {
+    "bunny": ("stanford/bun_zipper.ply.gz", "sdf", "bunny"),
+    "armadillo": ("stanford/armadillo_remeshed_odedstein.obj.gz", "sdf", "armadillo"),
+    "dragon": ("stanford/dragon_vrip_res3.ply.gz", "sdf", "dragon_res3"),
+    "spot": ("misc/spot.obj.gz", "sdf", "spot"),
+    "tshirt": ("garments/TShirtNoCoat.obj.gz", "udf", "TShirtNoCoat"),
+}
+DRACO_FACES = (500, 1000, 2000, 5000, 10000)
+DRACO_QP = range(6, 15)
+SEED = 0
+
+
+@dataclass
+class Point:
+    codec: str
+    setting: str
+    bytes: int
+    cd: float
+    seconds: float = float("nan")
+
+
+def as_mesh(vertices: np.ndarray, faces: np.ndarray, name: str) -> Shape:
+    return Shape(vertices=vertices.astype(np.float64), faces=faces.astype(np.int64), colors=None,
+                 name=name)
+
+
+def run_nfc(gt: Shape, field: str, width: int, preset: str, resolution: int,
+            keep: Path) -> Point:
+    """Encodes, keeps the file as keep/<shape>_<preset>_w<width>.nfc (bench/decode.py input),
+    decodes with the reference decoder and measures CD."""
+    config = EncodeConfig(field=field, width=width, preset=preset, seed=SEED, quiet=True)
+    t0 = time.perf_counter()
+    result = compress(gt, config)
+    seconds = time.perf_counter() - t0
+    keep.mkdir(parents=True, exist_ok=True)
+    (keep / f"{gt.name}_{preset}_w{width}.nfc").write_bytes(result.data)
+    nfc = read_nfc(result.data)
+    if nfc.geometry.field_type != 0:  # UDF meshing is a later issue: report size and time only
+        return Point("nfc", f"{preset} w{width} udf", len(result.data), float("nan"), seconds)
+    vertices, faces, _normals, _evals = extract_mesh(nfc, resolution=resolution)
+    cd = chamfer_distance(gt, as_mesh(vertices, faces, "nfc"), seed=SEED)
+    return Point("nfc", f"{preset} w{width}", len(result.data), cd, seconds)
+
+
+def run_draco(gt: Shape) -> list[Point]:
+    import fast_simplification
+
+    points: list[Point] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for target in DRACO_FACES:
+            if target >= len(gt.faces):
+                continue
+            v, f = fast_simplification.simplify(gt.vertices.astype(np.float32),
+                                                gt.faces.astype(np.int32),
+                                                target_reduction=1.0 - target / len(gt.faces))
+            src = Path(tmp) / "in.ply"
+            save_mesh(str(src), v.astype(np.float64), f.astype(np.int64))
+            for qp in DRACO_QP:
+                drc, dec = Path(tmp) / "out.drc", Path(tmp) / "out.ply"
+                subprocess.run(["draco_encoder", "-i", src, "-o", drc, "-qp", str(qp), "-cl", "10"],
+                               check=True, capture_output=True)
+                subprocess.run(["draco_decoder", "-i", drc, "-o", dec], check=True,
+                               capture_output=True)
+                rec = load_shape(str(dec))
+                points.append(Point("draco", f"dec{target} qp{qp}", drc.stat().st_size,
+                                    chamfer_distance(gt, rec, seed=SEED)))
+    return points
+
+
+def gpcc_points(baseline_name: str) -> list[Point]:
+    rows = csv.DictReader(open(SHARED / "baselines" / "baselines.csv"))
+    return [Point("gpcc", f"{r['mode']} {r['param']}", int(r["bytes"]), float(r["cd_surf"]))
+            for r in rows
+            if r["shape"] == baseline_name and r["codec"] == "gpcc" and r["cd_surf"]]
+
+
+def lower_envelope(points: list[Point]) -> list[Point]:
+    """Pareto front: the points no other point beats in both bytes and CD, by increasing bytes."""
+    front: list[Point] = []
+    for p in sorted(points, key=lambda p: (p.bytes, p.cd)):
+        if not front or p.cd < front[-1].cd:
+            front.append(p)
+    return front
+
+
+def interpolate_cd(envelope: list[Point], size: int) -> float | None:
+    """CD of an envelope at `size` bytes, linear in log(bytes)-log(CD); None outside its range."""
+    xs = np.log([p.bytes for p in envelope])
+    if not len(xs) or np.log(size) < xs[0] or np.log(size) > xs[-1]:
+        return None
+    return float(np.exp(np.interp(np.log(size), xs, np.log([p.cd for p in envelope]))))
+
+
+def verdict(cd: float, draco: float | None, gpcc: float | None) -> str:
+    wins = [name for name, other in (("Draco", draco), ("G-PCC", gpcc))
+            if other is None or cd < other]
+    return "nfc beats " + " and ".join(wins) if wins else "baselines win"
+
+
+def fmt(x: float | None) -> str:
+    return "—" if x is None or np.isnan(x) else f"{x:.4g}"
+
+
+def plot(shape: str, floor: float, ours: list[Point], draco: list[Point], gpcc: list[Point],
+         path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    for preset, marker in (("fast", "o-"), ("paper", "s--")):
+        pts = sorted((p for p in ours if p.setting.startswith(preset) and not np.isnan(p.cd)),
+                     key=lambda p: p.bytes)
+        if pts:
+            ax.plot([p.bytes for p in pts], [p.cd for p in pts], marker, label=f"nfc ({preset})")
+    for name, pts in (("Draco envelope", lower_envelope(draco)),
+                      ("G-PCC envelope", lower_envelope(gpcc))):
+        if pts:
+            ax.plot([p.bytes for p in pts], [p.cd for p in pts], ".-", label=name, alpha=0.8)
+    ax.axhline(floor, color="gray", lw=0.8, ls=":", label="sampling floor")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(200, 40000)
+    ax.set_xlabel("bytes")
+    ax.set_ylabel("Chamfer distance (unit ball)")
+    ax.set_title(shape)
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", lw=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--shapes", nargs="+", default=list(SHAPES), choices=list(SHAPES))
+    parser.add_argument("--widths", nargs="+", type=int, default=[16, 24, 32, 48, 64, 96])
+    parser.add_argument("--presets", nargs="+", default=["fast", "paper"],
+                        choices=["fast", "paper"])
+    parser.add_argument("--resolution", type=int, default=256)
+    parser.add_argument("--no-draco", action="store_true", help="skip the Draco runs")
+    args = parser.parse_args()
+
+    out_dir = REPO / "bench" / "out"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for shape in args.shapes:
+        rel, field, baseline_name = SHAPES[shape]
+        gt = load_shape(str(SHARED / "data" / rel))
+        gt.name = shape
+        floor = sampling_floor(gt, seed=SEED)
+        ours = [run_nfc(gt, field, w, p, args.resolution, out_dir / "nfc")
+                for p in args.presets for w in args.widths]
+        draco = [] if args.no_draco else run_draco(gt)
+        gpcc = gpcc_points(baseline_name)
+        draco_env, gpcc_env = lower_envelope(draco), lower_envelope(gpcc)
+
+        print(f"\n### {shape} ({rel}, {field.upper()}; floor {floor:.4g}, seed {SEED})\n")
+        print("| setting | bytes | CD | excess | Draco env. @bytes | G-PCC env. @bytes | "
+              "encode s | verdict |")
+        print("|---|---:|---:|---:|---:|---:|---:|---|")
+        for p in ours:
+            d, g = interpolate_cd(draco_env, p.bytes), interpolate_cd(gpcc_env, p.bytes)
+            v = "—" if np.isnan(p.cd) else verdict(p.cd, d, g)
+            print(f"| {p.setting} | {p.bytes} | {fmt(p.cd)} | {fmt(p.cd - floor)} | {fmt(d)} | "
+                  f"{fmt(g)} | {p.seconds:.1f} | {v} |")
+        with open(out_dir / f"rd_{shape}.csv", "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["codec", "setting", "bytes", "cd", "encode_s", "floor"])
+            for p in ours + draco + gpcc:
+                w.writerow([p.codec, p.setting, p.bytes, f"{p.cd:.6g}", f"{p.seconds:.2f}",
+                            f"{floor:.6g}"])
+        plot(shape, floor, ours, draco, gpcc, REPO / "bench" / "plots" / f"rd_{shape}.png")
+
+
+if __name__ == "__main__":
+    main()

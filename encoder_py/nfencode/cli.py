@@ -1,0 +1,259 @@
+"""`nfc`: encode shapes into .nfc files, inspect, decode and evaluate them.
+
+Every user-facing failure (bad input file, corrupt .nfc, I/O error, wrong arguments) ends in exactly
+one line `nfc: error: ...` on stderr and a non-zero exit status (2 for command-line misuse, 1 for the
+rest); tracebacks are reserved for bugs. `info`, `decode` and `eval` never import torch.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import NoReturn, Sequence
+
+from . import __version__
+from .bitstream import (
+    FIELD_NAMES,
+    MAX_BITS,
+    MAX_WIDTH,
+    MIN_BITS,
+    OUTPUT_NAMES,
+    NfcFile,
+    read_nfc,
+)
+from .errors import InputError, NfcError
+from .io import Shape, load_shape, save_mesh, save_points
+
+EXIT_ERROR = 1
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports misuse as one line instead of usage + message."""
+
+    def error(self, message: str) -> NoReturn:
+        sys.stderr.write(f"nfc: error: {message} (see `{self.prog} --help`)\n")
+        raise SystemExit(EXIT_USAGE)
+
+
+def _fmt(x: float) -> str:
+    """4 significant digits, trailing zeros kept (metrics.md)."""
+    return format(x, "#.4g")
+
+
+def _output_path(path: str, suffixes: tuple[str, ...]) -> Path:
+    p = Path(path)
+    if p.suffix.lower() not in suffixes:
+        raise InputError(f"{p}: output must end in {' or '.join(suffixes)}")
+    if not p.parent.is_dir():  # fail before the long work, not after it
+        raise InputError(f"{p}: no such directory {p.parent}")
+    return p
+
+
+def _read_nfc_file(path: str) -> tuple[NfcFile, int]:
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{p}: no such file" if not p.exists() else f"{p}: not a regular file")
+    data = p.read_bytes()
+    try:
+        return read_nfc(data), len(data)
+    except NfcError as e:
+        raise NfcError(f"{p}: {e.message}") from None
+
+
+def _positive(name: str, value: int | None, low: int = 1, high: int | None = None) -> None:
+    if value is None:
+        return
+    if value < low or (high is not None and value > high):
+        bound = f"{low}..{high}" if high is not None else f">= {low}"
+        raise InputError(f"{name} must be {bound}, got {value}")
+
+
+def cmd_encode(args: argparse.Namespace) -> int:
+    start = time.perf_counter()
+    output = _output_path(args.output, (".nfc",))
+    _positive("--width", args.width, 1, MAX_WIDTH)
+    _positive("--bits", args.bits, MIN_BITS, MAX_BITS)
+    _positive("--epochs", args.epochs)
+    shape = load_shape(args.input)
+    from . import encoder  # imports torch: only this command needs it
+
+    config = encoder.EncodeConfig(
+        field=args.field,
+        width=args.width,
+        bits=args.bits,
+        preset=args.preset,
+        epochs=args.epochs,
+        seed=args.seed,
+        quiet=args.quiet,
+    )
+    result = encoder.compress(shape, config)
+    output.write_bytes(result.data)
+    seconds = time.perf_counter() - start
+    print(
+        f"{output}: {len(result.data)} bytes ({result.field}, width {args.width}, {args.bits} bits, "
+        f"preset {args.preset}), encoded in {seconds:.1f} s (training {result.seconds:.1f} s, "
+        f"final loss {result.final_loss:.3g})"
+    )
+    return 0
+
+
+def _info_dict(path: str, f: NfcFile, size: int) -> dict:
+    g, net = f.geometry, f.geometry.network
+    activations = ["sine"] * (len(net.out_features) - 1) + [OUTPUT_NAMES[net.output]]
+    return {
+        "file": path,
+        "bytes": size,
+        "format": f"{f.major}.{f.minor}",
+        "field": FIELD_NAMES[g.field_type],
+        "truncation": g.truncation,
+        "center": list(g.center),
+        "scale": g.scale,
+        "num_frequencies": net.num_frequencies,
+        "frequency_base": net.frequency_base,
+        "omega0": net.omega0,
+        "layers": [
+            {"in": i, "out": o, "activation": a} for i, o, a in zip(net.in_features, net.out_features, activations)
+        ],
+        "bits": net.bits,
+        "parameters": net.parameter_count,
+        "steps": [list(s) for s in net.steps],
+        "skipped_chunks": list(f.skipped_chunks),
+    }
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    f, size = _read_nfc_file(args.file)
+    info = _info_dict(args.file, f, size)
+    if args.json:
+        print(json.dumps(info, indent=2))
+        return 0
+    widths = "->".join([str(info["layers"][0]["in"])] + [str(layer["out"]) for layer in info["layers"]])
+    acts = ", ".join(layer["activation"] for layer in info["layers"])
+    c = ", ".join(f"{x:.6g}" for x in info["center"])
+    print(f"file        {args.file}: {size} bytes, format {info['format']}")
+    print(f"field       {info['field']}, truncation {info['truncation']:.6g}")
+    print(f"frame       original = unit * {info['scale']:.6g} + ({c})")
+    print(
+        f"encoding    {info['num_frequencies']} frequencies, pi * {info['frequency_base']:.6g}^k; "
+        f"omega0 {info['omega0']:.6g}"
+    )
+    print(f"network     {widths} ({acts})")
+    print(f"weights     {info['parameters']} parameters at {info['bits']} bits")
+    if info["skipped_chunks"]:
+        print(f"skipped     unknown optional chunks: {', '.join(info['skipped_chunks'])}")
+    return 0
+
+
+def cmd_decode(args: argparse.Namespace) -> int:
+    from .reference import extract_mesh, sample_points
+
+    output = _output_path(args.output, (".ply", ".obj"))
+    _positive("--points", args.points)
+    start = time.perf_counter()
+    f, _ = _read_nfc_file(args.file)
+    mesh = extract_mesh(f, args.resolution)
+    if args.points is not None:
+        if len(mesh.faces) == 0:
+            raise NfcError(f"{args.file}: the decoded field has no surface, no points to sample")
+        save_points(output, sample_points(mesh.vertices, mesh.faces, args.points, args.seed))
+        what = f"{args.points} points"
+    else:
+        save_mesh(output, mesh.vertices, mesh.faces, mesh.normals)
+        what = f"{len(mesh.vertices)} vertices, {len(mesh.faces)} triangles"
+    seconds = time.perf_counter() - start
+    print(
+        f"{output}: {what} (resolution {args.resolution}, {mesh.points_evaluated} field evaluations, "
+        f"{seconds:.1f} s)"
+    )
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from .metrics import chamfer_distance, sampling_floor
+
+    _positive("--samples", args.samples)
+    gt: Shape = load_shape(args.ground_truth)
+    rec: Shape = load_shape(args.reconstruction)
+    cd = chamfer_distance(gt, rec, args.samples, args.seed)
+    floor = sampling_floor(gt, args.samples, args.seed)
+    result = {
+        "ground_truth": args.ground_truth,
+        "reconstruction": args.reconstruction,
+        "chamfer_distance": cd,
+        "sampling_floor": floor,
+        "excess": cd - floor,
+        "samples": args.samples,
+        "seed": args.seed,
+    }
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        print(f"CD      {_fmt(cd)}  (ground truth's unit-ball frame, {args.samples} samples per side, seed {args.seed})")
+        print(f"floor   {_fmt(floor)}  (two independent samplings of the ground truth)")
+        print(f"excess  {_fmt(cd - floor)}  (CD - floor)")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="nfc", description="3D compression with neural fields (.nfc files).")
+    parser.add_argument("--version", action="version", version=f"nfc {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("encode", help="compress a mesh or point cloud into an .nfc file")
+    p.add_argument("input", help="PLY, OBJ, OFF, glTF or GLB file, optionally .gz")
+    p.add_argument("-o", "--output", required=True, help="output .nfc file")
+    p.add_argument("--field", choices=("sdf", "udf", "auto"), default="auto",
+                   help="signed (watertight shapes), unsigned (anything) or auto (SDF when closed)")
+    p.add_argument("--width", type=int, default=32, help="hidden layer width: sets the rate (default 32)")
+    p.add_argument("--bits", type=int, default=8, help="quantization bit width (default 8)")
+    p.add_argument("--preset", choices=("fast", "paper"), default="fast", help="training schedule")
+    p.add_argument("--epochs", type=int, default=None, help="override the preset's epoch count")
+    p.add_argument("--seed", type=int, default=0, help="random seed (encoding is deterministic in it)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=cmd_encode)
+
+    p = sub.add_parser("info", help="describe an .nfc file")
+    p.add_argument("file")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(run=cmd_info)
+
+    p = sub.add_parser("decode", help="extract a mesh (or sampled points) from an SDF .nfc file")
+    p.add_argument("file")
+    p.add_argument("-o", "--output", required=True, help="output .ply or .obj")
+    p.add_argument("--resolution", type=int, default=256, help="marching cubes grid cells per axis (8..512)")
+    p.add_argument("--points", type=int, default=None, help="write this many surface points instead of the mesh")
+    p.add_argument("--seed", type=int, default=0, help="seed of the point sampling")
+    p.set_defaults(run=cmd_decode)
+
+    p = sub.add_parser("eval", help="Chamfer distance between a ground truth and a reconstruction")
+    p.add_argument("ground_truth")
+    p.add_argument("reconstruction")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--samples", type=int, default=100_000, help="surface samples per mesh (default 100000)")
+    p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
+    p.set_defaults(run=cmd_eval)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.run(args))
+    except NfcError as e:
+        message = e.message
+    except OSError as e:
+        message = f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e)
+    except MemoryError:
+        message = "out of memory"
+    except KeyboardInterrupt:
+        message = "interrupted"
+    sys.stderr.write(f"nfc: error: {message}\n")
+    return EXIT_ERROR
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,101 @@
+"""Every hyper-parameter of the encoder, in one place.
+
+Values marked *paper* follow Postels et al., "3D Compression Using Neural Fields" (CVPR 2024); the
+others were chosen by measurement on the Stanford bunny (numbers in the comments, 2-core x86-64 CPU).
+The bitstream fixes nothing here except what the file stores (frequencies, ω₀, bit width, steps).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+# --- Field -----------------------------------------------------------------------------------------
+TRUNCATION = 0.1
+"""d*: distances are clamped to ±d* and the loss ignores points farther than d* (paper)."""
+
+NEAR_SURFACE_SIGMA = {"sdf": 0.01, "udf": 0.025}
+"""Std. dev. of the Gaussian offset of near-surface training points, unit-ball frame (paper)."""
+
+# --- Training points -------------------------------------------------------------------------------
+SURFACE_POINTS_PER_EPOCH = 100_000
+"""On-surface points per epoch (paper). The epoch adds as many near-surface points and half as many
+uniform ones, i.e. the 40% / 40% / 20% split of the paper: 250,000 samples per epoch."""
+
+UNIFORM_PER_SURFACE = 0.5
+NEAR_PER_SURFACE = 1.0
+
+POOL_EPOCHS = 2
+"""The ground-truth pool holds this many epochs' worth of samples (500k points); each epoch draws
+from it. Exact distances cost ~8 µs per point on the bunny (69k triangles), so this pool (300k
+distance queries) takes ~2.5 s, while fresh points every epoch would cost more than the training."""
+
+VALIDATION_FRACTION = 0.1
+"""A held-out set of this fraction of an epoch (same 20/40/40 split, never trained on) picks the
+better of the pre- and post-QAT networks."""
+
+AUTO_SDF_MAX_AMBIGUOUS = 0.02
+"""`--field auto` picks SDF when at most this fraction of probe points near the surface (offset by
+N(0, d*), the band the loss sees) has an ambiguous generalized winding number (0.2 < |w| < 0.8), i.e.
+the mesh encloses an inside despite small holes. Measured (20k points, seed 0): armadillo, dragon,
+spot, igea, nefertiti 0.00%, bunny 0.56% (5 holes), suzanne 0.53%, demosthenes 1.26% (67 boundary
+edges) → SDF; garments 3.7% (Pants1) to 17% (skirt), lionstatue 18% → UDF."""
+
+AUTO_PROBE_POINTS = 20_000
+"""Probe points of the `auto` test (~0.3 s on the bunny)."""
+
+AMBIGUOUS_WINDING = (0.2, 0.8)
+
+# --- Model -----------------------------------------------------------------------------------------
+NUM_FREQUENCIES = 16
+"""L, Fourier frequencies of the positional encoding (paper)."""
+
+FREQUENCY_BASE = 1.4
+"""β: f_k = π·β^k. With β = 1.4 the top frequency is ~489 rad/unit, well inside f32 precision on
+[-1, 1] (2^k would put the top octaves beyond it); see FORMAT.md."""
+
+OMEGA0 = 30.0
+"""ω₀ of the SIREN sine layers (paper, Sitzmann et al.)."""
+
+HIDDEN_LAYERS = 2
+"""Sine layers of width W before the linear output layer (paper)."""
+
+WIDTHS = (16, 24, 32, 48, 64, 96)
+"""The rate ladder of the paper: W sets the file size."""
+
+# --- Optimisation ----------------------------------------------------------------------------------
+BATCH_SIZE = 10_000
+"""Adam mini-batch (paper)."""
+
+L1_WEIGHT = 1e-8
+"""λ of the λ·Σ|θ| term (paper)."""
+
+DEFAULT_BITS = 8
+"""Bit width b of the symmetric uniform quantization grid (paper)."""
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A training schedule: Adam at `lr` (constant, or cosine-decayed to 0), then QAT.
+
+    QAT trains the float weights through fake-quantized ones (straight-through estimator) at
+    `qat_lr`, cosine-decayed; the encoder keeps whichever of the pre- and post-QAT quantized networks
+    has the lower validation loss.
+    """
+
+    epochs: int
+    lr: float
+    cosine: bool
+    qat_epochs: int
+    qat_lr: float
+
+
+PRESETS: dict[str, Preset] = {
+    # Paper: 500 epochs of Adam at 1e-4; QAT "50 epochs, small lr".
+    "paper": Preset(epochs=500, lr=1e-4, cosine=False, qat_epochs=50, qat_lr=1e-5),
+    # Fast: a 10x higher learning rate that cosine-decays to zero over far fewer epochs.
+    "fast": Preset(epochs=80, lr=1e-3, cosine=True, qat_epochs=10, qat_lr=1e-5),
+}
+DEFAULT_PRESET = "fast"
+
+MAX_TORCH_THREADS = 4
+"""The network is tiny (≤ 20k parameters at W = 96): more threads than this only add overhead."""

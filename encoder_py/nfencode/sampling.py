@@ -1,0 +1,168 @@
+"""Ground-truth distance pool: training points and their (truncated) distances, built once.
+
+All coordinates are in the unit-ball frame. A pool holds `POOL_EPOCHS` epochs' worth of the paper's
+three kinds of points, uniform in [-1, 1]³, on the surface (distance 0) and on the surface plus
+N(0, σ); each epoch draws its 20% / 40% / 40% mix from it (`draw_epoch`). A separate, smaller set of
+the same mix is held out for validation.
+
+Distances: meshes get the exact point-to-triangle distance (libigl's AABB tree), signed for SDF by
+the fast generalized winding number, which tolerates the small holes of real scans; point clouds get
+the nearest-neighbour distance (UDF only). Beyond 2·d* the exact value is never needed (the loss
+clamps at d*), so queries are bounded there, which makes far uniform points ~5x cheaper.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import igl
+import numpy as np
+from scipy.spatial import cKDTree
+
+from . import config
+from .errors import InputError
+
+FAR = 2.0 * config.TRUNCATION
+"""Distance stored for points farther than the query bound (only its sign and |d| > d* matter)."""
+
+
+@dataclass
+class DistancePool:
+    """Training samples, the three kinds stored one after the other, plus a held-out validation set.
+
+    points (n, 3) float32 in the unit frame; distances (n,) float32 with |d| clamped to at most FAR.
+    """
+
+    points: np.ndarray
+    distances: np.ndarray
+    counts: tuple[int, int, int]  # uniform, surface, near
+    validation_points: np.ndarray
+    validation_distances: np.ndarray
+
+
+class SurfaceSampler:
+    """Distance queries against the input geometry: a triangle mesh, or a point cloud if faces is None."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray | None) -> None:
+        self.vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+        self.faces = None if faces is None else np.ascontiguousarray(faces, dtype=np.int64)
+        if self.faces is not None:
+            a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
+            areas = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+            total = float(areas.sum())
+            if not np.isfinite(total) or total <= 0.0:
+                raise InputError("the mesh has zero surface area")
+            self._area_cdf = np.cumsum(areas) / total
+            self._tree = None
+        else:
+            self._tree = cKDTree(self.vertices)
+
+    @property
+    def is_mesh(self) -> bool:
+        return self.faces is not None
+
+    def surface_points(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """n points uniformly distributed on the surface (area-weighted), or drawn from the cloud."""
+        if self.faces is None:
+            return self.vertices[rng.integers(0, len(self.vertices), n)]
+        tri = np.searchsorted(self._area_cdf, rng.random(n) * self._area_cdf[-1], side="right")
+        tri = np.minimum(tri, len(self.faces) - 1)
+        r1, r2 = np.sqrt(rng.random(n)), rng.random(n)
+        a, b, c = (self.vertices[self.faces[tri, i]] for i in range(3))
+        return (1.0 - r1)[:, None] * a + (r1 * (1.0 - r2))[:, None] * b + (r1 * r2)[:, None] * c
+
+    def winding_numbers(self, points: np.ndarray) -> np.ndarray:
+        """Fast generalized winding number of the mesh at each point (≈1 inside, ≈0 outside)."""
+        assert self.faces is not None
+        return igl.fast_winding_number(self.vertices, self.faces, np.ascontiguousarray(points, np.float64))
+
+    def distances(self, points: np.ndarray, signed: bool) -> np.ndarray:
+        """Distance to the surface, |d| clamped to FAR; negative inside when `signed` (meshes only)."""
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        if self.faces is None:
+            assert not signed, "point clouds have no inside"
+            d, _ = self._tree.query(points, distance_upper_bound=FAR)  # type: ignore[union-attr]
+            return np.minimum(d, FAR)
+        kind = igl.SIGNED_DISTANCE_TYPE_FAST_WINDING_NUMBER if signed else igl.SIGNED_DISTANCE_TYPE_UNSIGNED
+        d, *_ = igl.signed_distance(points, self.vertices, self.faces, sign_type=kind, lower_bound=-FAR, upper_bound=FAR)
+        # libigl returns NaN where the bound pruned the search: those points are farther than d*
+        # (measured: pruned points lie > 1.8·d* away), so only their sign is still needed.
+        far = np.isnan(d)
+        if far.any():
+            if signed:
+                inside = self.winding_numbers(points[far]) > 0.5
+                d[far] = np.where(inside, -FAR, FAR)
+            else:
+                d[far] = FAR
+        return np.clip(d, -FAR, FAR)
+
+    def near_points(self, n: int, sigma: float, rng: np.random.Generator) -> np.ndarray:
+        return self.surface_points(n, rng) + rng.normal(0.0, sigma, (n, 3))
+
+    def flip_orientation(self) -> None:
+        assert self.faces is not None
+        self.faces = np.ascontiguousarray(self.faces[:, ::-1])
+
+
+def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Generator) -> str:
+    """Turn `--field auto|sdf|udf` into "sdf" or "udf"; orient a mesh so its inside is negative.
+
+    One probe of winding numbers near the surface serves both decisions: a mesh wound inside-out
+    (w ≈ -1 inside) is flipped, and `auto` picks SDF when at most config.AUTO_SDF_MAX_AMBIGUOUS of
+    the probe is ambiguous (config.AMBIGUOUS_WINDING), i.e. the mesh encloses an inside despite small
+    holes. Point clouds are always UDF.
+    """
+    if requested not in ("auto", "sdf", "udf"):
+        raise InputError(f"unknown field type {requested!r} (use sdf, udf or auto)")
+    if not sampler.is_mesh:
+        if requested == "sdf":
+            raise InputError("a point cloud has no inside: it can only be encoded as a UDF (--field udf)")
+        return "udf"
+    if requested == "udf":
+        return "udf"
+    w = sampler.winding_numbers(sampler.near_points(config.AUTO_PROBE_POINTS, config.TRUNCATION, rng))
+    if np.sum(w < -0.5) > np.sum(w > 0.5):
+        sampler.flip_orientation()
+    if requested == "sdf":
+        return "sdf"
+    low, high = config.AMBIGUOUS_WINDING
+    ambiguous = float(np.mean((np.abs(w) > low) & (np.abs(w) < high)))
+    return "sdf" if ambiguous <= config.AUTO_SDF_MAX_AMBIGUOUS else "udf"
+
+
+def epoch_counts(scale: float) -> tuple[int, int, int]:
+    """(uniform, surface, near) sample counts of `scale` epochs: the paper's 20% / 40% / 40%."""
+    surface = int(round(config.SURFACE_POINTS_PER_EPOCH * scale))
+    return int(round(surface * config.UNIFORM_PER_SURFACE)), surface, int(round(surface * config.NEAR_PER_SURFACE))
+
+
+def _samples(
+    sampler: SurfaceSampler, field: str, counts: tuple[int, int, int], rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    n_uniform, n_surface, n_near = counts
+    uniform = rng.uniform(-1.0, 1.0, (n_uniform, 3))
+    surface = sampler.surface_points(n_surface, rng)
+    near = sampler.near_points(n_near, config.NEAR_SURFACE_SIGMA[field], rng)
+    queried = sampler.distances(np.concatenate([uniform, near]), signed=field == "sdf")
+    points = np.concatenate([uniform, surface, near]).astype(np.float32)
+    distances = np.concatenate([queried[:n_uniform], np.zeros(n_surface), queried[n_uniform:]]).astype(np.float32)
+    return points, distances
+
+
+def build_pool(
+    sampler: SurfaceSampler, field: str, rng: np.random.Generator, pool_epochs: float = config.POOL_EPOCHS
+) -> DistancePool:
+    """Sample and compute the ground truth once: `pool_epochs` epochs of training data + validation."""
+    if field not in ("sdf", "udf") or (field == "sdf" and not sampler.is_mesh):
+        raise ValueError(f"cannot build a {field!r} pool for this input")
+    counts = epoch_counts(pool_epochs)
+    points, distances = _samples(sampler, field, counts, rng)
+    validation_points, validation_distances = _samples(sampler, field, epoch_counts(config.VALIDATION_FRACTION), rng)
+    return DistancePool(points, distances, counts, validation_points, validation_distances)
+
+
+def draw_epoch(pool: DistancePool, rng: np.random.Generator) -> np.ndarray:
+    """Shuffled pool indices of one epoch: the 20/40/40 mix, each kind drawn with replacement."""
+    offsets = np.cumsum((0,) + pool.counts[:-1])
+    parts = [off + rng.integers(0, n, want) for off, n, want in zip(offsets, pool.counts, epoch_counts(1.0))]
+    return rng.permutation(np.concatenate(parts))

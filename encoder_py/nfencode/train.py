@@ -1,0 +1,118 @@
+"""Training: the paper's truncated loss, Adam over epochs drawn from the pool, and QAT.
+
+The positional encoding of every pool point is computed once up front (it does not depend on the
+weights); an epoch then only gathers rows. On 2 cores this halves the time of an epoch at W = 32.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from . import config
+from .model import ParameterTransform, Siren
+from .quantize import fake_quantize
+from .sampling import DistancePool, draw_epoch, epoch_counts
+
+ENCODE_CHUNK = 100_000
+
+
+@dataclass
+class TrainingData:
+    """Encoded pool (n, 3 + 6L) and distances (n,), and the same for the validation set."""
+
+    encoded: torch.Tensor
+    distances: torch.Tensor
+    validation_encoded: torch.Tensor
+    validation_distances: torch.Tensor
+
+
+def _encode(model: Siren, points: np.ndarray) -> torch.Tensor:
+    u = torch.from_numpy(points)
+    out = torch.empty(len(u), model.encoding.out_features)
+    with torch.no_grad():
+        for i in range(0, len(u), ENCODE_CHUNK):
+            out[i : i + ENCODE_CHUNK] = model.encoding(u[i : i + ENCODE_CHUNK])
+    return out
+
+
+def prepare_data(model: Siren, pool: DistancePool) -> TrainingData:
+    return TrainingData(
+        _encode(model, pool.points),
+        torch.from_numpy(pool.distances),
+        _encode(model, pool.validation_points),
+        torch.from_numpy(pool.validation_distances),
+    )
+
+
+def truncated_loss(pred: torch.Tensor, distance: torch.Tensor, truncation: float = config.TRUNCATION) -> torch.Tensor:
+    """Paper loss: (pred − sgn(d)·min(|d|, d*))², counted where |d| ≤ d* or |pred| ≤ d*, mean over
+    the batch. Far points whose prediction stays beyond d* cost nothing: only the band matters."""
+    target = torch.clamp(distance, -truncation, truncation)
+    counted = (distance.abs() <= truncation) | (pred.abs() <= truncation)
+    return torch.where(counted, (pred - target) ** 2, torch.zeros_like(pred)).mean()
+
+
+def l1_penalty(model: Siren) -> torch.Tensor:
+    return sum(p.abs().sum() for p in model.parameters())  # type: ignore[return-value]
+
+
+def quantizer(bits: int | None) -> ParameterTransform | None:
+    return None if bits is None else (lambda x: fake_quantize(x, bits))
+
+
+def validation_loss(model: Siren, data: TrainingData, bits: int | None) -> float:
+    """Truncated loss on the held-out set, of the float network or of its b-bit quantization."""
+    with torch.no_grad():
+        pred = model.forward_encoded(data.validation_encoded, quantizer(bits))
+        return float(truncated_loss(pred, data.validation_distances))
+
+
+def fit(
+    model: Siren,
+    data: TrainingData,
+    pool: DistancePool,
+    *,
+    epochs: int,
+    lr: float,
+    cosine: bool,
+    rng: np.random.Generator,
+    bits: int | None = None,
+    quiet: bool = False,
+    desc: str = "train",
+) -> float:
+    """Adam on the truncated loss + λ·Σ|θ|; `bits` trains through fake quantization (QAT).
+
+    The learning rate is constant, or cosine-decayed per step from `lr` to 0. Returns the mean
+    data loss of the last epoch.
+    """
+    transform = quantizer(bits)
+    optimizer = torch.optim.Adam(model.parameters(), lr=lr)
+    batches_per_epoch = math.ceil(sum(epoch_counts(1.0)) / config.BATCH_SIZE)
+    total_steps = max(1, epochs * batches_per_epoch)
+    step = 0
+    epoch_loss = float("nan")
+    bar = tqdm(range(epochs), desc=desc, unit="epoch", disable=quiet, leave=False, dynamic_ncols=True)
+    for _ in bar:
+        order = torch.from_numpy(draw_epoch(pool, rng))
+        running = 0.0
+        for batch in order.split(config.BATCH_SIZE):
+            if cosine:
+                for group in optimizer.param_groups:
+                    group["lr"] = 0.5 * lr * (1.0 + math.cos(math.pi * step / total_steps))
+            pred = model.forward_encoded(data.encoded[batch], transform)
+            loss = truncated_loss(pred, data.distances[batch])
+            optimizer.zero_grad(set_to_none=True)
+            (loss + config.L1_WEIGHT * l1_penalty(model)).backward()
+            optimizer.step()
+            running += float(loss.detach()) * len(batch)
+            step += 1
+        epoch_loss = running / len(order)
+        bar.set_postfix(loss=f"{epoch_loss:.3e}")
+    bar.close()
+    return epoch_loss
+

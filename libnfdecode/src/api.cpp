@@ -1,0 +1,267 @@
+// The C API: argument checks, then the internal calls, inside a guard that turns every exception
+// into a result code (nothing may unwind into C callers).
+#include <algorithm>
+#include <exception>
+#include <memory>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "bitstream.h"
+#include "export.h"
+#include "extract.h"
+#include "mesh.h"
+#include "network.h"
+#include "nfdecode/nfdecode.h"
+#include "sample_points.h"
+#if NFD_WITH_VULKAN
+#include "gpu/gpu_decode.h"
+#endif
+
+struct nfd_context {
+    nfd_device_kind kind = NFD_DEVICE_CPU;
+    std::string name = "cpu";
+    unsigned cpu_threads = 0;
+#if NFD_WITH_VULKAN
+    std::unique_ptr<nfd::gpu::Device> gpu;
+#endif
+};
+
+struct nfd_asset {
+    nfd::ParsedFile file;
+};
+
+struct nfd_mesh {
+    nfd::MeshData data;
+    nfd::ExtractStats stats;
+};
+
+namespace {
+
+template <class Fn>
+nfd_result guarded(Fn&& fn) noexcept {
+    try {
+        return fn();
+    } catch (const std::bad_alloc&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
+    } catch (const std::length_error&) {  // a size beyond what the allocator can even express
+        return NFD_ERROR_OUT_OF_MEMORY;
+    } catch (...) {
+        return NFD_ERROR_INTERNAL;
+    }
+}
+
+// Points per evaluate call through the API: bounds the unit-frame copy whatever `count` is.
+constexpr size_t kEvaluateBlock = size_t(1) << 20;
+
+bool is_device_kind(nfd_device_kind k) {
+    return k == NFD_DEVICE_AUTO || k == NFD_DEVICE_VULKAN || k == NFD_DEVICE_CPU;
+}
+
+}  // namespace
+
+extern "C" {
+
+const char* nfd_result_string(nfd_result result) {
+    switch (result) {
+        case NFD_SUCCESS: return "success";
+        case NFD_ERROR_TRUNCATED: return "truncated input: fewer bytes than announced";
+        case NFD_ERROR_CORRUPT: return "corrupt input: bad magic, checksum, value or size";
+        case NFD_ERROR_UNSUPPORTED_VERSION: return "unsupported format version (other major)";
+        case NFD_ERROR_UNSUPPORTED_FEATURE: return "unsupported feature in this build or version";
+        case NFD_ERROR_INVALID_ARGUMENT: return "invalid argument";
+        case NFD_ERROR_LIMIT_EXCEEDED: return "request exceeds a documented limit";
+        case NFD_ERROR_OUT_OF_MEMORY: return "out of memory";
+        case NFD_ERROR_DEVICE_UNAVAILABLE: return "no usable Vulkan device";
+        case NFD_ERROR_DEVICE: return "Vulkan device error";
+        case NFD_ERROR_IO: return "file could not be written";
+        case NFD_ERROR_INTERNAL: return "internal error in libnfdecode";
+    }
+    return "unknown result";
+}
+
+nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context) {
+    if (!out_context) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_context = nullptr;
+    const nfd_context_options opts = options ? *options : nfd_context_options{};
+    if (!is_device_kind(opts.device)) return NFD_ERROR_INVALID_ARGUMENT;
+    if (opts.adopt && opts.device == NFD_DEVICE_CPU) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        auto ctx = std::make_unique<nfd_context>();
+        ctx->cpu_threads = opts.cpu_threads;
+        if (opts.device != NFD_DEVICE_CPU) {
+#if NFD_WITH_VULKAN
+            const nfd_result r =
+                nfd::gpu::create_device(opts.adopt, opts.enable_validation != 0, &ctx->gpu);
+            if (r == NFD_SUCCESS) {
+                ctx->kind = NFD_DEVICE_VULKAN;
+                ctx->name = nfd::gpu::device_name(*ctx->gpu);
+            } else {
+                // AUTO falls back to the CPU when no device can be made; an adopted device that
+                // fails, or an explicit VULKAN request, reports why instead.
+                const bool fallback = opts.device == NFD_DEVICE_AUTO && !opts.adopt &&
+                                      (r == NFD_ERROR_DEVICE_UNAVAILABLE || r == NFD_ERROR_DEVICE);
+                if (!fallback) return r;
+            }
+#else
+            if (opts.device == NFD_DEVICE_VULKAN || opts.adopt) return NFD_ERROR_DEVICE_UNAVAILABLE;
+#endif
+        }
+        *out_context = ctx.release();
+        return NFD_SUCCESS;
+    });
+}
+
+void nfd_context_destroy(nfd_context* context) { delete context; }
+
+nfd_device_kind nfd_context_device_kind(const nfd_context* context) {
+    return context ? context->kind : NFD_DEVICE_AUTO;
+}
+
+const char* nfd_context_device_name(const nfd_context* context) {
+    return context ? context->name.c_str() : "";
+}
+
+nfd_result nfd_asset_create(const void* bytes, size_t size, nfd_asset** out_asset) {
+    if (!out_asset) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_asset = nullptr;
+    if (!bytes) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        auto asset = std::make_unique<nfd_asset>();
+        const nfd_result r =
+            nfd::parse_file(static_cast<const uint8_t*>(bytes), size, &asset->file);
+        if (r == NFD_SUCCESS) *out_asset = asset.release();
+        return r;
+    });
+}
+
+void nfd_asset_destroy(nfd_asset* asset) { delete asset; }
+
+nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info) {
+    if (!asset || !out_info) return NFD_ERROR_INVALID_ARGUMENT;
+    const nfd::ParsedFile& f = asset->file;
+    const nfd::Geometry& g = f.geometry;
+    nfd_asset_info info{};
+    info.format_major = f.major;
+    info.format_minor = f.minor;
+    info.file_size = f.file_size;
+    info.field_type = g.field == nfd::FieldType::Sdf ? NFD_FIELD_SDF : NFD_FIELD_UDF;
+    info.truncation = g.truncation;
+    std::copy(g.center, g.center + 3, info.center);
+    info.scale = g.scale;
+    info.num_frequencies = uint32_t(g.network.frequencies.size());
+    info.num_layers = uint32_t(g.network.layers.size());
+    for (size_t i = 0; i < g.network.layers.size(); ++i) {
+        const nfd::Layer& layer = g.network.layers[i];
+        info.layer_widths[i] = layer.out;
+        info.parameter_count += layer.in * layer.out + layer.out;
+    }
+    info.bits = g.network.bits;
+    info.has_colour = f.has_colour ? 1 : 0;
+    *out_info = info;
+    return NFD_SUCCESS;
+}
+
+nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, const float* points,
+                              size_t count, float* out_values) {
+    if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
+    if (count == 0) return NFD_SUCCESS;
+    if (!points || !out_values) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        const nfd::Geometry& g = asset->file.geometry;
+        std::vector<float> unit(3 * std::min(count, kEvaluateBlock));
+        for (size_t begin = 0; begin < count; begin += kEvaluateBlock) {
+            const size_t n = std::min(kEvaluateBlock, count - begin);
+            for (size_t i = 0; i < 3 * n; ++i)
+                unit[i] = (points[3 * begin + i] - g.center[i % 3]) / g.scale;
+#if NFD_WITH_VULKAN
+            if (context->gpu) {
+                const nfd_result r =
+                    nfd::gpu::evaluate(*context->gpu, g.network, unit.data(), n, out_values + begin);
+                if (r != NFD_SUCCESS) return r;
+                continue;
+            }
+#endif
+            nfd::evaluate_cpu(g.network, unit.data(), n, out_values + begin, context->cpu_threads);
+        }
+        return NFD_SUCCESS;
+    });
+}
+
+nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
+                            const nfd_mesh_options* options, nfd_mesh** out_mesh) {
+    if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_mesh = nullptr;
+    if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
+    const nfd_mesh_options opts = options ? *options : nfd_mesh_options{};
+    const uint32_t resolution = opts.resolution ? opts.resolution : NFD_DEFAULT_RESOLUTION;
+    if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
+        return NFD_ERROR_LIMIT_EXCEEDED;
+    const nfd::Geometry& g = asset->file.geometry;
+    if (g.field != nfd::FieldType::Sdf) return NFD_ERROR_UNSUPPORTED_FEATURE;
+    return guarded([&] {
+        auto mesh = std::make_unique<nfd_mesh>();
+        nfd_result r;
+#if NFD_WITH_VULKAN
+        if (context->gpu)
+            r = nfd::gpu::extract_mesh(*context->gpu, g, resolution, &mesh->data, &mesh->stats);
+        else
+#endif
+            r = nfd::extract_mesh_cpu(g, resolution, &mesh->data, &mesh->stats,
+                                      context->cpu_threads);
+        if (r == NFD_SUCCESS) *out_mesh = mesh.release();
+        return r;
+    });
+}
+
+void nfd_mesh_destroy(nfd_mesh* mesh) { delete mesh; }
+
+nfd_result nfd_mesh_get_data(const nfd_mesh* mesh, nfd_mesh_data* out_data) {
+    if (!mesh || !out_data) return NFD_ERROR_INVALID_ARGUMENT;
+    out_data->positions = mesh->data.positions.data();
+    out_data->normals = mesh->data.normals.data();
+    out_data->indices = mesh->data.indices.data();
+    out_data->vertex_count = mesh->data.vertex_count();
+    out_data->triangle_count = mesh->data.triangle_count();
+    return NFD_SUCCESS;
+}
+
+nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats) {
+    if (!mesh || !out_stats) return NFD_ERROR_INVALID_ARGUMENT;
+    out_stats->seconds_field = mesh->stats.seconds_field;
+    out_stats->seconds_mesh = mesh->stats.seconds_mesh;
+    out_stats->points_evaluated = mesh->stats.points_evaluated;
+    out_stats->active_cells = mesh->stats.active_cells;
+    return NFD_SUCCESS;
+}
+
+nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, uint64_t seed,
+                                  float* out_points, float* out_normals) {
+    if (!mesh) return NFD_ERROR_INVALID_ARGUMENT;
+    if (count == 0) return NFD_SUCCESS;
+    if (!out_points || mesh->data.triangle_count() == 0) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        nfd::sample_points(mesh->data, count, seed, out_points, out_normals);
+        return NFD_SUCCESS;
+    });
+}
+
+nfd_result nfd_mesh_write_glb(const nfd_mesh* mesh, const char* path) {
+    if (!mesh || !path) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] { return nfd::write_glb(mesh->data, path); });
+}
+
+nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path) {
+    if (!mesh || !path) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] { return nfd::write_mesh_ply(mesh->data, path); });
+}
+
+nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
+                                const char* path) {
+    if (!path || (count > 0 && !points)) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] { return nfd::write_points_ply(points, normals, count, path); });
+}
+
+}  // extern "C"

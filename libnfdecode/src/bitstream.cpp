@@ -1,0 +1,321 @@
+// The .nfc reader. Every read goes through the bounded Reader, every value is checked where
+// FORMAT.md defines it, and nothing is allocated before the caps have bounded its size.
+#include "bitstream.h"
+
+#include <brotli/decode.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+namespace nfd {
+namespace {
+
+#define NFD_TRY(expr)                                  \
+    do {                                               \
+        const nfd_result nfd_try_result_ = (expr);     \
+        if (nfd_try_result_ != NFD_SUCCESS) return nfd_try_result_; \
+    } while (0)
+#define NFD_CHECK(cond) \
+    do {                \
+        if (!(cond)) return NFD_ERROR_CORRUPT; \
+    } while (0)
+
+constexpr uint8_t kMagic[4] = {0x89, 'N', 'F', 'C'};
+constexpr size_t kHeaderSize = 16;
+constexpr size_t kChunkOverhead = 12;  // tag, length, crc
+
+constexpr uint32_t tag_of(const char (&s)[5]) {
+    return uint32_t(uint8_t(s[0])) | uint32_t(uint8_t(s[1])) << 8 | uint32_t(uint8_t(s[2])) << 16 |
+           uint32_t(uint8_t(s[3])) << 24;
+}
+constexpr uint32_t kTagGeom = tag_of("GEOM");
+constexpr uint32_t kTagColour = tag_of("colr");
+
+// Bounds-checked little-endian reads; running past the end is "truncated" by definition.
+class Reader {
+public:
+    Reader(const uint8_t* data, size_t size) : p_(data), end_(data + size) {}
+    size_t remaining() const { return size_t(end_ - p_); }
+    const uint8_t* position() const { return p_; }
+
+    nfd_result u8(uint8_t* v) { return read(v, 1); }
+    nfd_result u16(uint16_t* v) { return read(v, 2); }
+    nfd_result u32(uint32_t* v) { return read(v, 4); }
+    nfd_result f32(float* v) {
+        uint32_t bits = 0;
+        NFD_TRY(u32(&bits));
+        std::memcpy(v, &bits, 4);
+        return NFD_SUCCESS;
+    }
+
+private:
+    template <class T>
+    nfd_result read(T* v, size_t n) {
+        if (remaining() < n) return NFD_ERROR_TRUNCATED;
+        uint64_t x = 0;
+        for (size_t i = 0; i < n; ++i) x |= uint64_t(p_[i]) << (8 * i);
+        *v = T(x);
+        p_ += n;
+        return NFD_SUCCESS;
+    }
+    const uint8_t* p_;
+    const uint8_t* end_;
+};
+
+uint32_t load_u32(const uint8_t* p) {
+    return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
+}
+
+bool is_letter(uint8_t c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
+
+// "Each tag may appear at most once", checked in O(1) per chunk whatever the chunk count: a file
+// may legally hold millions of empty optional chunks. A tag is four letters, so a bitmap over the
+// 52^4 possible tags (0.9 MiB) is allocated only when a file has more chunks than the inline list.
+class TagSet {
+public:
+    // Returns false if `tag` (four letters) was inserted before.
+    bool insert(uint32_t tag) {
+        if (bitmap_.empty()) {
+            for (size_t i = 0; i < count_; ++i)
+                if (inline_[i] == tag) return false;
+            if (count_ < inline_.size()) {
+                inline_[count_++] = tag;
+                return true;
+            }
+            bitmap_.assign(kTagSpace / 64 + 1, 0);
+            for (size_t i = 0; i < count_; ++i) set(index(inline_[i]));
+        }
+        const uint32_t i = index(tag);
+        if (bitmap_[i / 64] >> (i % 64) & 1) return false;
+        set(i);
+        return true;
+    }
+
+private:
+    static constexpr uint32_t kTagSpace = 52u * 52u * 52u * 52u;
+    static uint32_t letter(uint32_t c) { return c >= 'a' ? c - 'a' + 26 : c - 'A'; }
+    static uint32_t index(uint32_t tag) {
+        uint32_t i = 0;
+        for (int k = 3; k >= 0; --k) i = i * 52 + letter((tag >> (8 * k)) & 0xFF);
+        return i;
+    }
+    void set(uint32_t i) { bitmap_[i / 64] |= uint64_t(1) << (i % 64); }
+
+    std::array<uint32_t, 8> inline_{};
+    size_t count_ = 0;
+    std::vector<uint64_t> bitmap_;
+};
+
+// Decompresses into exactly `out_size` bytes: the stream must produce exactly that much output,
+// end there, and use all of `in`. Anything else (invalid, shorter, longer, trailing input) is
+// corrupt. The output buffer is never grown: at most one probe byte past its end is requested.
+nfd_result brotli_decompress_exact(const uint8_t* in, size_t in_size, uint8_t* out,
+                                   size_t out_size) {
+    struct Free {
+        void operator()(BrotliDecoderState* s) const { BrotliDecoderDestroyInstance(s); }
+    };
+    std::unique_ptr<BrotliDecoderState, Free> state(
+        BrotliDecoderCreateInstance(nullptr, nullptr, nullptr));
+    if (!state) return NFD_ERROR_OUT_OF_MEMORY;
+
+    size_t avail_in = in_size, avail_out = out_size;
+    const uint8_t* next_in = in;
+    uint8_t* next_out = out;
+    BrotliDecoderResult result = BrotliDecoderDecompressStream(state.get(), &avail_in, &next_in,
+                                                               &avail_out, &next_out, nullptr);
+    if (result == BROTLI_DECODER_RESULT_NEEDS_MORE_OUTPUT && avail_out == 0) {
+        // The buffer is full; brotli may still have to read the end of the stream. A stream that
+        // yields even one more byte is longer than announced.
+        uint8_t probe = 0;
+        size_t probe_avail = 1;
+        uint8_t* probe_next = &probe;
+        result = BrotliDecoderDecompressStream(state.get(), &avail_in, &next_in, &probe_avail,
+                                               &probe_next, nullptr);
+        if (probe_avail == 0) return NFD_ERROR_CORRUPT;
+    }
+    if (result == BROTLI_DECODER_RESULT_ERROR) {
+        const BrotliDecoderErrorCode code = BrotliDecoderGetErrorCode(state.get());
+        if (code <= BROTLI_DECODER_ERROR_ALLOC_CONTEXT_MODES &&
+            code >= BROTLI_DECODER_ERROR_ALLOC_BLOCK_TYPE_TREES)
+            return NFD_ERROR_OUT_OF_MEMORY;  // brotli's ALLOC_* range: our fault, not the file's
+    }
+    NFD_CHECK(result == BROTLI_DECODER_RESULT_SUCCESS);  // invalid, or shorter (needs more input)
+    NFD_CHECK(avail_out == 0);                           // ended early
+    NFD_CHECK(avail_in == 0);                            // bytes after the end of the stream
+    return NFD_SUCCESS;
+}
+
+bool finite(float v) { return std::isfinite(v); }
+
+// FORMAT.md "Network block". `required_output` and `outputs` are the chunk's own rules (GEOM: the
+// activation matching the field type, and one output).
+nfd_result read_network(Reader& r, OutputActivation required_output, uint32_t outputs,
+                        Network* net) {
+    uint8_t num_frequencies = 0, output = 0, bits = 0, num_layers = 0;
+    float beta = 0, omega0 = 0;
+    NFD_TRY(r.u8(&num_frequencies));
+    NFD_CHECK(num_frequencies <= NFD_MAX_FREQUENCIES);
+    NFD_TRY(r.f32(&beta));
+    NFD_CHECK(finite(beta) && beta >= 1.0f && beta <= 2.0f);
+    NFD_TRY(r.f32(&omega0));
+    NFD_CHECK(finite(omega0) && omega0 > 0.0f && omega0 <= 1000.0f);
+    NFD_TRY(r.u8(&output));
+    NFD_CHECK(output == uint8_t(required_output));
+    NFD_TRY(r.u8(&bits));
+    NFD_CHECK(bits >= 2 && bits <= 16);
+    NFD_TRY(r.u8(&num_layers));
+    NFD_CHECK(num_layers >= 2 && num_layers <= NFD_MAX_LAYERS);
+
+    uint16_t widths[NFD_MAX_LAYERS] = {};
+    for (uint32_t i = 0; i < num_layers; ++i) {
+        NFD_TRY(r.u16(&widths[i]));
+        NFD_CHECK(widths[i] >= 1 && widths[i] <= NFD_MAX_WIDTH);
+    }
+    NFD_CHECK(widths[num_layers - 1] == outputs);
+    float steps[2 * NFD_MAX_LAYERS] = {};
+    for (uint32_t i = 0; i < 2u * num_layers; ++i) {
+        NFD_TRY(r.f32(&steps[i]));
+        NFD_CHECK(finite(steps[i]) && steps[i] > 0.0f);
+    }
+
+    const uint32_t input_width = 3u + 6u * num_frequencies;
+    uint64_t parameters = 0;
+    for (uint32_t i = 0, in = input_width; i < num_layers; in = widths[i++])
+        parameters += uint64_t(in) * widths[i] + widths[i];
+    NFD_CHECK(parameters <= NFD_MAX_PARAMETERS);
+
+    // The caps now bound every size: allocate and decompress.
+    if (r.remaining() < 1) return NFD_ERROR_TRUNCATED;
+    const size_t bytes_per_level = bits <= 8 ? 1 : 2;
+    std::vector<uint8_t> levels(size_t(parameters) * bytes_per_level);
+    NFD_TRY(brotli_decompress_exact(r.position(), r.remaining(), levels.data(), levels.size()));
+
+    const int32_t max_level = (int32_t(1) << (bits - 1)) - 1;
+    size_t next = 0;
+    bool levels_ok = true;
+    auto dequantize = [&](std::vector<float>& dst, size_t count, float step) {
+        dst.resize(count);
+        for (size_t k = 0; k < count; ++k, ++next) {
+            const int32_t q = bytes_per_level == 1
+                                  ? int32_t(int8_t(levels[next]))
+                                  : int32_t(int16_t(uint16_t(levels[2 * next] |
+                                                             levels[2 * next + 1] << 8)));
+            levels_ok &= q >= -max_level && q <= max_level;
+            dst[k] = float(q) * step;  // FORMAT.md: one f32 multiplication
+        }
+    };
+    net->layers.assign(num_layers, Layer{});
+    for (uint32_t i = 0, in = input_width; i < num_layers; in = widths[i++]) {
+        Layer& layer = net->layers[i];
+        layer.in = in;
+        layer.out = widths[i];
+        dequantize(layer.weights, size_t(in) * layer.out, steps[2 * i]);
+        dequantize(layer.bias, layer.out, steps[2 * i + 1]);
+    }
+    NFD_CHECK(levels_ok);
+
+    // Frequencies in f64 by repeated multiplication, each rounded to f32 (FORMAT.md step 1).
+    const uint64_t pi_bits = 0x400921FB54442D18ull;
+    double a = 0;
+    std::memcpy(&a, &pi_bits, sizeof a);
+    net->frequencies.resize(num_frequencies);
+    for (float& f : net->frequencies) {
+        f = float(a);
+        a *= double(beta);
+    }
+    net->omega0 = omega0;
+    net->output = OutputActivation(output);
+    net->bits = bits;
+    return NFD_SUCCESS;
+}
+
+nfd_result read_geometry(Reader& r, Geometry* g) {
+    uint8_t field = 0;
+    NFD_TRY(r.u8(&field));
+    NFD_CHECK(field <= uint8_t(FieldType::Udf));
+    g->field = FieldType(field);
+    NFD_TRY(r.f32(&g->truncation));
+    NFD_CHECK(finite(g->truncation) && g->truncation > 0.0f && g->truncation <= 1.0f);
+    for (float& c : g->center) {
+        NFD_TRY(r.f32(&c));
+        NFD_CHECK(finite(c));
+    }
+    NFD_TRY(r.f32(&g->scale));
+    NFD_CHECK(finite(g->scale) && g->scale > 0.0f);
+    const OutputActivation activation =
+        g->field == FieldType::Sdf ? OutputActivation::Identity : OutputActivation::Abs;
+    return read_network(r, activation, 1, &g->network);
+}
+
+}  // namespace
+
+uint32_t crc32(const uint8_t* data, size_t size) {
+    static const std::array<uint32_t, 256> table = [] {
+        std::array<uint32_t, 256> t{};
+        for (uint32_t i = 0; i < 256; ++i) {
+            uint32_t c = i;
+            for (int k = 0; k < 8; ++k) c = c & 1 ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            t[i] = c;
+        }
+        return t;
+    }();
+    uint32_t crc = 0xFFFFFFFFu;
+    for (size_t i = 0; i < size; ++i) crc = table[(crc ^ data[i]) & 0xFF] ^ (crc >> 8);
+    return crc ^ 0xFFFFFFFFu;
+}
+
+nfd_result parse_file(const uint8_t* bytes, size_t size, ParsedFile* out) {
+    // Header, in the documented order: size, magic, CRC, major, flags, file_size. The CRC comes
+    // before the version so that a damaged header reads as corrupt, not as a misleading version.
+    if (size < kHeaderSize) return NFD_ERROR_TRUNCATED;
+    NFD_CHECK(std::memcmp(bytes, kMagic, 4) == 0);
+    NFD_CHECK(crc32(bytes, 12) == load_u32(bytes + 12));
+    const uint8_t major = bytes[4], minor = bytes[5];
+    if (major != NFD_FORMAT_MAJOR) return NFD_ERROR_UNSUPPORTED_VERSION;
+    NFD_CHECK((bytes[6] | bytes[7]) == 0);
+    const uint32_t file_size = load_u32(bytes + 8);
+    NFD_CHECK(file_size >= kHeaderSize + kChunkOverhead && file_size <= NFD_MAX_FILE_SIZE);
+    if (size < file_size) return NFD_ERROR_TRUNCATED;
+    NFD_CHECK(size == file_size);  // trailing bytes
+
+    ParsedFile file;
+    file.major = major;
+    file.minor = minor;
+    file.file_size = file_size;
+
+    TagSet seen;
+    bool first = true;
+    for (size_t pos = kHeaderSize; pos < file_size;) {
+        // Chunk framing: bounds, then CRC, then meaning.
+        Reader r(bytes + pos, file_size - pos);
+        uint32_t tag = 0, length = 0;
+        NFD_TRY(r.u32(&tag));
+        NFD_TRY(r.u32(&length));
+        NFD_CHECK(length <= NFD_MAX_CHUNK_SIZE);
+        if (r.remaining() < uint64_t(length) + 4) return NFD_ERROR_TRUNCATED;
+        const uint8_t* payload = bytes + pos + 8;
+        NFD_CHECK(crc32(bytes + pos, 8 + size_t(length)) == load_u32(payload + length));
+
+        for (int k = 0; k < 4; ++k) NFD_CHECK(is_letter(uint8_t(tag >> (8 * k))));
+        NFD_CHECK(seen.insert(tag));
+        NFD_CHECK(!first || tag == kTagGeom);  // GEOM must come first
+        first = false;
+
+        if (tag == kTagGeom) {
+            Reader chunk(payload, length);
+            NFD_TRY(read_geometry(chunk, &file.geometry));
+        } else if (tag == kTagColour) {
+            file.has_colour = true;  // reserved in 1.0: verified above, decoded by a later version
+        } else if (uint8_t(tag) >= 'A' && uint8_t(tag) <= 'Z') {
+            return NFD_ERROR_UNSUPPORTED_FEATURE;  // unknown critical chunk
+        }  // unknown optional chunk: verified, skipped
+        pos += kChunkOverhead + length;
+    }
+    *out = std::move(file);
+    return NFD_SUCCESS;
+}
+
+}  // namespace nfd

@@ -1,0 +1,91 @@
+// Binary little-endian PLY. Values are serialised byte by byte, so the files are the same on
+// big-endian hosts.
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "export.h"
+
+namespace nfd {
+namespace {
+
+class LittleEndianFile {
+public:
+    explicit LittleEndianFile(const char* path) : f_(std::fopen(path, "wb")) {}
+    ~LittleEndianFile() {
+        if (f_) std::fclose(f_);
+    }
+    bool is_open() const { return f_ != nullptr; }
+
+    void text(const std::string& s) { buffer_.insert(buffer_.end(), s.begin(), s.end()); }
+    void u8(uint8_t v) { buffer_.push_back(v); }
+    void u32(uint32_t v) {
+        for (int k = 0; k < 4; ++k) buffer_.push_back(uint8_t(v >> (8 * k)));
+        if (buffer_.size() >= (1u << 20)) flush();
+    }
+    void f32(float v) {
+        uint32_t bits;
+        std::memcpy(&bits, &v, 4);
+        u32(bits);
+    }
+    // Writes what is buffered and closes; false if anything failed on the way.
+    bool close() {
+        flush();
+        const bool ok = ok_ && std::fclose(f_) == 0;
+        f_ = nullptr;
+        return ok;
+    }
+
+private:
+    void flush() {
+        if (!buffer_.empty() && std::fwrite(buffer_.data(), 1, buffer_.size(), f_) != buffer_.size())
+            ok_ = false;
+        buffer_.clear();
+    }
+    std::FILE* f_;
+    std::vector<uint8_t> buffer_;
+    bool ok_ = true;
+};
+
+std::string vertex_header(size_t count, bool normals) {
+    std::string h = "ply\nformat binary_little_endian 1.0\ncomment written by libnfdecode\n";
+    h += "element vertex " + std::to_string(count) + "\n";
+    h += "property float x\nproperty float y\nproperty float z\n";
+    if (normals) h += "property float nx\nproperty float ny\nproperty float nz\n";
+    return h;
+}
+
+}  // namespace
+
+nfd_result write_mesh_ply(const MeshData& mesh, const char* path) {
+    LittleEndianFile out(path);
+    if (!out.is_open()) return NFD_ERROR_IO;
+    out.text(vertex_header(mesh.vertex_count(), true));
+    out.text("element face " + std::to_string(mesh.triangle_count()) + "\n");
+    out.text("property list uchar uint vertex_indices\nend_header\n");
+    for (size_t i = 0; i < mesh.vertex_count(); ++i) {
+        for (int a = 0; a < 3; ++a) out.f32(mesh.positions[3 * i + a]);
+        for (int a = 0; a < 3; ++a) out.f32(mesh.normals[3 * i + a]);
+    }
+    for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        out.u8(3);
+        for (int k = 0; k < 3; ++k) out.u32(mesh.indices[3 * t + k]);
+    }
+    return out.close() ? NFD_SUCCESS : NFD_ERROR_IO;
+}
+
+nfd_result write_points_ply(const float* points, const float* normals, size_t count,
+                            const char* path) {
+    LittleEndianFile out(path);
+    if (!out.is_open()) return NFD_ERROR_IO;
+    out.text(vertex_header(count, normals != nullptr) + "end_header\n");
+    for (size_t i = 0; i < count; ++i) {
+        for (int a = 0; a < 3; ++a) out.f32(points[3 * i + a]);
+        if (normals)
+            for (int a = 0; a < 3; ++a) out.f32(normals[3 * i + a]);
+    }
+    return out.close() ? NFD_SUCCESS : NFD_ERROR_IO;
+}
+
+}  // namespace nfd

@@ -1,0 +1,445 @@
+#include "vk_context.h"
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace nfd::gpu {
+
+// Descriptor sets are allocated per dispatch from one pool that submit() resets; one batch (one
+// refinement level) records far fewer dispatches than this.
+constexpr uint32_t kMaxDispatchesPerBatch = 256;
+constexpr uint32_t kMaxBindings = 16;
+
+nfd_result to_result(VkResult result) {
+    switch (result) {
+        case VK_SUCCESS: return NFD_SUCCESS;
+        case VK_ERROR_OUT_OF_HOST_MEMORY:
+        case VK_ERROR_OUT_OF_DEVICE_MEMORY:
+        case VK_ERROR_OUT_OF_POOL_MEMORY:
+        case VK_ERROR_FRAGMENTED_POOL:
+        case VK_ERROR_FRAGMENTATION: return NFD_ERROR_OUT_OF_MEMORY;
+        case VK_ERROR_INITIALIZATION_FAILED:
+        case VK_ERROR_INCOMPATIBLE_DRIVER:
+        case VK_ERROR_EXTENSION_NOT_PRESENT:
+        case VK_ERROR_LAYER_NOT_PRESENT:
+        case VK_ERROR_FEATURE_NOT_PRESENT: return NFD_ERROR_DEVICE_UNAVAILABLE;
+        default: return NFD_ERROR_DEVICE;  // device lost, timeouts, anything unexpected
+    }
+}
+
+#define NFD_VK_TRY(call)                                             \
+    do {                                                             \
+        VkResult vk_result_ = (call);                                \
+        if (vk_result_ != VK_SUCCESS) return to_result(vk_result_); \
+    } while (0)
+
+nfd_result Context::create(const nfd_vulkan_device* adopt, bool enable_validation,
+                           std::unique_ptr<Context>* out) {
+    std::unique_ptr<Context> context(new (std::nothrow) Context());
+    if (!context) return NFD_ERROR_OUT_OF_MEMORY;
+    nfd_result r = context->init_functions(adopt);
+    if (r == NFD_SUCCESS && adopt) {
+        if (!adopt->instance || !adopt->physical_device || !adopt->device || !adopt->queue)
+            return NFD_ERROR_INVALID_ARGUMENT;
+        context->owns_device_ = false;
+        context->instance_ = static_cast<VkInstance>(adopt->instance);
+        context->physical_ = static_cast<VkPhysicalDevice>(adopt->physical_device);
+        context->device_ = static_cast<VkDevice>(adopt->device);
+        context->queue_ = static_cast<VkQueue>(adopt->queue);
+        context->queue_family_ = adopt->queue_family_index;
+    }
+    if (r == NFD_SUCCESS && !adopt) r = context->create_instance(enable_validation);
+    if (r == NFD_SUCCESS && !adopt) r = context->pick_physical_device();
+    if (r == NFD_SUCCESS && !adopt) r = context->create_logical_device();
+    if (r == NFD_SUCCESS) r = context->create_command_objects();
+    if (r != NFD_SUCCESS) return r;
+    *out = std::move(context);
+    return NFD_SUCCESS;
+}
+
+nfd_result Context::init_functions(const nfd_vulkan_device* adopt) {
+    if (adopt && adopt->get_instance_proc_addr) {
+        get_instance_proc_addr_ =
+            reinterpret_cast<PFN_vkGetInstanceProcAddr>(adopt->get_instance_proc_addr);
+    } else {
+        library_ = dlopen("libvulkan.so.1", RTLD_NOW | RTLD_LOCAL);
+        if (!library_) return NFD_ERROR_DEVICE_UNAVAILABLE;
+        get_instance_proc_addr_ = reinterpret_cast<PFN_vkGetInstanceProcAddr>(
+            dlsym(library_, "vkGetInstanceProcAddr"));
+    }
+    if (!get_instance_proc_addr_) return NFD_ERROR_DEVICE_UNAVAILABLE;
+    vkCreateInstance = reinterpret_cast<PFN_vkCreateInstance>(
+        get_instance_proc_addr_(VK_NULL_HANDLE, "vkCreateInstance"));
+    vkEnumerateInstanceLayerProperties = reinterpret_cast<PFN_vkEnumerateInstanceLayerProperties>(
+        get_instance_proc_addr_(VK_NULL_HANDLE, "vkEnumerateInstanceLayerProperties"));
+    if (!vkCreateInstance) return NFD_ERROR_DEVICE_UNAVAILABLE;
+    return NFD_SUCCESS;
+}
+
+nfd_result Context::create_instance(bool enable_validation) {
+    VkApplicationInfo app{};
+    app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
+    app.pApplicationName = "libnfdecode";
+    app.pEngineName = "libnfdecode";
+    app.apiVersion = VK_API_VERSION_1_1;
+    const char* validation = "VK_LAYER_KHRONOS_validation";
+    bool have_validation = false;
+    if (enable_validation && vkEnumerateInstanceLayerProperties) {
+        uint32_t count = 0;
+        vkEnumerateInstanceLayerProperties(&count, nullptr);
+        std::vector<VkLayerProperties> layers(count);
+        vkEnumerateInstanceLayerProperties(&count, layers.data());
+        for (const VkLayerProperties& layer : layers)
+            have_validation |= std::strcmp(layer.layerName, validation) == 0;
+    }
+    VkInstanceCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
+    info.pApplicationInfo = &app;
+    info.enabledLayerCount = have_validation ? 1 : 0;
+    info.ppEnabledLayerNames = &validation;
+    NFD_VK_TRY(vkCreateInstance(&info, nullptr, &instance_));
+    bool all = true;
+#define NFD_VK_LOAD(name)                                                                    \
+    name = reinterpret_cast<PFN_##name>(get_instance_proc_addr_(instance_, #name));         \
+    all &= name != nullptr;
+    NFD_VK_INSTANCE_FUNCTIONS(NFD_VK_LOAD)
+#undef NFD_VK_LOAD
+    return all ? NFD_SUCCESS : NFD_ERROR_DEVICE_UNAVAILABLE;
+}
+
+nfd_result Context::pick_physical_device() {
+    uint32_t count = 0;
+    NFD_VK_TRY(vkEnumeratePhysicalDevices(instance_, &count, nullptr));
+    std::vector<VkPhysicalDevice> devices(count);
+    VkResult listed = vkEnumeratePhysicalDevices(instance_, &count, devices.data());
+    if (listed != VK_SUCCESS && listed != VK_INCOMPLETE) return to_result(listed);
+    devices.resize(count);
+    // Discrete GPU first, then integrated, virtual, and CPU implementations (lavapipe) last.
+    auto rank = [](VkPhysicalDeviceType type) {
+        switch (type) {
+            case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 0;
+            case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 1;
+            case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+            case VK_PHYSICAL_DEVICE_TYPE_CPU: return 3;
+            default: return 4;
+        }
+    };
+    int best = 5;
+    for (VkPhysicalDevice device : devices) {
+        VkPhysicalDeviceProperties properties;
+        vkGetPhysicalDeviceProperties(device, &properties);
+        if (properties.apiVersion < VK_API_VERSION_1_1 || rank(properties.deviceType) >= best)
+            continue;
+        uint32_t families = 0;
+        vkGetPhysicalDeviceQueueFamilyProperties(device, &families, nullptr);
+        std::vector<VkQueueFamilyProperties> family(families);
+        vkGetPhysicalDeviceQueueFamilyProperties(device, &families, family.data());
+        for (uint32_t i = 0; i < families; ++i) {
+            if (family[i].queueFlags & VK_QUEUE_COMPUTE_BIT) {
+                physical_ = device;
+                queue_family_ = i;
+                best = rank(properties.deviceType);
+                break;
+            }
+        }
+    }
+    return physical_ ? NFD_SUCCESS : NFD_ERROR_DEVICE_UNAVAILABLE;
+}
+
+nfd_result Context::create_logical_device() {
+    float priority = 1.0f;
+    VkDeviceQueueCreateInfo queue{};
+    queue.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
+    queue.queueFamilyIndex = queue_family_;
+    queue.queueCount = 1;
+    queue.pQueuePriorities = &priority;
+    VkDeviceCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
+    info.queueCreateInfoCount = 1;
+    info.pQueueCreateInfos = &queue;
+    NFD_VK_TRY(vkCreateDevice(physical_, &info, nullptr, &device_));
+    return NFD_SUCCESS;
+}
+
+nfd_result Context::create_command_objects() {
+    if (!owns_device_) {  // adopted: instance-level functions come from the host's instance
+        bool all = true;
+#define NFD_VK_LOAD(name)                                                                    \
+    name = reinterpret_cast<PFN_##name>(get_instance_proc_addr_(instance_, #name));         \
+    all &= name != nullptr;
+        NFD_VK_INSTANCE_FUNCTIONS(NFD_VK_LOAD)
+#undef NFD_VK_LOAD
+        if (!all) return NFD_ERROR_DEVICE_UNAVAILABLE;
+    }
+    bool all = true;
+#define NFD_VK_LOAD(name)                                                                    \
+    name = reinterpret_cast<PFN_##name>(vkGetDeviceProcAddr(device_, #name));               \
+    all &= name != nullptr;
+    NFD_VK_DEVICE_FUNCTIONS(NFD_VK_LOAD)
+#undef NFD_VK_LOAD
+    if (!all) return NFD_ERROR_DEVICE_UNAVAILABLE;
+    if (owns_device_) vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+
+    vkGetPhysicalDeviceProperties(physical_, &properties_);
+    vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
+    name_ = properties_.deviceName;
+    // Host-visible + coherent memory, preferring a type that is also device-local (integrated
+    // GPUs, resizable BAR; every type on CPU implementations).
+    const VkMemoryPropertyFlags need =
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    for (int pass = 0; pass < 2 && memory_type_ == UINT32_MAX; ++pass) {
+        for (uint32_t i = 0; i < memory_.memoryTypeCount; ++i) {
+            VkMemoryPropertyFlags flags = memory_.memoryTypes[i].propertyFlags;
+            bool local = flags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+            if ((flags & need) == need && (pass == 1 || local)) {
+                memory_type_ = i;
+                break;
+            }
+        }
+    }
+    if (memory_type_ == UINT32_MAX) return NFD_ERROR_DEVICE_UNAVAILABLE;
+
+    VkPipelineCacheCreateInfo cache{};
+
+    cache.sType = VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO;
+    NFD_VK_TRY(vkCreatePipelineCache(device_, &cache, nullptr, &cache_));
+    VkCommandPoolCreateInfo pool{};
+    pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool.queueFamilyIndex = queue_family_;
+    NFD_VK_TRY(vkCreateCommandPool(device_, &pool, nullptr, &command_pool_));
+    VkCommandBufferAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    alloc.commandPool = command_pool_;
+    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    alloc.commandBufferCount = 1;
+    NFD_VK_TRY(vkAllocateCommandBuffers(device_, &alloc, &commands_));
+    VkFenceCreateInfo fence{};
+    fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    NFD_VK_TRY(vkCreateFence(device_, &fence, nullptr, &fence_));
+    VkDescriptorPoolSize sizes[2] = {
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kMaxDispatchesPerBatch * kMaxBindings},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, kMaxDispatchesPerBatch * kMaxBindings}};
+    VkDescriptorPoolCreateInfo descriptors{};
+    descriptors.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    descriptors.maxSets = kMaxDispatchesPerBatch;
+    descriptors.poolSizeCount = 2;
+    descriptors.pPoolSizes = sizes;
+    NFD_VK_TRY(vkCreateDescriptorPool(device_, &descriptors, nullptr, &descriptor_pool_));
+    return NFD_SUCCESS;
+}
+
+Context::~Context() {
+    if (device_ && vkDeviceWaitIdle) {
+        // An adopted device may be busy with the host's work; only our queue's work matters,
+        // and submit() already waited for it.
+        if (owns_device_) vkDeviceWaitIdle(device_);
+        if (descriptor_pool_) vkDestroyDescriptorPool(device_, descriptor_pool_, nullptr);
+        if (fence_) vkDestroyFence(device_, fence_, nullptr);
+        if (command_pool_) vkDestroyCommandPool(device_, command_pool_, nullptr);
+        if (cache_) vkDestroyPipelineCache(device_, cache_, nullptr);
+        if (owns_device_) vkDestroyDevice(device_, nullptr);
+    } else if (device_ && owns_device_ && vkDestroyDevice) {
+        vkDestroyDevice(device_, nullptr);
+    }
+    if (instance_ && owns_device_ && vkDestroyInstance) vkDestroyInstance(instance_, nullptr);
+    if (library_) dlclose(library_);
+}
+
+nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
+    *out = Buffer{};
+    VkBufferCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    info.size = std::max<VkDeviceSize>(size, 16);
+    info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
+                 VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    Buffer b;
+    b.size = info.size;
+    NFD_VK_TRY(vkCreateBuffer(device_, &info, nullptr, &b.buffer));
+    VkMemoryRequirements requirements;
+    vkGetBufferMemoryRequirements(device_, b.buffer, &requirements);
+    if (!(requirements.memoryTypeBits & (1u << memory_type_))) {
+        vkDestroyBuffer(device_, b.buffer, nullptr);
+        return NFD_ERROR_DEVICE;
+    }
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = requirements.size;
+    alloc.memoryTypeIndex = memory_type_;
+    VkResult r = vkAllocateMemory(device_, &alloc, nullptr, &b.memory);
+    if (r == VK_SUCCESS) r = vkBindBufferMemory(device_, b.buffer, b.memory, 0);
+    if (r == VK_SUCCESS) r = vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.data);
+    if (r != VK_SUCCESS) {
+        destroy(b);
+        return to_result(r);
+    }
+    *out = b;
+    return NFD_SUCCESS;
+}
+
+void Context::destroy(Buffer& b) {
+    if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
+    if (b.memory) vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
+    b = Buffer{};
+}
+
+nfd_result Context::create_pipeline(const PipelineDesc& desc, Pipeline* out) {
+    *out = Pipeline{};
+    Pipeline p;
+    p.bindings = desc.bindings;
+    p.push_constant_bytes = desc.push_constant_bytes;
+    p.local_size = desc.local_size;
+    auto fail = [&](VkResult r) {
+        destroy(p);
+        return to_result(r);
+    };
+    std::vector<VkDescriptorSetLayoutBinding> bindings(desc.bindings.size());
+    for (uint32_t i = 0; i < bindings.size(); ++i)
+        bindings[i] = {i, desc.bindings[i], 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    VkDescriptorSetLayoutCreateInfo set{};
+    set.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    set.bindingCount = uint32_t(bindings.size());
+    set.pBindings = bindings.data();
+    VkResult r = vkCreateDescriptorSetLayout(device_, &set, nullptr, &p.set_layout);
+    if (r != VK_SUCCESS) return fail(r);
+    VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, desc.push_constant_bytes};
+    VkPipelineLayoutCreateInfo layout{};
+    layout.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    layout.setLayoutCount = 1;
+    layout.pSetLayouts = &p.set_layout;
+    layout.pushConstantRangeCount = desc.push_constant_bytes ? 1 : 0;
+    layout.pPushConstantRanges = &push;
+    r = vkCreatePipelineLayout(device_, &layout, nullptr, &p.layout);
+    if (r != VK_SUCCESS) return fail(r);
+
+    VkShaderModuleCreateInfo module_info{};
+
+    module_info.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    module_info.codeSize = desc.spirv->size_bytes;
+    module_info.pCode = desc.spirv->code;
+    VkShaderModule module = VK_NULL_HANDLE;
+    r = vkCreateShaderModule(device_, &module_info, nullptr, &module);
+    if (r != VK_SUCCESS) return fail(r);
+
+    std::vector<uint32_t> values = desc.specialization;
+    if (desc.local_size_id != kFixedLocalSize) {
+        if (values.size() <= desc.local_size_id) values.resize(desc.local_size_id + 1, 0);
+        values[desc.local_size_id] = desc.local_size;
+    }
+    std::vector<VkSpecializationMapEntry> entries(values.size());
+    for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {i, 4 * i, 4};
+    VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(),
+                                        values.size() * 4, values.data()};
+    VkComputePipelineCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+    info.stage = {};
+    info.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    info.stage.module = module;
+    info.stage.pName = "main";
+    info.stage.pSpecializationInfo = &specialization;
+    info.layout = p.layout;
+    r = vkCreateComputePipelines(device_, cache_, 1, &info, nullptr, &p.pipeline);
+    vkDestroyShaderModule(device_, module, nullptr);
+    if (r != VK_SUCCESS) return fail(r);
+    *out = std::move(p);
+    return NFD_SUCCESS;
+}
+
+void Context::destroy(Pipeline& p) {
+    if (p.pipeline) vkDestroyPipeline(device_, p.pipeline, nullptr);
+    if (p.layout) vkDestroyPipelineLayout(device_, p.layout, nullptr);
+    if (p.set_layout) vkDestroyDescriptorSetLayout(device_, p.set_layout, nullptr);
+    p = Pipeline{};
+}
+
+nfd_result Context::begin() {
+    NFD_VK_TRY(vkResetCommandPool(device_, command_pool_, 0));
+    NFD_VK_TRY(vkResetDescriptorPool(device_, descriptor_pool_, 0));
+    VkCommandBufferBeginInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    info.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    NFD_VK_TRY(vkBeginCommandBuffer(commands_, &info));
+    recording_ = true;
+    return NFD_SUCCESS;
+}
+
+void Context::barrier() {
+    // Coarse but sufficient: every stage reads what the previous one wrote; host reads happen
+    // after the fence, and host writes before submission are made visible by the submit itself.
+    VkMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                      VK_ACCESS_UNIFORM_READ_BIT | VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(commands_,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &b, 0, nullptr, 0, nullptr);
+}
+
+nfd_result Context::dispatch(const Pipeline& pipeline, std::initializer_list<BufferRange> buffers,
+                             const void* push, uint64_t invocations) {
+    if (!recording_ || buffers.size() != pipeline.bindings.size()) return NFD_ERROR_DEVICE;
+    if (invocations == 0) return NFD_SUCCESS;
+    VkDescriptorSetAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    alloc.descriptorPool = descriptor_pool_;
+    alloc.descriptorSetCount = 1;
+    alloc.pSetLayouts = &pipeline.set_layout;
+    VkDescriptorSet set;
+    NFD_VK_TRY(vkAllocateDescriptorSets(device_, &alloc, &set));
+    VkDescriptorBufferInfo infos[kMaxBindings];
+    VkWriteDescriptorSet writes[kMaxBindings];
+    uint32_t i = 0;
+    for (const BufferRange& b : buffers) {
+        if (i == kMaxBindings) return NFD_ERROR_DEVICE;
+        infos[i] = {b.buffer->buffer, b.offset, b.range};
+        writes[i] = {};
+        writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        writes[i].dstSet = set;
+        writes[i].dstBinding = i;
+        writes[i].descriptorCount = 1;
+        writes[i].descriptorType = pipeline.bindings[i];
+        writes[i].pBufferInfo = &infos[i];
+        ++i;
+    }
+    vkUpdateDescriptorSets(device_, i, writes, 0, nullptr);
+    vkCmdBindPipeline(commands_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
+    vkCmdBindDescriptorSets(commands_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout, 0, 1, &set,
+                            0, nullptr);
+    if (pipeline.push_constant_bytes)
+        vkCmdPushConstants(commands_, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0,
+                           pipeline.push_constant_bytes, push);
+    uint64_t groups = (invocations + pipeline.local_size - 1) / pipeline.local_size;
+    uint64_t max_x = properties_.limits.maxComputeWorkGroupCount[0];
+    uint64_t y = (groups + max_x - 1) / max_x;
+    uint64_t x = (groups + y - 1) / y;  // x * y >= groups; shaders skip the excess
+    if (y > properties_.limits.maxComputeWorkGroupCount[1]) return NFD_ERROR_LIMIT_EXCEEDED;
+    vkCmdDispatch(commands_, uint32_t(x), uint32_t(y), 1);
+    barrier();
+    return NFD_SUCCESS;
+}
+
+void Context::fill(const Buffer& buffer, uint32_t value) {
+    vkCmdFillBuffer(commands_, buffer.buffer, 0, VK_WHOLE_SIZE, value);
+    barrier();
+}
+
+nfd_result Context::submit() {
+    if (!recording_) return NFD_ERROR_DEVICE;
+    recording_ = false;
+    NFD_VK_TRY(vkEndCommandBuffer(commands_));
+    VkSubmitInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+    info.commandBufferCount = 1;
+    info.pCommandBuffers = &commands_;
+    NFD_VK_TRY(vkResetFences(device_, 1, &fence_));
+    NFD_VK_TRY(vkQueueSubmit(queue_, 1, &info, fence_));
+    NFD_VK_TRY(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
+    return NFD_SUCCESS;
+}
+
+}  // namespace nfd::gpu

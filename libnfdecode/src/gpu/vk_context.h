@@ -1,0 +1,148 @@
+// The small Vulkan layer under gpu_decode.cpp: a compute device (created headless or adopted from
+// the host), host-visible buffers, compute pipelines with specialization constants, and one
+// command buffer that records dispatches and is submitted synchronously.
+//
+// Entry points are loaded at run time from the Vulkan loader (libvulkan.so.1, or the host's
+// vkGetInstanceProcAddr), so a machine without Vulkan still runs the CPU path: creation then
+// reports NFD_ERROR_DEVICE_UNAVAILABLE. No function here throws, exits or aborts.
+#pragma once
+#define VK_NO_PROTOTYPES
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <initializer_list>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "nfd_shaders.h"
+#include "nfdecode/nfdecode.h"
+
+namespace nfd::gpu {
+
+#define NFD_VK_INSTANCE_FUNCTIONS(X)                                                          \
+    X(vkDestroyInstance) X(vkEnumeratePhysicalDevices) X(vkGetPhysicalDeviceProperties)       \
+    X(vkGetPhysicalDeviceQueueFamilyProperties) X(vkGetPhysicalDeviceMemoryProperties)        \
+    X(vkCreateDevice) X(vkGetDeviceProcAddr)
+
+#define NFD_VK_DEVICE_FUNCTIONS(X)                                                            \
+    X(vkDestroyDevice) X(vkGetDeviceQueue) X(vkCreateBuffer) X(vkDestroyBuffer)               \
+    X(vkGetBufferMemoryRequirements) X(vkAllocateMemory) X(vkFreeMemory) X(vkBindBufferMemory) \
+    X(vkMapMemory) X(vkUnmapMemory) X(vkCreateShaderModule) X(vkDestroyShaderModule)          \
+    X(vkCreateDescriptorSetLayout) X(vkDestroyDescriptorSetLayout) X(vkCreatePipelineLayout)  \
+    X(vkDestroyPipelineLayout) X(vkCreateComputePipelines) X(vkDestroyPipeline)               \
+    X(vkCreatePipelineCache) X(vkDestroyPipelineCache) X(vkCreateDescriptorPool)              \
+    X(vkDestroyDescriptorPool) X(vkResetDescriptorPool) X(vkAllocateDescriptorSets)           \
+    X(vkUpdateDescriptorSets) X(vkCreateCommandPool) X(vkDestroyCommandPool)                  \
+    X(vkAllocateCommandBuffers) X(vkResetCommandPool) X(vkBeginCommandBuffer)                 \
+    X(vkEndCommandBuffer) X(vkCmdBindPipeline) X(vkCmdBindDescriptorSets) X(vkCmdPushConstants) \
+    X(vkCmdDispatch) X(vkCmdPipelineBarrier) X(vkCmdFillBuffer) X(vkQueueSubmit)              \
+    X(vkCreateFence) X(vkDestroyFence) X(vkWaitForFences) X(vkResetFences) X(vkDeviceWaitIdle)
+
+nfd_result to_result(VkResult result);
+
+// A buffer in host-visible, host-coherent memory, mapped for its whole life: uploads and
+// read-backs are memcpy, which on CPU implementations is also the fastest path.
+struct Buffer {
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    void* data = nullptr;
+    VkDeviceSize size = 0;
+    template <typename T>
+    T* as() const { return static_cast<T*>(data); }
+};
+
+// What a dispatch binds at one binding: a buffer range, as a storage or uniform descriptor.
+struct BufferRange {
+    const Buffer* buffer = nullptr;
+    VkDeviceSize offset = 0;
+    VkDeviceSize range = VK_WHOLE_SIZE;
+    BufferRange(const Buffer& b) : buffer(&b) {}  // NOLINT: whole buffers bind implicitly
+    BufferRange(const Buffer& b, VkDeviceSize off, VkDeviceSize len)
+        : buffer(&b), offset(off), range(len) {}
+};
+
+struct Pipeline {
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    VkPipelineLayout layout = VK_NULL_HANDLE;
+    VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+    std::vector<VkDescriptorType> bindings;  // binding i has type bindings[i]
+    uint32_t push_constant_bytes = 0;
+    uint32_t local_size = 0;                 // invocations per workgroup (x only)
+};
+
+constexpr uint32_t kFixedLocalSize = UINT32_MAX;
+
+struct PipelineDesc {
+    const shaders::Spirv* spirv = nullptr;
+    std::vector<VkDescriptorType> bindings;
+    uint32_t push_constant_bytes = 0;
+    uint32_t local_size = 64;                // must match the shader's local_size_x
+    uint32_t local_size_id = kFixedLocalSize;  // constant_id of local_size_x, if specialized
+    std::vector<uint32_t> specialization;    // value of constant_id i (floats bit-cast)
+};
+
+class Context {
+public:
+    static nfd_result create(const nfd_vulkan_device* adopt, bool enable_validation,
+                             std::unique_ptr<Context>* out);
+    ~Context();
+    Context(const Context&) = delete;
+    Context& operator=(const Context&) = delete;
+
+    const std::string& name() const { return name_; }
+    const VkPhysicalDeviceLimits& limits() const { return properties_.limits; }
+
+    nfd_result create_buffer(VkDeviceSize size, Buffer* out);  // storage + uniform + transfer
+    void destroy(Buffer& buffer);
+    nfd_result create_pipeline(const PipelineDesc& desc, Pipeline* out);
+    void destroy(Pipeline& pipeline);
+
+    // Recording. begin() starts a batch; dispatch() binds, pushes and launches `invocations`
+    // invocations (rounded up to workgroups, folded into 2D past maxComputeWorkGroupCount[0])
+    // and is followed by a compute->compute barrier so the next dispatch sees its writes;
+    // submit() runs the batch and waits. Zero invocations record nothing.
+    nfd_result begin();
+    nfd_result dispatch(const Pipeline& pipeline, std::initializer_list<BufferRange> buffers,
+                        const void* push, uint64_t invocations);
+    void fill(const Buffer& buffer, uint32_t value);  // whole buffer, then a barrier
+    nfd_result submit();
+
+private:
+    Context() = default;
+    nfd_result init_functions(const nfd_vulkan_device* adopt);
+    nfd_result create_instance(bool enable_validation);
+    nfd_result pick_physical_device();
+    nfd_result create_logical_device();
+    nfd_result create_command_objects();
+    void barrier();
+
+    void* library_ = nullptr;  // dlopen handle of the loader, when we opened it
+    PFN_vkGetInstanceProcAddr get_instance_proc_addr_ = nullptr;
+    PFN_vkCreateInstance vkCreateInstance = nullptr;
+    PFN_vkEnumerateInstanceLayerProperties vkEnumerateInstanceLayerProperties = nullptr;
+#define NFD_VK_DECLARE(name) PFN_##name name = nullptr;
+    NFD_VK_INSTANCE_FUNCTIONS(NFD_VK_DECLARE)
+    NFD_VK_DEVICE_FUNCTIONS(NFD_VK_DECLARE)
+#undef NFD_VK_DECLARE
+
+    bool owns_device_ = true;
+    VkInstance instance_ = VK_NULL_HANDLE;
+    VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+    VkDevice device_ = VK_NULL_HANDLE;
+    VkQueue queue_ = VK_NULL_HANDLE;
+    uint32_t queue_family_ = 0;
+    VkPhysicalDeviceProperties properties_{};
+    VkPhysicalDeviceMemoryProperties memory_{};
+    uint32_t memory_type_ = UINT32_MAX;  // host-visible + coherent, device-local if possible
+    std::string name_;
+
+    VkPipelineCache cache_ = VK_NULL_HANDLE;
+    VkCommandPool command_pool_ = VK_NULL_HANDLE;
+    VkCommandBuffer commands_ = VK_NULL_HANDLE;
+    VkFence fence_ = VK_NULL_HANDLE;
+    VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+    bool recording_ = false;
+};
+
+}  // namespace nfd::gpu

@@ -1,0 +1,222 @@
+// nfc-decode: .nfc -> .glb / .ply over the public libnfdecode API only.
+//
+//   nfc-decode IN.nfc -o OUT.{glb,ply} [--resolution N] [--points N]
+//              [--device auto|vulkan|cpu] [--stats]
+//
+// Errors are one line on stderr ("nfc-decode: error: ...") and a non-zero exit status: 2 for a
+// bad command line, 1 for anything that failed while decoding.
+#include <nfdecode/nfdecode.h>
+
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+namespace {
+
+const char kUsage[] =
+    "usage: nfc-decode IN.nfc -o OUT.{glb,ply} [--resolution N] [--points N]\n"
+    "                  [--device auto|vulkan|cpu] [--stats]\n"
+    "  --resolution N  marching-cubes cells per axis over the unit cube (8..1024, default 256)\n"
+    "  --points N      write N points sampled uniformly on the surface (PLY) instead of the mesh\n"
+    "  --device D      auto (Vulkan, else CPU; default), vulkan, or cpu\n"
+    "  --stats         print sizes, per-stage timings and counts\n";
+
+struct Failure {
+    int status;
+    std::string message;
+};
+
+[[noreturn]] void fail(int status, const std::string& message) { throw Failure{status, message}; }
+
+void check(nfd_result r, const std::string& what) {
+    if (r != NFD_SUCCESS) fail(1, what + ": " + nfd_result_string(r));
+}
+
+struct Options {
+    std::string input, output;
+    uint32_t resolution = 0;
+    size_t points = 0;
+    nfd_device_kind device = NFD_DEVICE_AUTO;
+    bool stats = false;
+};
+
+unsigned long long parse_count(const char* flag, const char* text, unsigned long long min,
+                               unsigned long long max) {
+    char* end = nullptr;
+    errno = 0;
+    const unsigned long long v = std::strtoull(text, &end, 10);
+    if (!*text || *end || errno || text[0] == '-' || v < min || v > max)
+        fail(2, std::string(flag) + " expects an integer in " + std::to_string(min) + ".." +
+                    std::to_string(max) + ", got '" + text + "'");
+    return v;
+}
+
+bool ends_with(const std::string& s, const char* suffix) {
+    const size_t n = std::strlen(suffix);
+    if (s.size() < n) return false;
+    for (size_t i = 0; i < n; ++i)
+        if (std::tolower(static_cast<unsigned char>(s[s.size() - n + i])) != suffix[i]) return false;
+    return true;
+}
+
+Options parse_args(int argc, char** argv) {
+    Options o;
+    for (int i = 1; i < argc; ++i) {
+        const std::string arg = argv[i];
+        auto value = [&]() -> const char* {
+            if (i + 1 >= argc) fail(2, arg + " needs a value");
+            return argv[++i];
+        };
+        if (arg == "-h" || arg == "--help") {
+            std::fputs(kUsage, stdout);
+            std::exit(0);
+        } else if (arg == "-o") {
+            o.output = value();
+        } else if (arg == "--resolution") {
+            o.resolution = uint32_t(
+                parse_count("--resolution", value(), NFD_MIN_RESOLUTION, NFD_MAX_RESOLUTION));
+        } else if (arg == "--points") {
+            o.points = size_t(parse_count("--points", value(), 1, 100000000ull));
+        } else if (arg == "--device") {
+            const std::string d = value();
+            if (d == "auto") o.device = NFD_DEVICE_AUTO;
+            else if (d == "vulkan") o.device = NFD_DEVICE_VULKAN;
+            else if (d == "cpu") o.device = NFD_DEVICE_CPU;
+            else fail(2, "--device expects auto, vulkan or cpu, got '" + d + "'");
+        } else if (arg == "--stats") {
+            o.stats = true;
+        } else if (!arg.empty() && arg[0] == '-') {
+            fail(2, "unknown option '" + arg + "' (see --help)");
+        } else if (o.input.empty()) {
+            o.input = arg;
+        } else {
+            fail(2, "more than one input file ('" + o.input + "', '" + arg + "')");
+        }
+    }
+    if (o.input.empty()) fail(2, "no input file (see --help)");
+    if (o.output.empty()) fail(2, "no output file: use -o OUT.glb or -o OUT.ply");
+    if (!ends_with(o.output, ".glb") && !ends_with(o.output, ".ply"))
+        fail(2, "output must end in .glb or .ply: '" + o.output + "'");
+    if (o.points && !ends_with(o.output, ".ply"))
+        fail(2, "--points writes a point cloud: the output must be .ply");
+    return o;
+}
+
+// Reads at most one byte more than the format allows, so a huge file is refused cheaply.
+std::vector<unsigned char> read_file(const std::string& path) {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) fail(1, path + ": cannot open: " + std::strerror(errno));
+    std::vector<unsigned char> bytes;
+    unsigned char buffer[1 << 16];
+    size_t n;
+    while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) {
+        bytes.insert(bytes.end(), buffer, buffer + n);
+        if (bytes.size() > NFD_MAX_FILE_SIZE) break;
+    }
+    const bool error = std::ferror(f) != 0;
+    std::fclose(f);
+    if (error) fail(1, path + ": read error");
+    if (bytes.size() > NFD_MAX_FILE_SIZE) fail(1, path + ": larger than the format's 64 MiB cap");
+    return bytes;
+}
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// Owns the three handles so that every exit path releases them.
+struct Handles {
+    nfd_context* context = nullptr;
+    nfd_asset* asset = nullptr;
+    nfd_mesh* mesh = nullptr;
+    ~Handles() {
+        nfd_mesh_destroy(mesh);
+        nfd_asset_destroy(asset);
+        nfd_context_destroy(context);
+    }
+};
+
+void run(const Options& o) {
+    Handles h;
+    auto t = Clock::now();
+    const std::vector<unsigned char> bytes = read_file(o.input);
+    const double ms_read = ms_since(t);
+
+    t = Clock::now();
+    check(nfd_asset_create(bytes.data(), bytes.size(), &h.asset), o.input);
+    const double ms_parse = ms_since(t);
+    nfd_asset_info info;
+    check(nfd_asset_get_info(h.asset, &info), o.input);
+    if (info.field_type != NFD_FIELD_SDF)
+        fail(1, o.input + ": unsigned distance fields (UDF) are not meshed by this version");
+
+    t = Clock::now();
+    nfd_context_options co = {};
+    co.device = o.device;
+    check(nfd_context_create(&co, &h.context), "device");
+    const double ms_device = ms_since(t);
+
+    nfd_mesh_options mo = {};
+    mo.resolution = o.resolution;
+    check(nfd_mesh_extract(h.context, h.asset, &mo, &h.mesh), "mesh extraction");
+    nfd_mesh_data data;
+    nfd_decode_stats stats;
+    check(nfd_mesh_get_data(h.mesh, &data), "mesh");
+    check(nfd_mesh_get_stats(h.mesh, &stats), "mesh");
+
+    t = Clock::now();
+    double ms_sample = 0;
+    if (o.points) {
+        if (data.triangle_count == 0) fail(1, o.input + ": the surface is empty, no points to sample");
+        std::vector<float> points(3 * o.points), normals(3 * o.points);
+        check(nfd_mesh_sample_points(h.mesh, o.points, 0, points.data(), normals.data()),
+              "point sampling");
+        ms_sample = ms_since(t);
+        t = Clock::now();
+        check(nfd_points_write_ply(points.data(), normals.data(), o.points, o.output.c_str()),
+              o.output);
+    } else if (ends_with(o.output, ".glb")) {
+        check(nfd_mesh_write_glb(h.mesh, o.output.c_str()), o.output);
+    } else {
+        check(nfd_mesh_write_ply(h.mesh, o.output.c_str()), o.output);
+    }
+    const double ms_write = ms_since(t);
+
+    if (o.stats) {
+        std::printf("file        %zu bytes (format %u.%u, %u-bit, %u layers, width %u)\n",
+                    bytes.size(), info.format_major, info.format_minor, info.bits,
+                    info.num_layers, info.layer_widths[0]);
+        std::printf("device      %s\n", nfd_context_device_name(h.context));
+        std::printf("read        %9.2f ms\n", ms_read);
+        std::printf("parse       %9.2f ms\n", ms_parse);
+        std::printf("device init %9.2f ms\n", ms_device);
+        std::printf("field       %9.2f ms  (%llu points evaluated)\n", stats.seconds_field * 1e3,
+                    static_cast<unsigned long long>(stats.points_evaluated));
+        std::printf("mesh        %9.2f ms  (%llu active cells)\n", stats.seconds_mesh * 1e3,
+                    static_cast<unsigned long long>(stats.active_cells));
+        if (o.points) std::printf("sample      %9.2f ms  (%zu points)\n", ms_sample, o.points);
+        std::printf("write       %9.2f ms\n", ms_write);
+        std::printf("vertices    %zu\ntriangles   %zu\n", data.vertex_count, data.triangle_count);
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        run(parse_args(argc, argv));
+        return 0;
+    } catch (const Failure& f) {
+        std::fprintf(stderr, "nfc-decode: error: %s\n", f.message.c_str());
+        return f.status;
+    } catch (const std::exception& e) {  // std::bad_alloc reading a file, mostly
+        std::fprintf(stderr, "nfc-decode: error: %s\n", e.what());
+        return 1;
+    }
+}

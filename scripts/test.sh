@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# Runs every test: the C++ suite (CTest: parser, hostile input, CPU reference, Vulkan on lavapipe or a
+# GPU, consumer project) and the Python suite (pytest). Installs what it needs first.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+status=0
+ctest --test-dir build --output-on-failure -j2 || status=1
+.venv/bin/python -m pytest tests/python -q || status=1
+exit $status

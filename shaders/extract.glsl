@@ -1,0 +1,106 @@
+// Sparse coarse-to-fine sampling shared by refine_*.comp, gather_corners.comp and mc_*.comp; the
+// GPU side of extract.h and extract_cpu.cpp. Level l has n = ceil(resolution / 2^l) cells per axis
+// (r below), its vertex v is fine vertex v << l, and some of its cells are kept (may contain the
+// surface). Its kept cells are a bitmap over the r^3 linear cell indices
+// c = x + r (y + r z) plus the exclusive prefix sum of the words' popcounts, so that the rank of a
+// kept cell (its position in the sorted list of kept cells) costs two loads and a popcount, and a
+// whole level needs r^3 / 8 bytes (16 MiB at r = 512) instead of a dense index grid.
+//
+// Refining a kept cell p splits it into 8 children; their corners form a 3x3x3 grid of which the
+// 8 even points are p's corners (known) and 19 are new. A new point on a face or edge of p is
+// shared with neighbouring kept cells: it is evaluated once, by its *owner*, the kept cell with
+// the smallest linear index whose closed box contains it. Each kept cell records which of its 27
+// local points it owns (a bit mask, `owned`) and where its first one went in the compact list of
+// evaluated values (`offset`, an exclusive prefix sum of the owned counts), so anyone can find a
+// value: owner -> rank -> offset + popcount of the lower owned bits.
+#ifndef NFD_EXTRACT_GLSL
+#define NFD_EXTRACT_GLSL
+
+layout(std430, binding = 0) readonly buffer KeptBits { uint kept_bits[]; };
+layout(std430, binding = 1) readonly buffer KeptPrefix { uint kept_prefix[]; };
+layout(std430, binding = 2) readonly buffer KeptCells { uint kept_cells[]; };    // sorted
+layout(std430, binding = 3) readonly buffer Corners { float corners[]; };        // 8 per kept cell
+layout(std430, binding = 4) buffer Owned { uint owned[]; };                      // 27-bit masks
+layout(std430, binding = 5) buffer Offsets { uint offsets[]; };                  // into `values`
+layout(std430, binding = 6) readonly buffer Values { float values[]; };          // new points
+
+// One push-constant block for every kernel of a refinement step (parent level l + 1 -> l).
+layout(push_constant) uniform LevelPush {
+    vec4 center;        // mc_emit: original = unit * scale + center.xyz
+    uint parent_cells;  // cells per axis of the parent level
+    uint child_cells;   // of the child level: 2 * parent_cells or one less (the last is dropped)
+    uint count;         // invocations: kept parents, or kept children for gather_corners
+    uint child_level;   // l: child-grid point v is fine vertex v << l
+    float step;         // fine cell edge, 2.0f / resolution
+    float threshold;    // refine_cells: the activity threshold of a child cell
+    float scale;        // mc_emit
+} push;
+
+vec3 child_point(uvec3 v) {
+    return vec3(fine_coordinate(v.x << push.child_level, push.step),
+                fine_coordinate(v.y << push.child_level, push.step),
+                fine_coordinate(v.z << push.child_level, push.step));
+}
+// Children starting at or past child_cells are dropped (extract.h), and with them the points
+// beyond: a child-grid point exists when no coordinate exceeds child_cells.
+bool child_point_exists(uvec3 v) { return all(lessThanEqual(v, uvec3(push.child_cells))); }
+bool child_cell_exists(uvec3 c) { return all(lessThan(c, uvec3(push.child_cells))); }
+
+// Index of point l (each component 0..2) in a cell's 3x3x3 child grid; even points are corners.
+uint local_index(uvec3 l) { return l.x + 3u * l.y + 9u * l.z; }
+bool is_corner(uvec3 l) { return ((l.x | l.y | l.z) & 1u) == 0u; }
+uint corner_index(uvec3 l) { return (l.x >> 1) | (l.y & 2u) | ((l.z & 2u) << 1); }  // l even
+uvec3 corner_offset(uint c) { return uvec3(c & 1u, (c >> 1) & 1u, (c >> 2) & 1u); }
+
+uvec3 cell_coords(uint c, uint r) { return uvec3(c % r, (c / r) % r, c / (r * r)); }
+uint cell_index(uvec3 p, uint r) { return p.x + r * (p.y + r * p.z); }
+
+bool is_kept(uint c) { return (kept_bits[c >> 5] & (1u << (c & 31u))) != 0u; }
+uint kept_rank(uint c) {
+    return kept_prefix[c >> 5] + bitCount(kept_bits[c >> 5] & ((1u << (c & 31u)) - 1u));
+}
+
+// The kept level-r cell with the smallest linear index whose closed box contains the point n / s
+// (in units of level-r cells; s = 2 for child-grid points, 4 for midpoints of child-grid edges).
+// Along an axis the point lies inside one cell, or on the face between two when n % s == 0.
+// Callers pass points of a kept cell, so one exists.
+uvec3 owner_cell(uvec3 n, uint s, uint r) {
+    uvec3 q = n / s;
+    uvec3 lo = q, hi = q;
+    for (int a = 0; a < 3; ++a) {
+        if (n[a] % s == 0u) {
+            lo[a] = q[a] > 0u ? q[a] - 1u : 0u;
+            hi[a] = min(q[a], r - 1u);
+        }
+    }
+    for (uint z = lo.z; z <= hi.z; ++z)
+        for (uint y = lo.y; y <= hi.y; ++y)
+            for (uint x = lo.x; x <= hi.x; ++x)
+                if (is_kept(cell_index(uvec3(x, y, z), r))) return uvec3(x, y, z);
+    return lo;
+}
+
+// Value at point l of the child grid of kept cell p (rank k) at level r.
+float child_grid_value(uvec3 p, uint k, uvec3 l, uint r) {
+    if (is_corner(l)) return corners[8u * k + corner_index(l)];
+    uvec3 v = 2u * p + l;
+    uvec3 o = owner_cell(v, 2u, r);
+    uint ko = kept_rank(cell_index(o, r));
+    uint below = (1u << local_index(v - 2u * o)) - 1u;
+    return values[offsets[ko] + bitCount(owned[ko] & below)];
+}
+
+// The activity test of extract.h (cell_may_contain_surface), on a child's 8 corner values; NaN
+// corners fail every comparison, so such cells are dropped as on the CPU.
+bool may_contain_surface(float v[8], float threshold) {
+    bool inside = false, outside = false;
+    float nearest = uintBitsToFloat(0x7f800000u);  // +infinity
+    for (int c = 0; c < 8; ++c) {
+        inside = inside || v[c] < 0.0;
+        outside = outside || v[c] >= 0.0;
+        nearest = abs(v[c]) < nearest ? abs(v[c]) : nearest;  // std::min: NaN never wins
+    }
+    return (inside && outside) || nearest <= threshold;
+}
+
+#endif

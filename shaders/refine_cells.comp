@@ -1,0 +1,30 @@
+// Refinement, step 3: tests the children of each kept parent with the activity test of
+// extract.h and sets the kept ones in the child level's bitmap (cleared by the host).
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+#include "extract.glsl"
+layout(local_size_x = 64) in;
+layout(std430, binding = 7) buffer ChildBits { uint child_bits[]; };
+
+void main() {
+    uint k = global_invocation_index(64);
+    if (k >= push.count) return;
+    uint r = push.parent_cells;
+    uvec3 p = cell_coords(kept_cells[k], r);
+    float grid[27];
+    for (uint l = 0u; l < 27u; ++l) {
+        uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
+        grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, lv, r) : 0.0;
+    }
+    for (uint child = 0u; child < 8u; ++child) {
+        uvec3 d = corner_offset(child);
+        if (!child_cell_exists(2u * p + d)) continue;
+        float v[8];
+        for (uint c = 0u; c < 8u; ++c) v[c] = grid[local_index(d + corner_offset(c))];
+        if (may_contain_surface(v, push.threshold)) {
+            uint ci = cell_index(2u * p + d, push.child_cells);
+            atomicOr(child_bits[ci >> 5], 1u << (ci & 31u));
+        }
+    }
+}

@@ -1,0 +1,24 @@
+// Refinement, step 1: for each kept parent, which of the new points of its child grid it owns
+// (extract.glsl), and how many; the host prefix-sums the counts into `offsets`.
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+#include "extract.glsl"
+layout(local_size_x = 64) in;
+layout(std430, binding = 7) writeonly buffer Counts { uint counts[]; };
+
+void main() {
+    uint k = global_invocation_index(64);
+    if (k >= push.count) return;
+    uint r = push.parent_cells;
+    uvec3 p = cell_coords(kept_cells[k], r);
+    uint mask = 0u;
+    for (uint l = 0u; l < 27u; ++l) {
+        uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
+        uvec3 v = 2u * p + lv;
+        if (!is_corner(lv) && child_point_exists(v) && all(equal(owner_cell(v, 2u, r), p)))
+            mask |= 1u << l;
+    }
+    owned[k] = mask;
+    counts[k] = bitCount(mask);
+}

@@ -1,0 +1,364 @@
+// The public C API: argument checks, defaults of zeroed options, limits, result strings, device
+// selection, and the files it writes (read back independently of the writers).
+#include <gtest/gtest.h>
+#include <nfdecode/nfdecode.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <unistd.h>
+
+#include "test_util.h"
+
+namespace nfd::test {
+namespace {
+
+const nfd_result kAllResults[] = {
+    NFD_SUCCESS,           NFD_ERROR_TRUNCATED,          NFD_ERROR_CORRUPT,
+    NFD_ERROR_UNSUPPORTED_VERSION, NFD_ERROR_UNSUPPORTED_FEATURE, NFD_ERROR_INVALID_ARGUMENT,
+    NFD_ERROR_LIMIT_EXCEEDED, NFD_ERROR_OUT_OF_MEMORY,  NFD_ERROR_DEVICE_UNAVAILABLE,
+    NFD_ERROR_DEVICE,      NFD_ERROR_IO,                 NFD_ERROR_INTERNAL};
+
+struct Api : ::testing::Test {
+    nfd_context* ctx = nullptr;
+    nfd_asset* asset = nullptr;
+    nfd_mesh* mesh = nullptr;
+    float center[3] = {1.0f, -2.0f, 0.5f};
+
+    void SetUp() override {
+        nfd_context_options o = {};
+        o.device = NFD_DEVICE_CPU;
+        ASSERT_EQ(nfd_context_create(&o, &ctx), NFD_SUCCESS);
+        const Bytes b = geom_file(closed_blob(2.0f, center));
+        ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &asset), NFD_SUCCESS);
+    }
+    void TearDown() override {
+        nfd_mesh_destroy(mesh);
+        nfd_asset_destroy(asset);
+        nfd_context_destroy(ctx);
+    }
+    void extract(uint32_t resolution) {
+        nfd_mesh_options mo = {};
+        mo.resolution = resolution;
+        ASSERT_EQ(nfd_mesh_extract(ctx, asset, &mo, &mesh), NFD_SUCCESS);
+    }
+    static std::string temp_path(const std::string& name) {
+        return (std::filesystem::temp_directory_path() /
+                ("nfd_test_" + std::to_string(::getpid()) + "_" + name))
+            .string();
+    }
+};
+
+TEST(ApiResults, StringsAreDistinctAndNeverNull) {
+    std::set<std::string> seen;
+    for (nfd_result r : kAllResults) {
+        const char* s = nfd_result_string(r);
+        ASSERT_NE(s, nullptr);
+        EXPECT_STRNE(s, "unknown result") << int(r);
+        EXPECT_TRUE(seen.insert(s).second) << s;
+    }
+    EXPECT_STREQ(nfd_result_string(static_cast<nfd_result>(-999)), "unknown result");
+    EXPECT_STREQ(nfd_result_string(static_cast<nfd_result>(7)), "unknown result");
+}
+
+TEST(ApiResults, ErrorsAreGroupedByRange) {
+    for (nfd_result r : {NFD_ERROR_TRUNCATED, NFD_ERROR_CORRUPT, NFD_ERROR_UNSUPPORTED_VERSION,
+                         NFD_ERROR_UNSUPPORTED_FEATURE})
+        EXPECT_TRUE(r <= -1 && r >= -19);
+    for (nfd_result r : {NFD_ERROR_INVALID_ARGUMENT, NFD_ERROR_LIMIT_EXCEEDED})
+        EXPECT_TRUE(r <= -20 && r >= -39);
+    for (nfd_result r : {NFD_ERROR_OUT_OF_MEMORY, NFD_ERROR_DEVICE_UNAVAILABLE, NFD_ERROR_DEVICE,
+                         NFD_ERROR_IO})
+        EXPECT_TRUE(r <= -40 && r >= -59);
+}
+
+TEST(ApiContext, NullAndInvalidArguments) {
+    EXPECT_EQ(nfd_context_create(nullptr, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_context* ctx = reinterpret_cast<nfd_context*>(0x1);
+    nfd_context_options o = {};
+    o.device = static_cast<nfd_device_kind>(7);
+    EXPECT_EQ(nfd_context_create(&o, &ctx), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(ctx, nullptr);  // out handle cleared on failure
+    const nfd_vulkan_device adopt = {};
+    o.device = NFD_DEVICE_CPU;
+    o.adopt = &adopt;
+    EXPECT_EQ(nfd_context_create(&o, &ctx), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_context_destroy(nullptr);
+    EXPECT_EQ(nfd_context_device_kind(nullptr), NFD_DEVICE_AUTO);
+    EXPECT_STREQ(nfd_context_device_name(nullptr), "");
+}
+
+TEST(ApiContext, DeviceSelection) {
+    nfd_context* cpu = nullptr;
+    nfd_context_options o = {};
+    o.device = NFD_DEVICE_CPU;
+    ASSERT_EQ(nfd_context_create(&o, &cpu), NFD_SUCCESS);
+    EXPECT_EQ(nfd_context_device_kind(cpu), NFD_DEVICE_CPU);
+    EXPECT_STREQ(nfd_context_device_name(cpu), "cpu");
+    nfd_context_destroy(cpu);
+
+    // NULL options and zeroed options both mean AUTO, which always yields a working context.
+    nfd_context *a = nullptr, *b = nullptr;
+    const nfd_context_options zero = {};
+    ASSERT_EQ(nfd_context_create(nullptr, &a), NFD_SUCCESS);
+    ASSERT_EQ(nfd_context_create(&zero, &b), NFD_SUCCESS);
+    EXPECT_EQ(nfd_context_device_kind(a), nfd_context_device_kind(b));
+    EXPECT_NE(nfd_context_device_kind(a), NFD_DEVICE_AUTO);
+    nfd_context_destroy(a);
+    nfd_context_destroy(b);
+
+    nfd_context* vk = nullptr;
+    o.device = NFD_DEVICE_VULKAN;
+    const nfd_result r = nfd_context_create(&o, &vk);
+#if NFD_WITH_VULKAN
+    EXPECT_TRUE(r == NFD_SUCCESS || r == NFD_ERROR_DEVICE_UNAVAILABLE) << nfd_result_string(r);
+    if (r == NFD_SUCCESS) EXPECT_EQ(nfd_context_device_kind(vk), NFD_DEVICE_VULKAN);
+#else
+    EXPECT_EQ(r, NFD_ERROR_DEVICE_UNAVAILABLE);  // built without Vulkan: only the CPU exists
+    EXPECT_EQ(vk, nullptr);
+#endif
+    nfd_context_destroy(vk);
+}
+
+TEST_F(Api, AssetArgumentsAndInfo) {
+    nfd_asset* a = reinterpret_cast<nfd_asset*>(0x1);
+    const uint8_t byte = 0;
+    EXPECT_EQ(nfd_asset_create(nullptr, 10, &a), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(a, nullptr);
+    EXPECT_EQ(nfd_asset_create(&byte, 1, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_asset_create(&byte, 0, &a), NFD_ERROR_TRUNCATED);
+    EXPECT_EQ(nfd_asset_create(&byte, 1, &a), NFD_ERROR_TRUNCATED);
+    nfd_asset_destroy(nullptr);
+
+    nfd_asset_info info;
+    EXPECT_EQ(nfd_asset_get_info(nullptr, &info), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_asset_get_info(asset, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    ASSERT_EQ(nfd_asset_get_info(asset, &info), NFD_SUCCESS);
+    EXPECT_EQ(info.format_major, 1u);
+    EXPECT_EQ(info.format_minor, 0u);
+    EXPECT_EQ(info.field_type, NFD_FIELD_SDF);
+    EXPECT_EQ(info.scale, 2.0f);
+    EXPECT_EQ(info.center[0], 1.0f);
+    EXPECT_EQ(info.num_frequencies, 2u);
+    EXPECT_EQ(info.num_layers, 3u);
+    EXPECT_EQ(info.layer_widths[0], 3u);
+    EXPECT_EQ(info.layer_widths[2], 1u);
+    EXPECT_EQ(info.bits, 16u);
+    EXPECT_EQ(info.parameter_count, uint32_t(closed_blob().parameter_count()));
+    EXPECT_EQ(info.has_colour, 0);
+    EXPECT_EQ(info.file_size, uint32_t(geom_file(closed_blob(2.0f, center)).size()));
+}
+
+TEST_F(Api, EvaluateTakesOriginalFrameAndReturnsUnitDistances) {
+    EXPECT_EQ(nfd_asset_evaluate(nullptr, asset, nullptr, 0, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_asset_evaluate(ctx, nullptr, nullptr, 0, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_asset_evaluate(ctx, asset, nullptr, 0, nullptr), NFD_SUCCESS);
+    float v = 0;
+    EXPECT_EQ(nfd_asset_evaluate(ctx, asset, nullptr, 1, &v), NFD_ERROR_INVALID_ARGUMENT);
+    const float p[3] = {0, 0, 0};
+    EXPECT_EQ(nfd_asset_evaluate(ctx, asset, p, 1, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+
+    // The centre of the frame is the blob's centre (inside); u = 0.6 along x is on its surface.
+    const float points[6] = {center[0], center[1], center[2],
+                             center[0] + 0.6f * 2.0f, center[1], center[2]};
+    float values[2];
+    ASSERT_EQ(nfd_asset_evaluate(ctx, asset, points, 2, values), NFD_SUCCESS);
+    const float unit[6] = {0, 0, 0, 0.6f, 0, 0};
+    const Geometry g = parse_or_throw(geom_file(closed_blob()));
+    EXPECT_NEAR(values[0], evaluate_f64(g.network, unit), 1e-5);
+    EXPECT_LT(values[0], -0.1f);
+    EXPECT_NEAR(values[1], 0.0f, 1e-3);
+}
+
+TEST_F(Api, MeshOptionsDefaultsAndLimits) {
+    EXPECT_EQ(nfd_mesh_extract(ctx, asset, nullptr, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_mesh* m = reinterpret_cast<nfd_mesh*>(0x1);
+    EXPECT_EQ(nfd_mesh_extract(nullptr, asset, nullptr, &m), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(m, nullptr);
+    EXPECT_EQ(nfd_mesh_extract(ctx, nullptr, nullptr, &m), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_mesh_options mo = {};
+    mo.resolution = NFD_MIN_RESOLUTION - 1;
+    EXPECT_EQ(nfd_mesh_extract(ctx, asset, &mo, &m), NFD_ERROR_LIMIT_EXCEEDED);
+    mo.resolution = NFD_MAX_RESOLUTION + 1;
+    EXPECT_EQ(nfd_mesh_extract(ctx, asset, &mo, &m), NFD_ERROR_LIMIT_EXCEEDED);
+
+    // NULL options, zeroed options and the documented default give the same mesh.
+    nfd_mesh *a = nullptr, *b = nullptr, *c = nullptr;
+    const nfd_mesh_options zero = {};
+    nfd_mesh_options explicit_default = {};
+    explicit_default.resolution = NFD_DEFAULT_RESOLUTION;
+    ASSERT_EQ(nfd_mesh_extract(ctx, asset, nullptr, &a), NFD_SUCCESS);
+    ASSERT_EQ(nfd_mesh_extract(ctx, asset, &zero, &b), NFD_SUCCESS);
+    ASSERT_EQ(nfd_mesh_extract(ctx, asset, &explicit_default, &c), NFD_SUCCESS);
+    nfd_mesh_data da, db, dc;
+    ASSERT_EQ(nfd_mesh_get_data(a, &da), NFD_SUCCESS);
+    ASSERT_EQ(nfd_mesh_get_data(b, &db), NFD_SUCCESS);
+    ASSERT_EQ(nfd_mesh_get_data(c, &dc), NFD_SUCCESS);
+    EXPECT_GT(da.triangle_count, 10000u);
+    EXPECT_EQ(da.triangle_count, db.triangle_count);
+    EXPECT_EQ(da.triangle_count, dc.triangle_count);
+    nfd_decode_stats stats;
+    ASSERT_EQ(nfd_mesh_get_stats(a, &stats), NFD_SUCCESS);
+    EXPECT_GT(stats.points_evaluated, 0u);
+    EXPECT_GT(stats.active_cells, 0u);
+    EXPECT_GE(stats.seconds_field, 0.0);
+    nfd_mesh_destroy(a);
+    nfd_mesh_destroy(b);
+    nfd_mesh_destroy(c);
+    nfd_mesh_destroy(nullptr);
+    EXPECT_EQ(nfd_mesh_get_data(nullptr, &da), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_mesh_get_stats(nullptr, &stats), NFD_ERROR_INVALID_ARGUMENT);
+}
+
+TEST_F(Api, UdfIsNotMeshedYet) {
+    const Bytes b = geom_file(random_siren(8, 8, 1, /*field_type=*/1));
+    nfd_asset* udf = nullptr;
+    ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &udf), NFD_SUCCESS);
+    nfd_mesh* m = nullptr;
+    EXPECT_EQ(nfd_mesh_extract(ctx, udf, nullptr, &m), NFD_ERROR_UNSUPPORTED_FEATURE);
+    float v;
+    const float p[3] = {0, 0, 0};
+    EXPECT_EQ(nfd_asset_evaluate(ctx, udf, p, 1, &v), NFD_SUCCESS);  // but evaluates
+    EXPECT_GE(v, 0.0f);
+    nfd_asset_destroy(udf);
+}
+
+TEST_F(Api, SamplePoints) {
+    extract(48);
+    std::vector<float> p1(3000), p2(3000), p3(3000), n1(3000);
+    EXPECT_EQ(nfd_mesh_sample_points(nullptr, 1, 0, p1.data(), nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_mesh_sample_points(mesh, 1, 0, nullptr, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_mesh_sample_points(mesh, 0, 0, nullptr, nullptr), NFD_SUCCESS);
+    ASSERT_EQ(nfd_mesh_sample_points(mesh, 1000, 7, p1.data(), n1.data()), NFD_SUCCESS);
+    ASSERT_EQ(nfd_mesh_sample_points(mesh, 1000, 7, p2.data(), nullptr), NFD_SUCCESS);
+    ASSERT_EQ(nfd_mesh_sample_points(mesh, 1000, 8, p3.data(), nullptr), NFD_SUCCESS);
+    EXPECT_EQ(p1, p2);  // deterministic for a seed
+    EXPECT_NE(p1, p3);
+    std::vector<float> values(1000);
+    ASSERT_EQ(nfd_asset_evaluate(ctx, asset, p1.data(), 1000, values.data()), NFD_SUCCESS);
+    for (size_t i = 0; i < 1000; ++i) {
+        ASSERT_LT(std::fabs(values[i]), 0.01f) << i;  // on the surface (flat facets: O(h^2) off)
+        const float* n = &n1[3 * i];
+        ASSERT_NEAR(n[0] * n[0] + n[1] * n[1] + n[2] * n[2], 1.0f, 1e-4f);
+        // Face normals point outward: away from the frame centre for this star-shaped blob.
+        const float d = n[0] * (p1[3 * i] - center[0]) + n[1] * (p1[3 * i + 1] - center[1]) +
+                        n[2] * (p1[3 * i + 2] - center[2]);
+        ASSERT_GT(d, 0.0f) << i;
+    }
+}
+
+TEST_F(Api, EmptyMeshIsSuccessButCannotBeSampled) {
+    GeomSpec positive = closed_blob();
+    positive.levels.back() = 20000;  // f > 0 everywhere
+    const Bytes b = geom_file(positive);
+    nfd_asset* empty_asset = nullptr;
+    ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &empty_asset), NFD_SUCCESS);
+    nfd_mesh_options mo = {};
+    mo.resolution = 16;
+    nfd_mesh* empty = nullptr;
+    ASSERT_EQ(nfd_mesh_extract(ctx, empty_asset, &mo, &empty), NFD_SUCCESS);
+    nfd_mesh_data d;
+    ASSERT_EQ(nfd_mesh_get_data(empty, &d), NFD_SUCCESS);
+    EXPECT_EQ(d.triangle_count, 0u);
+    float p[3];
+    EXPECT_EQ(nfd_mesh_sample_points(empty, 1, 0, p, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    const std::string glb = temp_path("empty.glb"), ply = temp_path("empty.ply");
+    EXPECT_EQ(nfd_mesh_write_glb(empty, glb.c_str()), NFD_SUCCESS);
+    EXPECT_EQ(nfd_mesh_write_ply(empty, ply.c_str()), NFD_SUCCESS);
+    EXPECT_EQ(read_ply(ply).triangle_count(), 0u);
+    std::remove(glb.c_str());
+    std::remove(ply.c_str());
+    nfd_mesh_destroy(empty);
+    nfd_asset_destroy(empty_asset);
+}
+
+uint32_t le32(const Bytes& b, size_t at) {
+    return uint32_t(b[at]) | uint32_t(b[at + 1]) << 8 | uint32_t(b[at + 2]) << 16 |
+           uint32_t(b[at + 3]) << 24;
+}
+
+TEST_F(Api, WritesValidGlb) {
+    extract(32);
+    nfd_mesh_data d;
+    ASSERT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
+    EXPECT_EQ(nfd_mesh_write_glb(nullptr, "x.glb"), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_mesh_write_glb(mesh, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_mesh_write_glb(mesh, "/nonexistent-dir/x.glb"), NFD_ERROR_IO);
+
+    const std::string path = temp_path("mesh.glb");
+    ASSERT_EQ(nfd_mesh_write_glb(mesh, path.c_str()), NFD_SUCCESS);
+    const Bytes glb = read_bytes(path);
+    std::remove(path.c_str());
+    // GLB container (glTF 2.0, section 4.4): header, JSON chunk, BIN chunk, 4-byte aligned.
+    ASSERT_GE(glb.size(), 28u);
+    EXPECT_EQ(le32(glb, 0), 0x46546C67u);  // "glTF"
+    EXPECT_EQ(le32(glb, 4), 2u);
+    EXPECT_EQ(le32(glb, 8), glb.size());
+    const uint32_t json_length = le32(glb, 12);
+    EXPECT_EQ(le32(glb, 16), 0x4E4F534Au);  // "JSON"
+    EXPECT_EQ(json_length % 4, 0u);
+    const size_t bin_at = 20 + json_length;
+    ASSERT_LE(bin_at + 8, glb.size());
+    EXPECT_EQ(le32(glb, bin_at + 4), 0x004E4942u);  // "BIN\0"
+    const uint32_t bin_length = le32(glb, bin_at);
+    EXPECT_EQ(bin_at + 8 + bin_length, glb.size());
+
+    const auto j = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + json_length);
+    EXPECT_EQ(j["asset"]["version"], "2.0");
+    ASSERT_EQ(j["meshes"].size(), 1u);
+    ASSERT_EQ(j["nodes"].size(), 1u);
+    ASSERT_EQ(j["scenes"].size(), 1u);
+    const auto& prim = j["meshes"][0]["primitives"][0];
+    const auto& pos = j["accessors"][prim["attributes"]["POSITION"].get<int>()];
+    const auto& nrm = j["accessors"][prim["attributes"]["NORMAL"].get<int>()];
+    const auto& idx = j["accessors"][prim["indices"].get<int>()];
+    EXPECT_EQ(pos["count"], d.vertex_count);
+    EXPECT_EQ(nrm["count"], d.vertex_count);
+    EXPECT_EQ(idx["count"], 3 * d.triangle_count);
+    EXPECT_EQ(pos["componentType"], 5126);
+    EXPECT_EQ(idx["componentType"], 5125);  // UNSIGNED_INT
+    EXPECT_EQ(pos["type"], "VEC3");
+    for (int a = 0; a < 3; ++a) {
+        float lo = INFINITY, hi = -INFINITY;
+        for (size_t i = 0; i < d.vertex_count; ++i) {
+            lo = std::min(lo, d.positions[3 * i + a]);
+            hi = std::max(hi, d.positions[3 * i + a]);
+        }
+        EXPECT_EQ(pos["min"][a].get<double>(), double(lo));
+        EXPECT_EQ(pos["max"][a].get<double>(), double(hi));
+    }
+    // The binary chunk holds exactly the mesh data where the views say.
+    const auto& view = j["bufferViews"][idx["bufferView"].get<int>()];
+    const size_t at = bin_at + 8 + view.value("byteOffset", 0u) + idx.value("byteOffset", 0u);
+    for (size_t k = 0; k < 3 * d.triangle_count; ++k) ASSERT_EQ(le32(glb, at + 4 * k), d.indices[k]);
+}
+
+TEST_F(Api, WritesPly) {
+    extract(24);
+    nfd_mesh_data d;
+    ASSERT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
+    EXPECT_EQ(nfd_mesh_write_ply(mesh, "/nonexistent-dir/x.ply"), NFD_ERROR_IO);
+    const std::string path = temp_path("mesh.ply");
+    ASSERT_EQ(nfd_mesh_write_ply(mesh, path.c_str()), NFD_SUCCESS);
+    const MeshData back = read_ply(path);
+    std::remove(path.c_str());
+    ASSERT_EQ(back.vertex_count(), d.vertex_count);
+    EXPECT_TRUE(std::equal(back.positions.begin(), back.positions.end(), d.positions));
+    EXPECT_TRUE(std::equal(back.indices.begin(), back.indices.end(), d.indices));
+
+    std::vector<float> pts(300), nrm(300);
+    ASSERT_EQ(nfd_mesh_sample_points(mesh, 100, 1, pts.data(), nrm.data()), NFD_SUCCESS);
+    EXPECT_EQ(nfd_points_write_ply(nullptr, nullptr, 1, path.c_str()), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_points_write_ply(pts.data(), nullptr, 100, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    for (const float* normals : {static_cast<const float*>(nullptr), static_cast<const float*>(nrm.data())}) {
+        ASSERT_EQ(nfd_points_write_ply(pts.data(), normals, 100, path.c_str()), NFD_SUCCESS);
+        const MeshData cloud = read_ply(path);
+        EXPECT_EQ(cloud.positions, pts);
+        EXPECT_EQ(cloud.triangle_count(), 0u);
+    }
+    std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace nfd::test

@@ -1,0 +1,95 @@
+// The nfc-decode sample as a user meets it: a decode with --stats, and one-line errors with a
+// non-zero exit status for bad command lines and bad files.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "test_util.h"
+
+namespace nfd::test {
+namespace {
+
+struct CliRun {
+    int status;
+    std::string out, err;
+};
+
+CliRun run_cli(const std::string& args) {
+    const std::string dir = std::filesystem::temp_directory_path().string();
+    const std::string out = dir + "/nfd_cli_out_" + std::to_string(::getpid());
+    const std::string err = dir + "/nfd_cli_err_" + std::to_string(::getpid());
+    const int raw = std::system((std::string(NFD_CLI_PATH) + " " + args + " >" + out + " 2>" + err).c_str());
+    CliRun r{WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, {}, {}};
+    const Bytes o = read_bytes(out), e = read_bytes(err);
+    r.out.assign(o.begin(), o.end());
+    r.err.assign(e.begin(), e.end());
+    std::remove(out.c_str());
+    std::remove(err.c_str());
+    return r;
+}
+
+std::string temp_file(const std::string& name, const Bytes& bytes) {
+    const std::string path = (std::filesystem::temp_directory_path() /
+                              ("nfd_cli_" + std::to_string(::getpid()) + "_" + name))
+                                 .string();
+    std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                                std::streamsize(bytes.size()));
+    return path;
+}
+
+void expect_one_line_error(const CliRun& r, int status, const std::string& fragment) {
+    EXPECT_EQ(r.status, status) << r.err;
+    EXPECT_EQ(r.err.rfind("nfc-decode: error: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+}
+
+TEST(Cli, DecodesToGlbAndPlyWithStats) {
+    const std::string in = temp_file("blob.nfc", geom_file(closed_blob()));
+    const std::string glb = in + ".glb", ply = in + ".ply";
+    CliRun r = run_cli(in + " -o " + glb + " --resolution 32 --device cpu --stats");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(r.err.empty()) << r.err;
+    for (const char* line : {"file ", "device ", "read ", "parse ", "field ", "mesh ", "write ",
+                             "vertices ", "triangles "})
+        EXPECT_NE(r.out.find(line), std::string::npos) << line << " missing in\n" << r.out;
+    const Bytes g = read_bytes(glb);
+    ASSERT_GE(g.size(), 12u);
+    EXPECT_EQ(std::string(g.begin(), g.begin() + 4), "glTF");
+
+    r = run_cli(in + " -o " + ply + " --points 500 --device cpu --resolution 16");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(r.out.empty());  // quiet without --stats
+    EXPECT_EQ(read_ply(ply).vertex_count(), 500u);
+    for (const std::string& p : {in, glb, ply}) std::remove(p.c_str());
+}
+
+TEST(Cli, ErrorsAreOneLineWithNonZeroStatus) {
+    const std::string good = temp_file("good.nfc", geom_file(closed_blob()));
+    Bytes cut = geom_file(closed_blob());
+    cut.resize(cut.size() / 2);
+    const std::string truncated = temp_file("cut.nfc", cut);
+    const std::string udf = temp_file("udf.nfc", geom_file(random_siren(8, 8, 1, 1)));
+
+    expect_one_line_error(run_cli(""), 2, "no input file");
+    expect_one_line_error(run_cli(good), 2, "no output file");
+    expect_one_line_error(run_cli(good + " -o out.obj"), 2, ".glb or .ply");
+    expect_one_line_error(run_cli(good + " -o x.glb --resolution 7"), 2, "--resolution");
+    expect_one_line_error(run_cli(good + " -o x.glb --resolution 12abc"), 2, "--resolution");
+    expect_one_line_error(run_cli(good + " -o x.glb --device gpu"), 2, "--device");
+    expect_one_line_error(run_cli(good + " -o x.glb --points 5"), 2, "point cloud");
+    expect_one_line_error(run_cli(good + " -o x.glb --frobnicate"), 2, "unknown option");
+    expect_one_line_error(run_cli(good + " " + good + " -o x.glb"), 2, "more than one input");
+    expect_one_line_error(run_cli("/nonexistent.nfc -o x.glb"), 1, "cannot open");
+    expect_one_line_error(run_cli(truncated + " -o x.glb"), 1, "truncated");
+    expect_one_line_error(run_cli(udf + " -o x.glb"), 1, "UDF");
+    expect_one_line_error(run_cli(good + " -o /nonexistent-dir/x.glb --device cpu --resolution 8"), 1,
+                          "could not be written");
+    for (const std::string& p : {good, truncated, udf}) std::remove(p.c_str());
+}
+
+}  // namespace
+}  // namespace nfd::test

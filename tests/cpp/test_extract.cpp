@@ -1,0 +1,296 @@
+// CPU extraction: the generated marching-cubes table, the coarse-to-fine schedule, meshes of a
+// closed field (watertight, consistently wound, outward, on the zero set), sparse == dense, and the
+// Python reference meshes of the golden vectors.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "extract.h"
+#include "mc_tables.h"
+#include "sample_points.h"
+#include "test_util.h"
+
+namespace nfd::test {
+namespace {
+
+// ---- table ---------------------------------------------------------------------------------
+
+TEST(McTables, EveryCaseUsesExactlyItsCrossingEdges) {
+    const mc::Tables& t = mc::tables();
+    EXPECT_EQ(t.triangle_count[0], 0);
+    EXPECT_EQ(t.triangle_count[255], 0);
+    for (int c = 0; c < 256; ++c) {
+        ASSERT_LE(t.triangle_count[c], mc::kMaxTrianglesPerCase);
+        bool crossing[12], used[12] = {};
+        for (int e = 0; e < 12; ++e)
+            crossing[e] = ((c >> mc::kEdgeCorners[e][0]) & 1) != ((c >> mc::kEdgeCorners[e][1]) & 1);
+        for (int k = 0; k < 16; ++k) {
+            const int e = t.triangles[c][k];
+            if (k < 3 * t.triangle_count[c]) {
+                ASSERT_TRUE(e >= 0 && e < 12 && crossing[e]) << "case " << c;
+                used[e] = true;
+            } else {
+                ASSERT_EQ(e, -1) << "case " << c;
+            }
+        }
+        for (int e = 0; e < 12; ++e) ASSERT_EQ(used[e], crossing[e]) << "case " << c << " edge " << e;
+    }
+}
+
+// Meshes random inside/outside labels on a grid straight from the table (vertices at edge
+// midpoints, welded by grid edge): all 256 cases and every pair of neighbouring cases occur, so
+// watertightness and consistent winding here mean the face rule really is shared by neighbours.
+TEST(McTables, RandomLabelsGiveClosedConsistentOutwardSurfaces) {
+    const int n = 12;  // cells per axis; the outer layer of vertices is outside
+    std::mt19937 rng(1);
+    std::vector<uint8_t> inside(size_t(n + 1) * (n + 1) * (n + 1));
+    auto vid = [&](int x, int y, int z) { return size_t((z * (n + 1) + y) * (n + 1) + x); };
+    for (int z = 1; z < n; ++z)
+        for (int y = 1; y < n; ++y)
+            for (int x = 1; x < n; ++x) inside[vid(x, y, z)] = rng() % 2;
+
+    const mc::Tables& t = mc::tables();
+    MeshData m;
+    std::map<size_t, uint32_t> weld;  // grid edge (vertex id * 3 + axis) -> mesh vertex
+    std::vector<bool> seen(256);
+    for (int z = 0; z < n; ++z)
+        for (int y = 0; y < n; ++y)
+            for (int x = 0; x < n; ++x) {
+                int index = 0;
+                for (int c = 0; c < 8; ++c) {
+                    const uint8_t* o = mc::kCornerOffset[c];
+                    index |= inside[vid(x + o[0], y + o[1], z + o[2])] << c;
+                }
+                seen[size_t(index)] = true;
+                for (int k = 0; k < 3 * t.triangle_count[index]; ++k) {
+                    const int e = t.triangles[index][k];
+                    const uint8_t* o = mc::kCornerOffset[mc::kEdgeCorners[e][0]];
+                    const int v[3] = {x + o[0], y + o[1], z + o[2]};
+                    const size_t key = vid(v[0], v[1], v[2]) * 3 + size_t(e / 4);
+                    auto [it, fresh] = weld.emplace(key, uint32_t(m.vertex_count()));
+                    if (fresh) {
+                        float p[3] = {float(v[0]), float(v[1]), float(v[2])};
+                        p[e / 4] += 0.5f;
+                        m.positions.insert(m.positions.end(), p, p + 3);
+                    }
+                    m.indices.push_back(it->second);
+                }
+            }
+    EXPECT_GT(std::count(seen.begin(), seen.end(), true), 250);
+    std::string why;
+    EXPECT_TRUE(is_watertight_and_consistent(m, &why)) << why;
+    EXPECT_GT(signed_volume(m), 0.0);  // counter-clockwise from outside encloses positive volume
+}
+
+// ---- schedule ------------------------------------------------------------------------------
+
+TEST(Extract, CoarseToFineSchedule) {
+    struct Row {
+        uint32_t resolution, levels, coarse;
+    };
+    for (const Row r : {Row{8, 0, 8}, Row{32, 0, 32}, Row{63, 1, 32}, Row{64, 1, 32},
+                        Row{97, 1, 49}, Row{100, 1, 50}, Row{256, 3, 32}, Row{1000, 5, 32}, Row{62, 0, 62},
+                        Row{1024, 5, 32}}) {
+        EXPECT_EQ(refinement_levels(r.resolution), r.levels) << r.resolution;
+        EXPECT_EQ(coarse_resolution(r.resolution), r.coarse) << r.resolution;
+    }
+}
+
+TEST(Extract, CellKeepTest) {
+    const float h = 0.01f, keep = kLipschitzMargin * h * std::sqrt(3.0f) / 2;
+    float f[8];
+    std::fill(f, f + 8, 1.0f);
+    EXPECT_FALSE(cell_may_contain_surface(f, h));
+    f[3] = -1.0f;
+    EXPECT_TRUE(cell_may_contain_surface(f, h));  // sign change
+    std::fill(f, f + 8, 1.0f);
+    f[5] = keep * 0.99f;
+    EXPECT_TRUE(cell_may_contain_surface(f, h));  // close enough to hide a surface
+    f[5] = -keep * 0.99f;
+    std::fill(f, f + 5, -1.0f);
+    std::fill(f + 6, f + 8, -1.0f);
+    EXPECT_TRUE(cell_may_contain_surface(f, h));
+    f[5] = -keep * 1.01f;
+    EXPECT_FALSE(cell_may_contain_surface(f, h));
+    std::fill(f, f + 8, NAN);
+    EXPECT_FALSE(cell_may_contain_surface(f, h));
+}
+
+// ---- closed field --------------------------------------------------------------------------
+
+struct Extracted {
+    Geometry geometry;
+    MeshData mesh;
+    ExtractStats stats;
+};
+
+Extracted extract(const GeomSpec& spec, uint32_t resolution) {
+    Extracted e;
+    e.geometry = parse_or_throw(geom_file(spec));
+    EXPECT_EQ(extract_mesh_cpu(e.geometry, resolution, &e.mesh, &e.stats), NFD_SUCCESS);
+    return e;
+}
+
+// Marching cubes over the dense grid's sign changes: what the sparse extraction must reproduce.
+void dense_reference(const Network& net, uint32_t r, uint64_t* active, uint64_t* triangles) {
+    const size_t side = r + 1;
+    std::vector<float> p(3 * side * side * side), v(side * side * side);
+    for (size_t i = 0; i < v.size(); ++i) {
+        const size_t idx[3] = {i % side, i / side % side, i / (side * side)};
+        for (int a = 0; a < 3; ++a) p[3 * i + a] = -1.0f + float(idx[a]) * (2.0f / float(r));
+    }
+    evaluate_cpu(net, p.data(), v.size(), v.data());
+    *active = *triangles = 0;
+    for (uint32_t z = 0; z < r; ++z)
+        for (uint32_t y = 0; y < r; ++y)
+            for (uint32_t x = 0; x < r; ++x) {
+                int index = 0;
+                for (int c = 0; c < 8; ++c) {
+                    const uint8_t* o = mc::kCornerOffset[c];
+                    index |= int(v[((z + o[2]) * side + y + o[1]) * side + x + o[0]] < 0) << c;
+                }
+                *active += index != 0 && index != 255;
+                *triangles += mc::tables().triangle_count[index];
+            }
+}
+
+TEST(Extract, ClosedFieldGivesWatertightOutwardMeshOnTheZeroSet) {
+    const uint32_t r = 64;
+    const Extracted e = extract(closed_blob(), r);
+    const MeshData& m = e.mesh;
+    ASSERT_GT(m.triangle_count(), 1000u);
+    ASSERT_EQ(m.normals.size(), m.positions.size());
+    std::string why;
+    EXPECT_TRUE(is_watertight_and_consistent(m, &why)) << why;
+    // Outward: positive enclosed volume, close to the blob's (Monte Carlo on the exact field).
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-1, 1);
+    size_t in = 0, samples = 200000;
+    for (size_t i = 0; i < samples; ++i) {
+        const float p[3] = {u(rng), u(rng), u(rng)};
+        in += evaluate_f64(e.geometry.network, p) < 0;
+    }
+    const double volume = 8.0 * double(in) / double(samples);
+    EXPECT_NEAR(signed_volume(m), volume, 0.02 * volume);
+
+    const double h = 2.0 / r;
+    size_t aligned = 0;
+    for (size_t i = 0; i < m.vertex_count(); ++i) {
+        const float* p = &m.positions[3 * i];
+        // On the zero set, up to linear interpolation's error on an edge (O(h^2)).
+        ASSERT_LT(std::fabs(evaluate_f64(e.geometry.network, p)), 0.05 * h) << i;
+        const float* n = &m.normals[3 * i];
+        ASSERT_NEAR(std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), 1.0, 1e-5);
+        // Outward normal: the analytic gradient of sum_j cos(2 u_j) points inside.
+        double g[3], len = 0, dot = 0;
+        for (int a = 0; a < 3; ++a) len += (g[a] = 2.0 * std::sin(2.0 * p[a])) * g[a];
+        for (int a = 0; a < 3; ++a) dot += n[a] * g[a] / std::sqrt(len);
+        aligned += dot > 0.99;
+    }
+    EXPECT_EQ(aligned, m.vertex_count());
+    // Every triangle faces the way its vertex normals do (winding agrees with the field).
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+        const uint32_t* tri = &m.indices[3 * t];
+        double e1[3], e2[3], fn[3], dot = 0;
+        for (int a = 0; a < 3; ++a) {
+            e1[a] = m.positions[3 * tri[1] + a] - m.positions[3 * tri[0] + a];
+            e2[a] = m.positions[3 * tri[2] + a] - m.positions[3 * tri[0] + a];
+        }
+        fn[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        fn[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        fn[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        for (int a = 0; a < 3; ++a)
+            dot += fn[a] * (m.normals[3 * tri[0] + a] + m.normals[3 * tri[1] + a] + m.normals[3 * tri[2] + a]);
+        ASSERT_GT(dot, 0.0) << "triangle " << t;
+    }
+}
+
+TEST(Extract, SparseVisitsEverySignChangeOfTheDenseGrid) {
+    for (uint32_t r : {64u, 97u, 128u}) {
+        const Extracted e = extract(closed_blob(), r);
+        uint64_t active = 0, triangles = 0;
+        dense_reference(e.geometry.network, r, &active, &triangles);
+        EXPECT_EQ(e.stats.active_cells, active) << r;
+        EXPECT_EQ(e.mesh.triangle_count(), triangles) << r;
+        const uint64_t dense = uint64_t(r + 1) * (r + 1) * (r + 1);
+        std::printf("resolution %u: %llu evaluations vs %llu dense (%.1f%%), %zu triangles\n", r,
+                    (unsigned long long)e.stats.points_evaluated, (unsigned long long)dense,
+                    100.0 * double(e.stats.points_evaluated) / double(dense), e.mesh.triangle_count());
+        if (r >= 128) EXPECT_LT(e.stats.points_evaluated * 4, dense) << r;
+        std::string why;
+        EXPECT_TRUE(is_watertight_and_consistent(e.mesh, &why)) << r << ": " << why;
+    }
+}
+
+TEST(Extract, PositionsAreMappedToTheOriginalFrame) {
+    const float center[3] = {10.0f, -2.0f, 0.5f};
+    const Extracted unit = extract(closed_blob(), 32);
+    const Extracted moved = extract(closed_blob(3.0f, center), 32);
+    ASSERT_EQ(unit.mesh.indices, moved.mesh.indices);
+    ASSERT_EQ(unit.mesh.normals, moved.mesh.normals);
+    for (size_t i = 0; i < unit.mesh.positions.size(); ++i)
+        ASSERT_EQ(moved.mesh.positions[i], unit.mesh.positions[i] * 3.0f + center[i % 3]);
+}
+
+TEST(Extract, EmptyFieldUdfAndLimits) {
+    GeomSpec positive = closed_blob();
+    positive.levels.back() = 20000;  // output bias: f > 0 everywhere, no surface
+    const Extracted e = extract(positive, 32);
+    EXPECT_EQ(e.mesh.triangle_count(), 0u);
+    EXPECT_EQ(e.mesh.vertex_count(), 0u);
+
+    Geometry g = parse_or_throw(geom_file(closed_blob()));
+    MeshData m;
+    EXPECT_EQ(extract_mesh_cpu(g, NFD_MIN_RESOLUTION - 1, &m, nullptr), NFD_ERROR_LIMIT_EXCEEDED);
+    EXPECT_EQ(extract_mesh_cpu(g, NFD_MAX_RESOLUTION + 1, &m, nullptr), NFD_ERROR_LIMIT_EXCEEDED);
+    EXPECT_EQ(extract_mesh_cpu(g, NFD_MIN_RESOLUTION, &m, nullptr), NFD_SUCCESS);
+    g.field = FieldType::Udf;
+    EXPECT_EQ(extract_mesh_cpu(g, 32, &m, nullptr), NFD_ERROR_UNSUPPORTED_FEATURE);
+}
+
+// A SIREN with random weights has a complicated open surface: no crash, no NaN, and the mesh is
+// still consistently wound wherever it does not touch the boundary of the grid.
+TEST(Extract, RandomSirenSurface) {
+    const Extracted e = extract(random_siren(32, 8, 21), 48);
+    ASSERT_GT(e.mesh.triangle_count(), 0u);
+    for (float v : e.mesh.positions) ASSERT_TRUE(std::isfinite(v));
+    for (float v : e.mesh.normals) ASSERT_TRUE(std::isfinite(v));
+    std::map<std::pair<uint32_t, uint32_t>, int> directed;
+    for (size_t t = 0; t < e.mesh.triangle_count(); ++t)
+        for (int k = 0; k < 3; ++k)
+            ASSERT_EQ((++directed[{e.mesh.indices[3 * t + k], e.mesh.indices[3 * t + (k + 1) % 3]}]),
+                      1);
+}
+
+// ---- golden vectors ------------------------------------------------------------------------
+
+// tests/vectors/v1_0_<name>.mesh64.ply: the Python reference decoder's mesh at resolution 64, in
+// the original frame. Ours must be as close to it as two samplings of one surface are to each other.
+TEST(Extract, MatchesPythonReferenceMesh) {
+    const std::vector<std::string> names = golden_names();
+    if (names.empty()) GTEST_SKIP() << "no golden vectors in " << vectors_dir();
+    for (const std::string& name : names) {
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        if (g.field != FieldType::Sdf) continue;
+        MeshData ours;
+        ASSERT_EQ(extract_mesh_cpu(g, 64, &ours, nullptr), NFD_SUCCESS) << name;
+        const MeshData reference = read_ply(golden_path(name, ".mesh64.ply"));
+        ASSERT_GT(reference.triangle_count(), 0u) << name;
+        ASSERT_GT(ours.triangle_count(), 0u) << name;
+        const size_t n = 50000;
+        auto unit_samples = [&](const MeshData& m, uint64_t seed) {
+            std::vector<float> p(3 * n);
+            sample_points(m, n, seed, p.data(), nullptr);
+            for (size_t i = 0; i < p.size(); ++i) p[i] = (p[i] - g.center[i % 3]) / g.scale;
+            return p;
+        };
+        const double floor = chamfer(unit_samples(reference, 1), unit_samples(reference, 2));
+        const double cd = chamfer(unit_samples(ours, 3), unit_samples(reference, 4));
+        std::printf("%s: Chamfer(C++, Python) = %.5f, sampling floor %.5f (unit frame, %zu pts)\n",
+                    name.c_str(), cd, floor, n);
+        EXPECT_LT(cd, 1.25 * floor + 1e-3) << name;
+    }
+}
+
+}  // namespace
+}  // namespace nfd::test

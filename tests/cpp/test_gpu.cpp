@@ -1,0 +1,262 @@
+// The Vulkan path (gpu/) against its CPU twins: field values vs evaluate_cpu, the range-reduced
+// sine vs f64, and meshes vs extract_mesh_cpu (same cells, same welded mesh up to rounding).
+// Runs on whatever device create_device() picks, lavapipe on machines without a GPU; skips only
+// when no Vulkan device exists at all.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <random>
+#include <unordered_map>
+
+#include "extract.h"
+#include "gpu/gpu_decode.h"
+#include "test_util.h"
+
+namespace nfd::test {
+namespace {
+
+class Gpu : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        const nfd_result r = gpu::create_device(nullptr, false, &device_);
+        if (r != NFD_SUCCESS) device_.reset();
+    }
+    static void TearDownTestSuite() { device_.reset(); }
+    void SetUp() override {
+        if (!device_) GTEST_SKIP() << "no Vulkan device";
+    }
+    static gpu::Device& device() { return *device_; }
+    static std::unique_ptr<gpu::Device> device_;
+};
+std::unique_ptr<gpu::Device> Gpu::device_;
+
+std::vector<float> random_points(size_t n, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<float> p(3 * n);
+    for (float& x : p) x = u(rng);
+    return p;
+}
+
+// y = sum of the selected encoded inputs: with one linear layer the field is the encoding itself.
+Network encoding_probe(std::vector<float> frequencies, uint32_t column) {
+    Network net;
+    net.frequencies = std::move(frequencies);
+    Layer out;
+    out.in = net.input_width();
+    out.out = 1;
+    out.weights.assign(out.in, 0.0f);
+    out.weights[column] = 1.0f;
+    out.bias = {0.0f};
+    net.layers.push_back(out);
+    return net;
+}
+
+TEST_F(Gpu, DeviceHasAName) { EXPECT_STRNE(gpu::device_name(device()), ""); }
+
+// sin and cos of f32 arguments up to ~3000 rad (encoding frequencies reach 489, hidden layers
+// omega0 * z) against f64: field_eval.comp reduces them itself, the driver's sin is not trusted.
+TEST_F(Gpu, RangeReducedSineMatchesDouble) {
+    const std::vector<float> frequencies = {3.14159265f, 489.4f, 1234.5f, 2999.0f};
+    const size_t n = 20000;
+    std::vector<float> points(3 * n, 0.0f);
+    for (size_t i = 0; i < n; ++i) points[3 * i] = -1.0f + 2.0f * float(i) / float(n - 1);
+    double worst = 0;
+    for (uint32_t k = 0; k < frequencies.size(); ++k) {
+        for (uint32_t cosine = 0; cosine < 2; ++cosine) {
+            const uint32_t column = 3 + 6 * k + 3 * cosine;  // axis x
+            std::vector<float> gpu_values(n);
+            ASSERT_EQ(gpu::evaluate(device(), encoding_probe(frequencies, column), points.data(), n,
+                                    gpu_values.data()),
+                      NFD_SUCCESS);
+            for (size_t i = 0; i < n; ++i) {
+                const double arg = double(frequencies[k] * points[3 * i]);
+                const double want = cosine ? std::cos(arg) : std::sin(arg);
+                worst = std::max(worst, std::fabs(gpu_values[i] - want));
+            }
+        }
+    }
+    // Cephes-style reduction and polynomials: a few f32 ulps of 1.
+    EXPECT_LT(worst, 5e-7) << "max |sin/cos error|";
+}
+
+// Random SIRENs of every width the encoder uses (and one beyond a 64 KiB uniform block, which
+// takes the storage-buffer variant) against the CPU reference on random points.
+TEST_F(Gpu, FieldMatchesCpuForEveryWidth) {
+    const std::vector<float> points = random_points(20000, 7);
+    const size_t n = points.size() / 3;
+    for (uint32_t width : {16u, 24u, 32u, 48u, 64u, 96u, 192u}) {
+        const Geometry g = parse_or_throw(geom_file(random_siren(width, 8, 100 + width)));
+        std::vector<float> cpu(n), gpu_values(n);
+        evaluate_cpu(g.network, points.data(), n, cpu.data());
+        ASSERT_EQ(gpu::evaluate(device(), g.network, points.data(), n, gpu_values.data()),
+                  NFD_SUCCESS);
+        double worst = 0, scale = 0;
+        for (size_t i = 0; i < n; ++i) {
+            worst = std::max(worst, double(std::fabs(gpu_values[i] - cpu[i])));
+            scale = std::max(scale, double(std::fabs(cpu[i])));
+        }
+        // Both accumulate in f32 in different orders; measured worst ~1e-6 of the output scale.
+        EXPECT_LE(worst, 1e-5 * scale) << "width " << width << " scale " << scale;
+        RecordProperty("field_max_rel_diff_w" + std::to_string(width), std::to_string(worst / scale));
+    }
+}
+
+TEST_F(Gpu, EvaluatesMorePointsThanOneInvocationBatch) {
+    const Geometry g = parse_or_throw(geom_file(random_siren(16, 8, 3)));
+    for (size_t n : {1u, 7u, 9u, 257u}) {
+        const std::vector<float> points = random_points(n, uint32_t(n));
+        std::vector<float> cpu(n), gpu_values(n, NAN);
+        evaluate_cpu(g.network, points.data(), n, cpu.data());
+        ASSERT_EQ(gpu::evaluate(device(), g.network, points.data(), n, gpu_values.data()),
+                  NFD_SUCCESS);
+        for (size_t i = 0; i < n; ++i) EXPECT_NEAR(gpu_values[i], cpu[i], 1e-5) << n << " " << i;
+    }
+}
+
+// Maps every vertex of `a` to the nearest vertex of `b` (grid hash, cells of `cell`), or -1 when
+// none lies within `tolerance`.
+std::vector<int64_t> match_vertices(const MeshData& a, const MeshData& b, float cell,
+                                    float tolerance) {
+    auto key = [cell](const float* p, int dx, int dy, int dz) {
+        const int64_t x = int64_t(std::floor(p[0] / cell)) + dx, y = int64_t(std::floor(p[1] / cell)) + dy,
+                      z = int64_t(std::floor(p[2] / cell)) + dz;
+        return (x * 73856093) ^ (y * 19349663) ^ (z * 83492791);
+    };
+    std::unordered_multimap<int64_t, size_t> grid;
+    for (size_t i = 0; i < b.vertex_count(); ++i) grid.emplace(key(&b.positions[3 * i], 0, 0, 0), i);
+    std::vector<int64_t> match(a.vertex_count(), -1);
+    for (size_t i = 0; i < a.vertex_count(); ++i) {
+        const float* p = &a.positions[3 * i];
+        float best = tolerance;
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    auto range = grid.equal_range(key(p, dx, dy, dz));
+                    for (auto it = range.first; it != range.second; ++it) {
+                        const float* q = &b.positions[3 * it->second];
+                        const float d = std::sqrt((p[0] - q[0]) * (p[0] - q[0]) +
+                                                  (p[1] - q[1]) * (p[1] - q[1]) +
+                                                  (p[2] - q[2]) * (p[2] - q[2]));
+                        if (d <= best) best = d, match[i] = int64_t(it->second);
+                    }
+                }
+    }
+    return match;
+}
+
+// Triangles as sorted index triples after mapping a's vertices onto b's: equal multisets mean the
+// same triangles; the rotation that puts the smallest index first also keeps the winding.
+std::multiset<std::array<int64_t, 3>> triangles(const MeshData& m, const std::vector<int64_t>* map) {
+    std::multiset<std::array<int64_t, 3>> out;
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+        std::array<int64_t, 3> v;
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t i = m.indices[3 * t + k];
+            v[k] = map ? (*map)[i] : int64_t(i);
+        }
+        std::rotate(v.begin(), std::min_element(v.begin(), v.end()), v.end());
+        out.insert(v);
+    }
+    return out;
+}
+
+struct MeshPair {
+    MeshData cpu, gpu;
+    ExtractStats cpu_stats, gpu_stats;
+};
+
+MeshPair extract_both(gpu::Device& device, const Geometry& g, uint32_t resolution) {
+    MeshPair m;
+    EXPECT_EQ(extract_mesh_cpu(g, resolution, &m.cpu, &m.cpu_stats), NFD_SUCCESS);
+    EXPECT_EQ(gpu::extract_mesh(device, g, resolution, &m.gpu, &m.gpu_stats), NFD_SUCCESS);
+    return m;
+}
+
+// The same mesh: the same cells visited, one vertex per crossed edge at the same place (to float
+// rounding of the two evaluators), the same triangles with the same winding, and normals alike.
+void expect_same_mesh(const MeshPair& m, const Geometry& g, uint32_t resolution) {
+    EXPECT_EQ(m.gpu_stats.points_evaluated, m.cpu_stats.points_evaluated);
+    EXPECT_EQ(m.gpu_stats.active_cells, m.cpu_stats.active_cells);
+    ASSERT_EQ(m.gpu.vertex_count(), m.cpu.vertex_count());
+    ASSERT_EQ(m.gpu.triangle_count(), m.cpu.triangle_count());
+    ASSERT_EQ(m.gpu.normals.size(), m.gpu.positions.size());
+    const float cell = 2.0f / float(resolution) * g.scale;
+    const std::vector<int64_t> map = match_vertices(m.gpu, m.cpu, cell, 1e-3f * cell);
+    for (size_t i = 0; i < map.size(); ++i) {
+        ASSERT_GE(map[i], 0) << "GPU vertex " << i << " has no CPU twin";
+        float dot = 0;
+        for (int a = 0; a < 3; ++a) dot += m.gpu.normals[3 * i + a] * m.cpu.normals[3 * map[i] + a];
+        ASSERT_GT(dot, 0.999f) << "normal of vertex " << i;
+    }
+    EXPECT_TRUE(triangles(m.gpu, &map) == triangles(m.cpu, nullptr));
+}
+
+// A closed blob in a shifted, scaled frame: watertight, outward, identical to the CPU mesh, at a
+// power-of-two resolution, one whose coarse levels drop cells past the last fine vertex (75:
+// 38 -> 75), and one too small to refine at all (16).
+TEST_F(Gpu, MeshMatchesCpuOnClosedBlob) {
+    const float center[3] = {1.0f, -2.0f, 0.5f};
+    const Geometry g = parse_or_throw(geom_file(closed_blob(3.0f, center)));
+    for (uint32_t resolution : {128u, 75u, 16u}) {
+        SCOPED_TRACE("resolution " + std::to_string(resolution));
+        const MeshPair m = extract_both(device(), g, resolution);
+        ASSERT_GT(m.gpu.triangle_count(), 0u);
+        expect_same_mesh(m, g, resolution);
+        std::string why;
+        EXPECT_TRUE(is_watertight_and_consistent(m.gpu, &why)) << why;
+        EXPECT_GT(signed_volume(m.gpu), 0.0) << "triangles face inwards";
+    }
+}
+
+// A random SIREN: a tangle of surfaces touching the domain boundary, many ambiguous cases.
+TEST_F(Gpu, MeshMatchesCpuOnRandomSiren) {
+    const Geometry g = parse_or_throw(geom_file(random_siren(32, 8, 11)));
+    const MeshPair m = extract_both(device(), g, 64);
+    ASSERT_GT(m.gpu.triangle_count(), 0u);
+    expect_same_mesh(m, g, 64);
+}
+
+TEST_F(Gpu, FieldWithoutSurfaceGivesEmptyMesh) {
+    GeomSpec s = closed_blob();
+    s.levels.back() = 32767;  // output bias: f = g + 1 > 0 everywhere
+    const Geometry g = parse_or_throw(geom_file(s));
+    MeshData mesh;
+    ExtractStats stats;
+    ASSERT_EQ(gpu::extract_mesh(device(), g, 64, &mesh, &stats), NFD_SUCCESS);
+    EXPECT_EQ(mesh.vertex_count(), 0u);
+    EXPECT_EQ(mesh.triangle_count(), 0u);
+}
+
+TEST_F(Gpu, RejectsWhatTheCpuRejects) {
+    Geometry g = parse_or_throw(geom_file(closed_blob()));
+    MeshData mesh;
+    EXPECT_EQ(gpu::extract_mesh(device(), g, NFD_MAX_RESOLUTION + 1, &mesh, nullptr),
+              NFD_ERROR_LIMIT_EXCEEDED);
+    g.field = FieldType::Udf;
+    EXPECT_EQ(gpu::extract_mesh(device(), g, 64, &mesh, nullptr), NFD_ERROR_UNSUPPORTED_FEATURE);
+}
+
+// Golden vectors from the Python encoder: GPU mesh vs CPU mesh.
+TEST_F(Gpu, GoldenVectorMeshesMatchCpu) {
+    const std::vector<std::string> names = golden_names();
+    if (names.empty()) GTEST_SKIP() << "no golden vectors in " << vectors_dir();
+    for (const std::string& name : names) {
+        SCOPED_TRACE(name);
+        ParsedFile f;
+        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
+        ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &f), NFD_SUCCESS);
+        if (f.geometry.field != FieldType::Sdf) continue;
+        const MeshPair m = extract_both(device(), f.geometry, 128);
+        // Values agree to ~1e-6, so a grid point can only change sign where |f| is that small:
+        // allow a handful of differing vertices, but the surfaces must coincide.
+        const double n = double(m.cpu.vertex_count());
+        EXPECT_NEAR(double(m.gpu.vertex_count()), n, 1e-3 * n + 2);
+        EXPECT_LT(chamfer(m.gpu.positions, m.cpu.positions), 1e-4 * f.geometry.scale);
+    }
+}
+
+}  // namespace
+}  // namespace nfd::test

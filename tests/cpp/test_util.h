@@ -1,0 +1,433 @@
+// Test helpers: an independent .nfc writer (so tests can build any valid or hostile file), a few
+// synthetic networks, an f64 reference evaluator, a PLY reader, mesh checks and golden-vector paths.
+#pragma once
+#include <brotli/encode.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "bitstream.h"
+#include "mesh.h"
+#include "network.h"
+
+namespace nfd::test {
+
+using Bytes = std::vector<uint8_t>;
+
+// ---- writer -------------------------------------------------------------------------------------
+
+inline void put_u8(Bytes& b, uint32_t v) { b.push_back(uint8_t(v)); }
+inline void put_u16(Bytes& b, uint32_t v) {
+    for (int k = 0; k < 2; ++k) b.push_back(uint8_t(v >> (8 * k)));
+}
+inline void put_u32(Bytes& b, uint32_t v) {
+    for (int k = 0; k < 4; ++k) b.push_back(uint8_t(v >> (8 * k)));
+}
+inline void put_f32(Bytes& b, float v) {
+    uint32_t bits;
+    std::memcpy(&bits, &v, 4);
+    put_u32(b, bits);
+}
+inline void set_u32(Bytes& b, size_t at, uint32_t v) {
+    if (at + 4 > b.size()) throw std::out_of_range("set_u32");
+    uint8_t* p = b.data() + at;
+    for (int k = 0; k < 4; ++k) p[k] = uint8_t(v >> (8 * k));
+}
+
+inline Bytes brotli(const Bytes& raw) {
+    Bytes out(BrotliEncoderMaxCompressedSize(raw.size()) + 16);
+    size_t size = out.size();
+    if (!BrotliEncoderCompress(BROTLI_DEFAULT_QUALITY, BROTLI_DEFAULT_WINDOW, BROTLI_MODE_GENERIC,
+                               raw.size(), raw.data(), &size, out.data()))
+        throw std::runtime_error("brotli encode failed");
+    out.resize(size);
+    return out;
+}
+
+// Everything a GEOM chunk says, in FORMAT.md order. `levels` holds the P integer levels.
+struct GeomSpec {
+    uint8_t field_type = 0;
+    float truncation = 0.1f;
+    float center[3] = {0, 0, 0};
+    float scale = 1.0f;
+    uint8_t num_frequencies = 16;
+    float beta = 1.4f;
+    float omega0 = 30.0f;
+    uint8_t output = 0;
+    uint8_t bits = 8;
+    std::vector<uint16_t> widths;
+    std::vector<float> steps;     // 2 per layer: weight step, bias step
+    std::vector<int32_t> levels;  // all layers: W row-major, then b
+
+    uint32_t input_width() const { return 3u + 6u * num_frequencies; }
+    size_t parameter_count() const {
+        size_t p = 0, in = input_width();
+        for (uint16_t w : widths) p += in * w + w, in = w;
+        return p;
+    }
+    Bytes raw_levels() const {
+        Bytes raw;
+        for (int32_t q : levels) bits <= 8 ? put_u8(raw, uint32_t(q)) : put_u16(raw, uint32_t(q));
+        return raw;
+    }
+};
+
+// The GEOM payload; `payload` replaces the brotli stream when given (for hostile streams).
+inline Bytes geom_payload(const GeomSpec& s, const Bytes* payload = nullptr) {
+    Bytes b;
+    put_u8(b, s.field_type);
+    put_f32(b, s.truncation);
+    for (float c : s.center) put_f32(b, c);
+    put_f32(b, s.scale);
+    put_u8(b, s.num_frequencies);
+    put_f32(b, s.beta);
+    put_f32(b, s.omega0);
+    put_u8(b, s.output);
+    put_u8(b, s.bits);
+    put_u8(b, uint32_t(s.widths.size()));
+    for (uint16_t w : s.widths) put_u16(b, w);
+    for (float st : s.steps) put_f32(b, st);
+    const Bytes stream = payload ? *payload : brotli(s.raw_levels());
+    b.insert(b.end(), stream.begin(), stream.end());
+    return b;
+}
+
+inline Bytes chunk(const char* tag, const Bytes& payload) {
+    Bytes c(tag, tag + 4);
+    put_u32(c, uint32_t(payload.size()));
+    c.insert(c.end(), payload.begin(), payload.end());
+    put_u32(c, crc32(c.data(), c.size()));
+    return c;
+}
+
+struct HeaderSpec {
+    uint8_t major = 1, minor = 0;
+    uint16_t flags = 0;
+};
+
+inline Bytes file(const std::vector<Bytes>& chunks, HeaderSpec h = {}) {
+    Bytes f = {0x89, 'N', 'F', 'C', h.major, h.minor};
+    put_u16(f, h.flags);
+    put_u32(f, 0);  // file_size, below
+    put_u32(f, 0);  // header_crc, below
+    for (const Bytes& c : chunks) f.insert(f.end(), c.begin(), c.end());
+    set_u32(f, 8, uint32_t(f.size()));
+    set_u32(f, 12, crc32(f.data(), 12));
+    return f;
+}
+
+inline Bytes geom_file(const GeomSpec& s, HeaderSpec h = {}) {
+    return file({chunk("GEOM", geom_payload(s))}, h);
+}
+
+inline Bytes geom_file_with_payload(const GeomSpec& s, const Bytes& brotli_stream) {
+    return file({chunk("GEOM", geom_payload(s, &brotli_stream))});
+}
+
+// ---- synthetic networks ----------------------------------------------------------------------------
+
+// A SIREN as the encoder initialises it (first layer U(-1/in, 1/in), later U(+-sqrt(6/in)/w0)),
+// quantized to `bits`: realistic magnitudes for the evaluator and the parser.
+inline GeomSpec random_siren(uint32_t width, uint8_t bits, uint32_t seed, uint8_t field_type = 0) {
+    GeomSpec s;
+    s.field_type = field_type;
+    s.output = field_type;  // SDF: identity, UDF: abs
+    s.bits = bits;
+    s.widths = {uint16_t(width), uint16_t(width), 1};
+    s.center[0] = 0.25f, s.center[1] = -1.5f, s.center[2] = 3.0f;
+    s.scale = 2.5f;
+    std::mt19937 rng(seed);
+    const int32_t max_level = (1 << (bits - 1)) - 1;
+    std::uniform_int_distribution<int32_t> level(-max_level, max_level);
+    uint32_t in = s.input_width();
+    for (size_t l = 0; l < s.widths.size(); ++l) {
+        const float bound = l == 0 ? 1.0f / float(in) : std::sqrt(6.0f / float(in)) / s.omega0;
+        s.steps.push_back(bound / float(max_level));
+        s.steps.push_back(0.05f / float(max_level));
+        for (uint32_t k = 0; k < in * s.widths[l] + s.widths[l]; ++k) s.levels.push_back(level(rng));
+        in = s.widths[l];
+    }
+    return s;
+}
+
+// A closed SDF-like field with a known zero set: f = s * sin(w0 * (a * sum_j cos(2 u_j) + c)),
+// built from exact SIREN layers (sin(x + pi/2) = cos x). Inside (f < 0) is the rounded-cube blob
+// sum_j cos(2 u_j) > T with T = cos(1.2) + 2 (it crosses the axes at |u| = 0.6); the gradient
+// norm stays below 1.8, inside the extractor's Lipschitz margin of 2. Positional-encoding inputs
+// are present (L = 2) but weighted zero, so the full input path is exercised.
+inline GeomSpec closed_blob(float scale = 1.0f, const float* center = nullptr) {
+    GeomSpec s;
+    s.num_frequencies = 2;
+    s.bits = 16;
+    s.omega0 = 30.0f;
+    s.scale = scale;
+    if (center) std::copy(center, center + 3, s.center);
+    s.widths = {3, 1, 1};
+    const int32_t M = 32767;
+    const double w0 = s.omega0, a = -0.01, T = std::cos(1.2) + 2.0, slope = 1.0 / 0.6;
+    const uint32_t in = s.input_width();
+    // Layer 0: h_j = sin(w0 * ((2 / w0) u_j + pi / (2 w0))) = cos(2 u_j).
+    s.steps.push_back(float((2.0 / w0) / M));
+    s.steps.push_back(float((M_PI / (2.0 * w0)) / M));
+    for (uint32_t o = 0; o < 3; ++o)
+        for (uint32_t i = 0; i < in; ++i) s.levels.push_back(i == o ? M : 0);
+    for (int o = 0; o < 3; ++o) s.levels.push_back(M);
+    // Layer 1: g = sin(w0 * (a * sum_j h_j - a * T)), negative where sum > T.
+    s.steps.push_back(float(std::fabs(a) / M));
+    s.steps.push_back(float(std::fabs(a * T) / M));
+    for (int i = 0; i < 3; ++i) s.levels.push_back(-M);
+    s.levels.push_back(M);
+    // Layer 2: f = slope * g (sin's slope at 0 is w0 * |a| = 0.3; slope 1/0.6 halves the gradient
+    // of sum_j cos(2 u_j) so it stays Lipschitz-2 everywhere).
+    s.steps.push_back(float(slope / M));
+    s.steps.push_back(1.0f);
+    s.levels.push_back(M);
+    s.levels.push_back(0);
+    return s;
+}
+
+inline Geometry parse_or_throw(const Bytes& bytes) {
+    ParsedFile f;
+    if (parse_file(bytes.data(), bytes.size(), &f) != NFD_SUCCESS)
+        throw std::runtime_error("synthetic file does not parse");
+    return f.geometry;
+}
+
+// ---- f64 reference evaluator (the numpy reference's arithmetic: f32 encoding products, f64 rest)
+
+inline double evaluate_f64(const Network& net, const float* u) {
+    std::vector<double> h(u, u + 3);
+    for (float f : net.frequencies) {
+        double s[3], c[3];
+        for (int j = 0; j < 3; ++j) {
+            const float arg = f * u[j];
+            s[j] = std::sin(double(arg));
+            c[j] = std::cos(double(arg));
+        }
+        h.insert(h.end(), s, s + 3);
+        h.insert(h.end(), c, c + 3);
+    }
+    for (size_t l = 0; l < net.layers.size(); ++l) {
+        const Layer& layer = net.layers[l];
+        std::vector<double> next(layer.out);
+        for (uint32_t o = 0; o < layer.out; ++o) {
+            double z = layer.bias[o];
+            for (uint32_t i = 0; i < layer.in; ++i) z += double(layer.weights[o * layer.in + i]) * h[i];
+            next[o] = l + 1 < net.layers.size() ? std::sin(double(net.omega0) * z) : z;
+        }
+        h.swap(next);
+    }
+    switch (net.output) {
+        case OutputActivation::Abs: return std::fabs(h[0]);
+        case OutputActivation::Sigmoid: return 1.0 / (1.0 + std::exp(-h[0]));
+        default: return h[0];
+    }
+}
+
+// ---- meshes ----------------------------------------------------------------------------------------
+
+// Reads PLY (ascii or binary_little_endian) vertices x y z (float or double) and triangle faces.
+inline MeshData read_ply(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error("cannot open " + path);
+    std::string line, format;
+    struct Element {
+        std::string name;
+        size_t count;
+        std::vector<std::pair<std::string, std::string>> props;  // type, name ("list:..." lists)
+    };
+    std::vector<Element> elements;
+    while (std::getline(in, line)) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        std::istringstream ls(line);
+        std::string word;
+        ls >> word;
+        if (word == "format") ls >> format;
+        else if (word == "element") {
+            Element e;
+            ls >> e.name >> e.count;
+            elements.push_back(e);
+        } else if (word == "property") {
+            std::string type, name;
+            ls >> type;
+            if (type == "list") {
+                std::string count_type, item_type;
+                ls >> count_type >> item_type >> name;
+                type = "list:" + count_type + ":" + item_type;
+            } else {
+                ls >> name;
+            }
+            elements.back().props.emplace_back(type, name);
+        } else if (word == "end_header") break;
+    }
+    const bool ascii = format == "ascii";
+    if (!ascii && format != "binary_little_endian") throw std::runtime_error("PLY format " + format);
+    auto size_of = [](const std::string& t) -> size_t {
+        if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+        if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+        if (t == "double" || t == "float64") return 8;
+        return 4;
+    };
+    auto read_value = [&](const std::string& t) -> double {
+        if (ascii) {
+            double v;
+            in >> v;
+            return v;
+        }
+        unsigned char b[8] = {};
+        in.read(reinterpret_cast<char*>(b), std::streamsize(size_of(t)));
+        if (t == "float" || t == "float32") { float f; std::memcpy(&f, b, 4); return f; }
+        if (t == "double" || t == "float64") { double d; std::memcpy(&d, b, 8); return d; }
+        if (t == "char" || t == "int8") return int8_t(b[0]);
+        if (t == "uchar" || t == "uint8") return b[0];
+        if (t == "short" || t == "int16") { int16_t v; std::memcpy(&v, b, 2); return v; }
+        if (t == "ushort" || t == "uint16") { uint16_t v; std::memcpy(&v, b, 2); return v; }
+        if (t == "int" || t == "int32") { int32_t v; std::memcpy(&v, b, 4); return v; }
+        uint32_t v; std::memcpy(&v, b, 4); return v;
+    };
+    MeshData m;
+    for (const Element& e : elements) {
+        for (size_t k = 0; k < e.count; ++k) {
+            for (const auto& [type, name] : e.props) {
+                if (type.rfind("list:", 0) == 0) {
+                    const size_t colon = type.find(':', 5);
+                    const std::string count_type = type.substr(5, colon - 5), item = type.substr(colon + 1);
+                    const size_t n = size_t(read_value(count_type));
+                    std::vector<uint32_t> ids(n);
+                    for (auto& id : ids) id = uint32_t(read_value(item));
+                    if (e.name == "face")
+                        for (size_t t = 1; t + 1 < n; ++t)  // fan: polygons become triangles
+                            m.indices.insert(m.indices.end(), {ids[0], ids[t], ids[t + 1]});
+                    continue;
+                }
+                const double v = read_value(type);
+                if (e.name == "vertex" && (name == "x" || name == "y" || name == "z"))
+                    m.positions.push_back(float(v));
+            }
+        }
+    }
+    if (!in) throw std::runtime_error("short PLY " + path);
+    return m;
+}
+
+// Every undirected edge used by exactly two triangles, once in each direction: closed, manifold
+// along edges, and consistently oriented.
+inline bool is_watertight_and_consistent(const MeshData& m, std::string* why) {
+    std::map<std::pair<uint32_t, uint32_t>, int> directed;
+    for (size_t t = 0; t < m.triangle_count(); ++t)
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t a = m.indices[3 * t + k], b = m.indices[3 * t + (k + 1) % 3];
+            if (a == b) { *why = "degenerate triangle " + std::to_string(t); return false; }
+            if (++directed[{a, b}] > 1) { *why = "directed edge used twice"; return false; }
+        }
+    for (const auto& [edge, count] : directed)
+        if (!directed.count({edge.second, edge.first})) {
+            *why = "boundary or flipped edge " + std::to_string(edge.first) + "-" +
+                   std::to_string(edge.second);
+            return false;
+        }
+    return true;
+}
+
+inline double signed_volume(const MeshData& m) {
+    double v = 0;
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+        const float* p[3];
+        for (int k = 0; k < 3; ++k) p[k] = &m.positions[3 * size_t(m.indices[3 * t + k])];
+        v += (double(p[0][0]) * (double(p[1][1]) * p[2][2] - double(p[1][2]) * p[2][1]) -
+              double(p[0][1]) * (double(p[1][0]) * p[2][2] - double(p[1][2]) * p[2][0]) +
+              double(p[0][2]) * (double(p[1][0]) * p[2][1] - double(p[1][1]) * p[2][0])) / 6.0;
+    }
+    return v;
+}
+
+// Symmetric Chamfer distance (metrics.md: sum of the two one-sided mean Euclidean distances)
+// between point sets, with a uniform grid for the nearest-neighbour queries.
+inline double chamfer(const std::vector<float>& a, const std::vector<float>& b) {
+    auto one_sided = [](const std::vector<float>& from, const std::vector<float>& to) {
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (size_t i = 0; i < to.size(); ++i) {
+            lo[i % 3] = std::min(lo[i % 3], to[i]);
+            hi[i % 3] = std::max(hi[i % 3], to[i]);
+        }
+        const int n = 32;
+        float cell = 0;
+        for (int a = 0; a < 3; ++a) cell = std::max(cell, (hi[a] - lo[a]) / n);
+        cell = std::max(cell, 1e-6f);
+        auto key = [&](const float* p, int* c) {
+            for (int a = 0; a < 3; ++a) c[a] = std::clamp(int((p[a] - lo[a]) / cell), 0, n);
+        };
+        std::vector<std::vector<size_t>> grid(size_t(n + 1) * (n + 1) * (n + 1));
+        for (size_t i = 0; i < to.size() / 3; ++i) {
+            int c[3];
+            key(&to[3 * i], c);
+            grid[size_t((c[2] * (n + 1) + c[1]) * (n + 1) + c[0])].push_back(i);
+        }
+        double sum = 0;
+        for (size_t i = 0; i < from.size() / 3; ++i) {
+            const float* p = &from[3 * i];
+            int c[3];
+            key(p, c);
+            double best = INFINITY;
+            for (int r = 0; r <= n; ++r) {  // grow the shell until it cannot hold anything closer
+                for (int z = c[2] - r; z <= c[2] + r; ++z)
+                    for (int y = c[1] - r; y <= c[1] + r; ++y)
+                        for (int x = c[0] - r; x <= c[0] + r; ++x) {
+                            if (std::max({std::abs(x - c[0]), std::abs(y - c[1]), std::abs(z - c[2])}) != r)
+                                continue;
+                            if (std::min({x, y, z}) < 0 || std::max({x, y, z}) > n) continue;
+                            for (size_t j : grid[size_t((z * (n + 1) + y) * (n + 1) + x)]) {
+                                double d = 0;
+                                for (int a = 0; a < 3; ++a) d += std::pow(double(p[a]) - to[3 * j + a], 2);
+                                best = std::min(best, d);
+                            }
+                        }
+                if (std::sqrt(best) <= double(r) * cell) break;
+            }
+            sum += std::sqrt(best);
+        }
+        return sum / double(from.size() / 3);
+    };
+    return one_sided(a, b) + one_sided(b, a);
+}
+
+// ---- golden vectors (tests/vectors, produced by the Python encoder) ------------------------------
+
+inline std::string vectors_dir() { return NFD_TEST_VECTORS_DIR; }
+
+// Names <name> of every tests/vectors/v1_0_<name>.nfc, sorted.
+inline std::vector<std::string> golden_names() {
+    namespace fs = std::filesystem;
+    std::vector<std::string> names;
+    std::error_code ec;
+    for (const auto& entry : fs::directory_iterator(vectors_dir(), ec)) {
+        const std::string file = entry.path().filename().string();
+        if (file.rfind("v1_0_", 0) == 0 && entry.path().extension() == ".nfc")
+            names.push_back(file.substr(5, file.size() - 5 - 4));
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+inline std::string golden_path(const std::string& name, const std::string& suffix) {
+    return vectors_dir() + "/v1_0_" + name + suffix;
+}
+
+inline Bytes read_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error("cannot open " + path);
+    return Bytes(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+}  // namespace nfd::test

@@ -1,0 +1,309 @@
+"""The .nfc writer and reader against libnfdecode/FORMAT.md: round trips, hostile bytes, versions, caps."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import struct
+
+import brotli
+import numpy as np
+import pytest
+from conftest import random_file, random_network
+
+from nfencode.bitstream import (
+    FIELD_SDF,
+    FIELD_UDF,
+    HEADER_SIZE,
+    MAX_FREQUENCIES,
+    MAX_LAYERS,
+    MAX_PARAMETERS,
+    MAX_WIDTH,
+    OUTPUT_ABS,
+    OUTPUT_SIGMOID,
+    TAG_GEOM,
+    GeometryChunk,
+    NfcFile,
+    assemble,
+    crc32,
+    encode_chunk,
+    geometry_payload,
+    parameter_count,
+    positional_frequencies,
+    read_nfc,
+    write_nfc,
+)
+from nfencode.errors import FormatError
+
+
+def f32(x: float) -> float:
+    return float(np.float32(x))
+
+
+def file_with(chunks: list[bytes], major: int = 1, minor: int = 0) -> bytes:
+    return assemble(chunks, major, minor)
+
+
+def geom_chunk(f: NfcFile, check: bool = True) -> bytes:
+    return encode_chunk(TAG_GEOM, geometry_payload(f.geometry, check=check))
+
+
+def reject(data: bytes, kind: str | None = None) -> FormatError:
+    with pytest.raises(FormatError) as info:
+        read_nfc(data)
+    if kind is not None:
+        assert info.value.kind == kind, info.value
+    return info.value
+
+
+def patch_header(data: bytes, **fields: int) -> bytes:
+    """Rewrite header fields (FORMAT.md offsets) and re-seal the header CRC."""
+    head = bytearray(data[:12])
+    offsets = {"major": ("<B", 4), "minor": ("<B", 5), "flags": ("<H", 6), "file_size": ("<I", 8)}
+    for name, value in fields.items():
+        fmt, at = offsets[name]
+        struct.pack_into(fmt, head, at, value)
+    return bytes(head) + struct.pack("<I", crc32(bytes(head))) + data[16:]
+
+
+# ---------------------------------------------------------------------------------------------
+# Round trips
+
+
+@pytest.mark.parametrize(
+    "field_type,bits,frequencies,widths",
+    [(FIELD_SDF, 8, 16, (32, 32, 1)), (FIELD_UDF, 8, 2, (8, 8, 1)), (FIELD_SDF, 12, 3, (5, 1)),
+     (FIELD_SDF, 16, 0, (4, 3, 2, 1)), (FIELD_UDF, 2, 1, (6, 6, 1))],
+)
+def test_round_trip(field_type: int, bits: int, frequencies: int, widths: tuple[int, ...]) -> None:
+    original = random_file(field_type, num_frequencies=frequencies, widths=widths, bits=bits, seed=bits)
+    decoded = read_nfc(write_nfc(original))
+    g, d = original.geometry, decoded.geometry
+    assert (decoded.major, decoded.minor, decoded.skipped_chunks) == (1, 0, [])
+    assert d.field_type == g.field_type
+    assert d.truncation == f32(g.truncation) and d.scale == f32(g.scale)
+    assert d.center == tuple(f32(c) for c in g.center)
+    n, m = g.network, d.network
+    assert (m.num_frequencies, m.output, m.bits, m.out_features) == (
+        n.num_frequencies, n.output, n.bits, n.out_features)
+    assert m.frequency_base == f32(n.frequency_base) and m.omega0 == f32(n.omega0)
+    assert m.steps == [(f32(a), f32(b)) for a, b in n.steps]
+    for (w0, b0), (w1, b1) in zip(n.levels, m.levels):
+        np.testing.assert_array_equal(w0, w1)
+        np.testing.assert_array_equal(b0, b1)
+    assert write_nfc(decoded) == write_nfc(original)
+
+
+def test_file_size_is_what_the_header_says(sdf_bytes: bytes) -> None:
+    assert sdf_bytes[:4] == b"\x89NFC"
+    assert struct.unpack_from("<I", sdf_bytes, 8)[0] == len(sdf_bytes)
+
+
+def test_positional_frequencies_follow_the_spec() -> None:
+    f = positional_frequencies(16, 1.4)
+    assert f.dtype == np.float32 and len(f) == 16
+    a = math.pi
+    for k in range(16):
+        assert f[k] == np.float32(a)
+        a *= f32(1.4)
+    assert f[0] == np.float32(math.pi) and abs(float(f[15]) - math.pi * 1.4**15) < 1e-3
+    np.testing.assert_array_equal(f, positional_frequencies(16, f32(1.4)))
+    assert len(positional_frequencies(0, 1.4)) == 0
+
+
+# ---------------------------------------------------------------------------------------------
+# Hostile bytes
+
+
+def test_every_truncated_prefix_is_rejected(sdf_bytes: bytes) -> None:
+    for n in range(len(sdf_bytes)):
+        reject(sdf_bytes[:n], "truncated")
+
+
+def test_trailing_bytes_are_corrupt(sdf_bytes: bytes) -> None:
+    reject(sdf_bytes + b"\x00", "corrupt")
+
+
+@pytest.mark.parametrize("flip", [0x01, 0x80, 0xFF])
+def test_every_single_byte_corruption_is_rejected(sdf_bytes: bytes, flip: int) -> None:
+    for i in range(len(sdf_bytes)):
+        damaged = bytearray(sdf_bytes)
+        damaged[i] ^= flip
+        reject(bytes(damaged))
+
+
+def test_header_damage_reports_corrupt_not_version(sdf_bytes: bytes) -> None:
+    damaged = bytearray(sdf_bytes)
+    damaged[4] = 2  # major, without re-sealing the CRC
+    reject(bytes(damaged), "corrupt")
+    reject(b"PK\x03\x04" + sdf_bytes[4:], "corrupt")  # not an .nfc file at all
+
+
+def test_other_major_is_unsupported_version(sdf_bytes: bytes) -> None:
+    for major in (0, 2, 255):
+        reject(patch_header(sdf_bytes, major=major), "unsupported_version")
+
+
+def test_reserved_flags_and_bad_file_sizes_are_corrupt(sdf_bytes: bytes) -> None:
+    reject(patch_header(sdf_bytes, flags=1), "corrupt")
+    reject(patch_header(sdf_bytes, file_size=20)[:20], "corrupt")  # below header + one chunk
+    reject(patch_header(sdf_bytes, file_size=64 * 1024 * 1024 + 1), "corrupt")
+    reject(patch_header(sdf_bytes, file_size=len(sdf_bytes) + 1), "truncated")
+
+
+def test_newer_minor_with_unknown_optional_chunk_decodes(sdf_bytes: bytes) -> None:
+    f = random_file()
+    data = file_with([geom_chunk(f), encode_chunk("colr", b"future colour network"), encode_chunk("zzzz", b"")],
+                     minor=3)
+    decoded = read_nfc(data)
+    assert decoded.minor == 3 and decoded.skipped_chunks == ["colr", "zzzz"]
+    assert decoded.geometry.network.out_features == f.geometry.network.out_features
+
+
+def test_damaged_optional_chunk_is_still_verified() -> None:
+    data = bytearray(file_with([geom_chunk(random_file()), encode_chunk("colr", b"abc")]))
+    data[-5] ^= 0x10  # inside the optional payload
+    reject(bytes(data), "corrupt")
+
+
+def test_unknown_critical_chunk_is_unsupported_feature() -> None:
+    reject(file_with([geom_chunk(random_file()), encode_chunk("COLR", b"x")], minor=1), "unsupported_feature")
+
+
+@pytest.mark.parametrize(
+    "chunks",
+    [
+        ["colr", "GEOM"],  # GEOM not first
+        ["GEOM", "GEOM"],  # duplicate
+        ["GEOM", "colr", "colr"],  # duplicate optional chunk
+        ["GEOM", "c0lr"],  # not four letters
+    ],
+)
+def test_chunk_order_and_tags(chunks: list[str]) -> None:
+    geom = geom_chunk(random_file())
+    reject(file_with([geom if t == TAG_GEOM else encode_chunk(t, b"") for t in chunks]), "corrupt")
+
+
+def test_chunk_length_beyond_the_file() -> None:
+    geom = bytearray(geom_chunk(random_file()))
+    struct.pack_into("<I", geom, 4, len(geom))  # claims more payload than the file holds
+    reject(file_with([bytes(geom)]), "truncated")
+    struct.pack_into("<I", geom, 4, 16 * 1024 * 1024 + 1)
+    reject(file_with([bytes(geom)]), "corrupt")
+
+
+def _bad(field: str, value, target: str = "network") -> NfcFile:
+    f = random_file()
+    if target == "network":
+        net = dataclasses.replace(f.geometry.network, **{field: value})
+        return dataclasses.replace(f, geometry=dataclasses.replace(f.geometry, network=net))
+    return dataclasses.replace(f, geometry=dataclasses.replace(f.geometry, **{field: value}))
+
+
+INVALID_VALUES = [
+    ("field_type", 2, "geometry"),
+    ("truncation", 0.0, "geometry"),
+    ("truncation", 1.5, "geometry"),
+    ("truncation", math.nan, "geometry"),
+    ("center", (0.0, math.inf, 0.0), "geometry"),
+    ("scale", 0.0, "geometry"),
+    ("scale", -1.0, "geometry"),
+    ("scale", math.nan, "geometry"),
+    ("frequency_base", 0.5, "network"),
+    ("frequency_base", 2.5, "network"),
+    ("frequency_base", math.nan, "network"),
+    ("omega0", 0.0, "network"),
+    ("omega0", 1001.0, "network"),
+    ("omega0", math.inf, "network"),
+    ("output", OUTPUT_ABS, "network"),  # abs output on an SDF
+    ("output", OUTPUT_SIGMOID, "network"),
+    ("output", 3, "network"),
+    ("bits", 1, "network"),
+    ("bits", 17, "network"),
+    ("steps", [(0.0, 0.01)] * 3, "network"),
+    ("steps", [(0.01, -0.01)] * 3, "network"),
+    ("steps", [(0.01, math.nan)] * 3, "network"),
+]
+
+
+@pytest.mark.parametrize("field,value,target", INVALID_VALUES)
+def test_invalid_values_are_corrupt_and_unwritable(field: str, value, target: str) -> None:
+    f = _bad(field, value, target)
+    reject(file_with([geom_chunk(f, check=False)]), "corrupt")
+    with pytest.raises(ValueError):
+        write_nfc(f)
+
+
+@pytest.mark.parametrize(
+    "frequencies,widths",
+    [
+        (MAX_FREQUENCIES + 1, (4, 1)),
+        (2, (MAX_WIDTH + 1, 1)),
+        (2, (0, 1)),
+        (2, (4,) * MAX_LAYERS + (1,)),  # MAX_LAYERS + 1 layers
+        (2, (1,)),  # a single layer
+        (2, (4, 2)),  # geometry must have one output
+        (2, (MAX_WIDTH,) * 5 + (1,)),  # more than MAX_PARAMETERS
+    ],
+)
+def test_caps_are_enforced(frequencies: int, widths: tuple[int, ...]) -> None:
+    net = random_network(num_frequencies=0, widths=(4, 1))
+    net.num_frequencies, net.out_features = frequencies, list(widths)
+    net.steps = [(0.01, 0.01)] * len(widths)
+    net.levels = [(np.zeros((1, 1), dtype=np.int64), np.zeros(1, dtype=np.int64))]  # never decompressed
+    f = NfcFile(GeometryChunk(FIELD_SDF, 0.1, (0.0, 0.0, 0.0), 1.0, net))
+    reject(file_with([geom_chunk(f, check=False)]), "corrupt")
+    with pytest.raises(ValueError):
+        write_nfc(f)
+
+
+def test_parameter_cap_value() -> None:
+    assert parameter_count(2, [MAX_WIDTH] * 5 + [1]) > MAX_PARAMETERS
+
+
+@pytest.mark.parametrize("bits,level", [(8, 128), (8, -128), (4, 8), (16, -32768), (12, 2048)])
+def test_levels_outside_the_grid(bits: int, level: int) -> None:
+    f = random_file(bits=bits)
+    f.geometry.network.levels[1][0][0, 0] = level
+    reject(file_with([geom_chunk(f, check=False)]), "corrupt")
+    with pytest.raises(ValueError):
+        write_nfc(f)
+
+
+def test_payload_of_the_wrong_size_is_corrupt() -> None:
+    for delta in (-1, 1):
+        f = random_file()
+        w, b = f.geometry.network.levels[-1]
+        f.geometry.network.levels[-1] = (w, np.zeros(len(b) + delta, dtype=np.int64))
+        reject(file_with([geom_chunk(f, check=False)]), "corrupt")
+        with pytest.raises(ValueError):
+            write_nfc(f)
+
+
+def _levels_stream(f: NfcFile) -> bytes:
+    flat = np.concatenate([np.concatenate([w.ravel(), b]) for w, b in f.geometry.network.levels])
+    return brotli.compress(flat.astype(np.int8).tobytes(), quality=11)
+
+
+def test_invalid_brotli_and_decompression_bomb_are_corrupt() -> None:
+    f = random_file()
+    payload = geometry_payload(f.geometry)
+    stream = _levels_stream(f)
+    assert payload.endswith(stream)  # FORMAT.md: the brotli stream runs to the end of the chunk
+    head = payload[: -len(stream)]
+    for tail in (b"\xff" * len(stream), stream[:-1], stream + b"\x00", brotli.compress(bytes(20_000_000), quality=1)):
+        reject(file_with([encode_chunk(TAG_GEOM, head + tail)]), "corrupt")
+    reject(file_with([encode_chunk(TAG_GEOM, head)]), "truncated")  # no payload at all
+
+
+def test_writer_refuses_other_major() -> None:
+    with pytest.raises(ValueError):
+        write_nfc(dataclasses.replace(random_file(), major=2))
+
+
+def test_format_error_has_a_kind_and_one_line() -> None:
+    err = reject(b"", "truncated")
+    assert "\n" not in str(err) and str(err).startswith("truncated .nfc file")
+    with pytest.raises(ValueError):
+        FormatError("broken", "x")
+    assert HEADER_SIZE == 16
