@@ -1,6 +1,7 @@
 // The C API: argument checks, then the internal calls, inside a guard that turns every exception
 // into a result code (nothing may unwind into C callers).
 #include <algorithm>
+#include <cstring>
 #include <exception>
 #include <memory>
 #include <new>
@@ -56,8 +57,13 @@ nfd_result guarded(Fn&& fn) noexcept {
 // Points per evaluate call through the API: bounds the unit-frame copy whatever `count` is.
 constexpr size_t kEvaluateBlock = size_t(1) << 20;
 
-bool is_device_kind(nfd_device_kind k) {
-    return k == NFD_DEVICE_AUTO || k == NFD_DEVICE_VULKAN || k == NFD_DEVICE_CPU;
+// A C caller may store any int in an enum field, which C++ may not even load as the enum type:
+// read the bytes as an int so that the range check itself is defined.
+bool is_device_kind(const nfd_device_kind& k) {
+    static_assert(sizeof(nfd_device_kind) == sizeof(int), "C enums are int-sized");
+    int v;
+    std::memcpy(&v, &k, sizeof v);
+    return v == NFD_DEVICE_AUTO || v == NFD_DEVICE_VULKAN || v == NFD_DEVICE_CPU;
 }
 
 }  // namespace

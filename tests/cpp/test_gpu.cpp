@@ -213,7 +213,7 @@ TEST_F(Gpu, MeshMatchesCpuOnClosedBlob) {
 
 // A random SIREN: a tangle of surfaces touching the domain boundary, many ambiguous cases.
 TEST_F(Gpu, MeshMatchesCpuOnRandomSiren) {
-    const Geometry g = parse_or_throw(geom_file(random_siren(32, 8, 11)));
+    const Geometry g = parse_or_throw(geom_file(random_siren(16, 8, 11)));
     const MeshPair m = extract_both(device(), g, 64);
     ASSERT_GT(m.gpu.triangle_count(), 0u);
     expect_same_mesh(m, g, 64);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -404,7 +405,11 @@ inline double chamfer(const std::vector<float>& a, const std::vector<float>& b) 
 
 // ---- golden vectors (tests/vectors, produced by the Python encoder) ------------------------------
 
-inline std::string vectors_dir() { return NFD_TEST_VECTORS_DIR; }
+// tests/vectors, or $NFD_TEST_VECTORS_DIR to run the same checks on another vector set.
+inline std::string vectors_dir() {
+    const char* env = std::getenv("NFD_TEST_VECTORS_DIR");
+    return env && *env ? env : NFD_TEST_VECTORS_DIR;
+}
 
 // Names <name> of every tests/vectors/v1_0_<name>.nfc, sorted.
 inline std::vector<std::string> golden_names() {

@@ -1,5 +1,6 @@
 // libFuzzer entry point over the parser (the only code that reads untrusted bytes):
-//   cmake -DNFD_BUILD_FUZZERS=ON -DCMAKE_CXX_COMPILER=clang++ ... && ./fuzz_asset corpus/
+//   cmake -DNFD_BUILD_FUZZERS=ON -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ ...
+//   ./tests/fuzz_asset corpus/
 // Seed the corpus with tests/vectors/*.nfc.
 #include <nfdecode/nfdecode.h>
 

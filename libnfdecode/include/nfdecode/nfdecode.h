@@ -120,13 +120,19 @@ typedef struct nfd_context_options {
 } nfd_context_options;
 
 /* options may be NULL (all defaults). Creating a Vulkan device compiles the pipelines; later
- * contexts reuse the driver's pipeline cache where it has one. */
+ * contexts reuse the driver's pipeline cache where it has one.
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (out_context NULL, unknown device kind, or
+ * `adopt` with NFD_DEVICE_CPU); NFD_ERROR_DEVICE_UNAVAILABLE (VULKAN requested, or a device to
+ * adopt given, and no usable device, or a build without Vulkan); NFD_ERROR_DEVICE;
+ * NFD_ERROR_OUT_OF_MEMORY. AUTO without `adopt` never fails for lack of a device: it falls back to
+ * the CPU when no Vulkan device can be created or initialised. */
 nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context);
 void nfd_context_destroy(nfd_context* context);
 
-/* NFD_DEVICE_VULKAN or NFD_DEVICE_CPU: what the context actually runs on. */
+/* NFD_DEVICE_VULKAN or NFD_DEVICE_CPU: what the context actually runs on (AUTO for NULL). */
 nfd_device_kind nfd_context_device_kind(const nfd_context* context);
-/* The device's name (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" or "cpu"); owned by the context. */
+/* The device's name (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" or "cpu"); owned by the context;
+ * "" for NULL. */
 const char* nfd_context_device_name(const nfd_context* context);
 
 /* ---------------------------------------------------------------------------------------------
@@ -161,7 +167,9 @@ nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info);
 
 /* Evaluates the field at `count` points given in the ORIGINAL frame (xyz interleaved, 3*count
  * floats), writing `count` distances in the unit frame (multiply by info.scale for original
- * units). Runs on the context's device. */
+ * units). Runs on the context's device. count == 0 succeeds without touching the pointers;
+ * otherwise NULL points/out_values give NFD_ERROR_INVALID_ARGUMENT. Memory used inside is bounded
+ * (points are processed in blocks), whatever `count` is. */
 nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, const float* points,
                               size_t count, float* out_values);
 
@@ -203,14 +211,17 @@ nfd_result nfd_mesh_get_data(const nfd_mesh* mesh, nfd_mesh_data* out_data);
 /* Timings and counts of the extraction that produced this mesh. */
 nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats);
 
-/* Samples `count` points uniformly by area on the mesh (deterministic for a seed), writing 3*count
- * floats to out_points and, if out_normals is not NULL, 3*count floats of face normals.
- * An empty mesh with count > 0 gives NFD_ERROR_INVALID_ARGUMENT. */
+/* Samples `count` points uniformly by area on the mesh (deterministic for a seed on every
+ * platform), writing 3*count floats to out_points (original frame) and, if out_normals is not
+ * NULL, 3*count floats of unit face normals. count == 0 succeeds and writes nothing. An empty mesh
+ * with count > 0, or out_points NULL, gives NFD_ERROR_INVALID_ARGUMENT. */
 nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, uint64_t seed,
                                   float* out_points, float* out_normals);
 
-/* Writes the mesh as binary glTF 2.0 (.glb: POSITION, NORMAL, indices) or binary little-endian PLY
- * (vertex x,y,z,nx,ny,nz; face vertex_indices). NFD_ERROR_IO if the file cannot be written. */
+/* Writes the mesh as binary glTF 2.0 (.glb: one scene/node/mesh, POSITION with min/max, NORMAL,
+ * UNSIGNED_INT indices; an empty mesh gives an empty scene) or binary little-endian PLY (vertex
+ * float x,y,z,nx,ny,nz; face list uchar uint vertex_indices). NFD_ERROR_INVALID_ARGUMENT for NULL
+ * arguments, NFD_ERROR_IO if the file cannot be opened or fully written. */
 nfd_result nfd_mesh_write_glb(const nfd_mesh* mesh, const char* path);
 nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path);
 

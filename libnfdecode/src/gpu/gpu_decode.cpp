@@ -22,7 +22,7 @@ constexpr uint32_t kMaxFrequencies = 24;    // its Frequencies block holds 6 vec
 constexpr uint32_t kUniformBlockBytes = 65536;  // its uniform blocks declare 4096 vec4s
 constexpr uint32_t kFieldLocalSize = 32;
 constexpr uint32_t kMaxVec4PerLayer = 128;  // MAX_WIDTH / 4
-constexpr uint32_t kPointsPerInvocation = 1;
+constexpr uint32_t kPointsPerInvocation = 8;
 constexpr size_t kEvaluateChunk = size_t(1) << 22;  // points per dispatch in evaluate()
 
 using Clock = std::chrono::steady_clock;
@@ -215,30 +215,36 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     if (layers < 1 || layers > kMaxNetworkLayers || net.frequencies.size() > kMaxFrequencies ||
         net.output_width() != 1)
         return NFD_ERROR_UNSUPPORTED_FEATURE;
-    uint32_t in = net.input_width(), max_width = in;
-    std::vector<uint32_t> widths(kMaxNetworkLayers, 1), row4(layers);
+    const uint32_t freq4 = div_up(net.frequencies.size(), 4);
+    std::vector<uint32_t> in4(layers), out4(kMaxNetworkLayers, 1);
+    uint32_t in = net.input_width();
     for (uint32_t l = 0; l < layers; ++l) {
         const Layer& layer = net.layers[l];
         if (layer.in != in || layer.out == 0 ||
             layer.weights.size() != size_t(layer.in) * layer.out || layer.bias.size() != layer.out)
             return NFD_ERROR_UNSUPPORTED_FEATURE;  // not a network the parser produces
-        widths[l] = layer.out;
-        row4[l] = (layer.in + 4) / 4;
-        max_width = std::max(max_width, layer.out);
+        in4[l] = l == 0 ? 1 + 6 * freq4 : out4[l - 1];
+        out4[l] = div_up(layer.out, 4);
+        if (out4[l] > kMaxVec4PerLayer) return NFD_ERROR_UNSUPPORTED_FEATURE;
         in = layer.out;
     }
+
+    // Uniform blocks are what makes field_eval.comp fast on CPU implementations; a layer too
+    // large for one (64 KiB: 128 rows of 99 inputs) takes the storage-buffer variant, slower
+    // there but exact.
     const VkPhysicalDeviceLimits& limits = d.vk->limits();
     const VkDeviceSize block =
         std::min<VkDeviceSize>(kUniformBlockBytes, limits.maxUniformBufferRange);
-    for (uint32_t l = 0; l < layers; ++l)
-        out->storage |= VkDeviceSize(net.layers[l].out) * row4[l] * 16 > block;
+    VkDeviceSize total = 0;
+    for (uint32_t l = 0; l < layers; ++l) {
+        out->range[l] = VkDeviceSize(out4[l]) * (4 * in4[l] + 1) * 16;
+        out->storage |= out->range[l] > block;
+    }
     const VkDeviceSize align = std::max<VkDeviceSize>(
         256, out->storage ? limits.minStorageBufferOffsetAlignment
                           : limits.minUniformBufferOffsetAlignment);
-    VkDeviceSize total = 0;
     for (uint32_t l = 0; l < layers; ++l) {
         out->offset[l] = total;
-        out->range[l] = VkDeviceSize(net.layers[l].out) * row4[l] * 16;
         total += (out->range[l] + align - 1) / align * align;
     }
     for (uint32_t l = layers; l < kMaxNetworkLayers; ++l) out->range[l] = out->range[0];  // unused
@@ -252,20 +258,26 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
         const Layer& layer = net.layers[l];
         float* w = reinterpret_cast<float*>(static_cast<char*>(out->weights.data) + out->offset[l]);
         for (uint32_t o = 0; o < layer.out; ++o) {
-            float* row = w + size_t(o) * 4 * row4[l];
-            std::memcpy(row, &layer.weights[size_t(o) * layer.in], size_t(layer.in) * 4);
-            row[layer.in] = layer.bias[o];
+            float* row = w + size_t(o) * 4 * in4[l];
+            for (uint32_t i = 0; i < layer.in; ++i)
+                row[l == 0 ? encoded_column(i) : i] = layer.weights[size_t(o) * layer.in + i];
         }
+        float* bias = w + size_t(out4[l]) * 4 * 4 * in4[l];
+        for (uint32_t o = 0; o < layer.out; ++o) bias[o] = layer.bias[o];
     }
-    out->points_per_invocation = kPointsPerInvocation;
+
     float omega0 = net.omega0;
     uint32_t omega0_bits;
     std::memcpy(&omega0_bits, &omega0, 4);
+    uint32_t max4 = in4[0];
+    for (uint32_t l = 0; l < layers; ++l) max4 = std::max(max4, out4[l]);
+    // Fewer points per invocation for wide networks bounds the per-invocation activations.
+    out->points_per_invocation = max4 <= 32 ? kPointsPerInvocation : 2;
     std::vector<uint32_t>& spec = out->specialization;
-    spec = {uint32_t(net.frequencies.size()), layers};
-    spec.insert(spec.end(), widths.begin(), widths.end());
-    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), max_width,
-                             out->points_per_invocation, kFieldLocalSize, 0});
+    spec = {freq4, layers};
+    spec.insert(spec.end(), out4.begin(), out4.end());
+    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), max4, out->points_per_invocation,
+                             kFieldLocalSize, 0});
     return get_field_kernel(d, spec, out->storage, &out->pipeline);
 }
 
@@ -405,7 +417,7 @@ nfd_result evaluate_child_grids(Device& d, DeviceNetwork& net, const Level& pare
                             *g->offsets, *g->values, *g->points},
                            &push, parent.kept));
     NFD_TRY(record_field(d, net, *g->points, *g->values, g->count));
-    return NFD_SUCCESS;  // the caller records more and submits
+    return NFD_SUCCESS;  // recording: the caller may add work, then submits
 }
 
 nfd_result refine_level(Device& d, DeviceNetwork& net, const Level& parent,
@@ -443,13 +455,11 @@ nfd_result refine_level(Device& d, DeviceNetwork& net, const Level& parent,
     return d.vk->submit();
 }
 
+// Marching cubes on the children of `parent` (level 1), whose child grids `g` holds.
 nfd_result marching_cubes(Device& d, DeviceNetwork& net, const Level& parent,
-                          const LevelPush& push, float normal_step, MeshData* mesh,
-                          ExtractStats* stats) {
+                          const LevelPush& push, const ChildGrid& g, float normal_step,
+                          MeshData* mesh, ExtractStats* stats) {
     Buffers buffers(*d.vk);
-    ChildGrid g;
-    NFD_TRY(evaluate_child_grids(d, net, parent, push, buffers, &g));
-    stats->points_evaluated += g.count;
     const uint32_t k = parent.kept;
     Buffer *masks, *vertex_counts, *vertex_offsets, *triangle_counts, *triangle_offsets, *active;
     NFD_TRY(buffers.make(VkDeviceSize(k) * 8, &masks));
@@ -459,6 +469,7 @@ nfd_result marching_cubes(Device& d, DeviceNetwork& net, const Level& parent,
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &triangle_offsets));
     NFD_TRY(buffers.make(4, &active));
     Buffers scratch(*d.vk);
+    NFD_TRY(d.vk->begin());
     d.vk->fill(*active, 0);
     NFD_TRY(d.vk->dispatch(d.mc_classify,
                            {*parent.bits, *parent.prefix, *parent.list, *parent.corners, *g.owned,
@@ -472,8 +483,6 @@ nfd_result marching_cubes(Device& d, DeviceNetwork& net, const Level& parent,
     const uint32_t vertices = word(*vertex_offsets, k - 1) + word(*vertex_counts, k - 1);
     const uint32_t triangles = word(*triangle_offsets, k - 1) + word(*triangle_counts, k - 1);
     stats->active_cells = word(*active, 0);
-    // The child grid's points are no longer needed; the mesh buffers take their place.
-    d.vk->destroy(*g.points);
 
     Buffer *positions, *unit, *edges, *indices, *samples, *normals;
     NFD_TRY(buffers.make(VkDeviceSize(vertices) * 12, &positions));
@@ -571,9 +580,16 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
             NFD_TRY(refine_level(device, net, level, push, &child, &st.points_evaluated));
             level = std::move(child);
         } else {
+            Buffers grid_buffers(*device.vk);
+            ChildGrid g;
+            NFD_TRY(evaluate_child_grids(device, net, level, push, grid_buffers, &g));
+            NFD_TRY(device.vk->submit());
+            st.points_evaluated += g.count;
+            device.vk->destroy(*g.points);  // the mesh buffers take their place
             st.seconds_field = seconds_since(t_field);
             const auto t_mesh = Clock::now();
-            NFD_TRY(marching_cubes(device, net, level, push, kNormalStepCells * step, &out, &st));
+            NFD_TRY(marching_cubes(device, net, level, push, g, kNormalStepCells * step, &out,
+                                   &st));
             st.seconds_mesh = seconds_since(t_mesh);
         }
     }
