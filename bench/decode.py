@@ -28,7 +28,8 @@ NFC_DECODE = REPO / "build" / "samples" / "nfc-decode"
 
 
 def run_libnfdecode(path: Path, resolution: int, device: str) -> tuple[dict[str, float], float]:
-    """One nfc-decode run: its --stats lines as {name: seconds or count}, and peak RSS in MB."""
+    """One nfc-decode run: its --stats lines as {stage: seconds} plus counts, and peak RSS in MB.
+    `total` is bytes-in-memory to mesh-in-memory: parse + device init + field + mesh."""
     with tempfile.TemporaryDirectory() as tmp:
         out = subprocess.run(
             ["/usr/bin/time", "-f", "maxrss_kb %M", str(NFC_DECODE), str(path), "-o",
@@ -36,9 +37,11 @@ def run_libnfdecode(path: Path, resolution: int, device: str) -> tuple[dict[str,
             check=True, capture_output=True, text=True)
     stats: dict[str, float] = {}
     for line in (out.stdout + out.stderr).splitlines():
-        m = re.match(r"\s*([a-z_ ]+?)\s*[:=]\s*([0-9.eE+-]+)", line)
+        m = re.match(r"([a-z_ ]+?)\s+([0-9.]+)( ms)?\b", line)
         if m:
-            stats[m.group(1).strip().replace(" ", "_")] = float(m.group(2))
+            scale = 1e-3 if m.group(3) else 1.0
+            stats[m.group(1).strip().replace(" ", "_")] = float(m.group(2)) * scale
+    stats["total"] = sum(stats.get(k, 0.0) for k in ("parse", "device_init", "field", "mesh"))
     return stats, stats.get("maxrss_kb", float("nan")) / 1024
 
 
@@ -98,8 +101,8 @@ def main() -> None:
 
     from nfencode.bitstream import read_nfc
 
-    print(f"| file | res | libnfdecode s | field s | mesh s | peak MB | triangles | "
-          f"reference s | paper path s | vs reference | vs paper |")
+    print("| file | res | libnfdecode s | field s | mesh s | peak MB | triangles | "
+          "reference s | paper path s | vs reference | vs paper |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for path in args.files:
         nfc = read_nfc(path.read_bytes())

@@ -26,10 +26,10 @@ from nfencode.bitstream import read_nfc
 from nfencode.encoder import EncodeConfig, compress
 from nfencode.io import Shape, load_shape, save_mesh
 from nfencode.metrics import chamfer_distance, sampling_floor
-from nfencode.reference import extract_mesh
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
+NFC_DECODE = REPO / "build" / "samples" / "nfc-decode"
 
 # name -> (path under shared/data, field, name in shared/baselines)
 SHAPES: dict[str, tuple[str, str, str]] = {
@@ -53,26 +53,23 @@ class Point:
     seconds: float = float("nan")
 
 
-def as_mesh(vertices: np.ndarray, faces: np.ndarray, name: str) -> Shape:
-    return Shape(vertices=vertices.astype(np.float64), faces=faces.astype(np.int64), colors=None,
-                 name=name)
-
-
 def run_nfc(gt: Shape, field: str, width: int, preset: str, resolution: int,
             keep: Path) -> Point:
     """Encodes, keeps the file as keep/<shape>_<preset>_w<width>.nfc (bench/decode.py input),
-    decodes with the reference decoder and measures CD."""
+    decodes it with libnfdecode (nfc-decode, CPU path: the same mesh as Vulkan) and measures CD."""
     config = EncodeConfig(field=field, width=width, preset=preset, seed=SEED, quiet=True)
     t0 = time.perf_counter()
     result = compress(gt, config)
     seconds = time.perf_counter() - t0
     keep.mkdir(parents=True, exist_ok=True)
-    (keep / f"{gt.name}_{preset}_w{width}.nfc").write_bytes(result.data)
-    nfc = read_nfc(result.data)
-    if nfc.geometry.field_type != 0:  # UDF meshing is a later issue: report size and time only
+    path = keep / f"{gt.name}_{preset}_w{width}.nfc"
+    path.write_bytes(result.data)
+    if read_nfc(result.data).geometry.field_type != 0:  # UDF meshing is a later issue
         return Point("nfc", f"{preset} w{width} udf", len(result.data), float("nan"), seconds)
-    vertices, faces, _normals, _evals = extract_mesh(nfc, resolution=resolution)
-    cd = chamfer_distance(gt, as_mesh(vertices, faces, "nfc"), seed=SEED)
+    with tempfile.TemporaryDirectory() as tmp:
+        subprocess.run([str(NFC_DECODE), str(path), "-o", f"{tmp}/mesh.ply", "--resolution",
+                        str(resolution), "--device", "cpu"], check=True, capture_output=True)
+        cd = chamfer_distance(gt, load_shape(f"{tmp}/mesh.ply"), seed=SEED)
     return Point("nfc", f"{preset} w{width}", len(result.data), cd, seconds)
 
 

@@ -26,14 +26,15 @@ layout(std430, binding = 6) readonly buffer Values { float values[]; };         
 
 // One push-constant block for every kernel of a refinement step (parent level l + 1 -> l).
 layout(push_constant) uniform LevelPush {
-    vec4 center;        // mc_emit: original = unit * scale + center.xyz
+    vec4 center;        // mc_vertices: original = unit * scale + center.xyz
     uint parent_cells;  // cells per axis of the parent level
     uint child_cells;   // of the child level: 2 * parent_cells or one less (the last is dropped)
-    uint count;         // invocations: kept parents, or kept children for gather_corners
+    uint count;         // invocations: kept parents (kept children: gather_corners; vertices:
+                        // mc_vertices)
     uint child_level;   // l: child-grid point v is fine vertex v << l
     float step;         // fine cell edge, 2.0f / resolution
     float threshold;    // refine_cells: the activity threshold of a child cell
-    float scale;        // mc_emit
+    float scale;        // mc_vertices
 } push;
 
 vec3 child_point(uvec3 v) {
@@ -63,8 +64,8 @@ uint kept_rank(uint c) {
 // The kept level-r cell with the smallest linear index whose closed box contains the point n / s
 // (in units of level-r cells; s = 2 for child-grid points, 4 for midpoints of child-grid edges).
 // Along an axis the point lies inside one cell, or on the face between two when n % s == 0.
-// Callers pass points of a kept cell, so one exists.
-uvec3 owner_cell(uvec3 n, uint s, uint r) {
+// False when no such cell is kept.
+bool find_owner(uvec3 n, uint s, uint r, out uvec3 owner) {
     uvec3 q = n / s;
     uvec3 lo = q, hi = q;
     for (int a = 0; a < 3; ++a) {
@@ -76,8 +77,18 @@ uvec3 owner_cell(uvec3 n, uint s, uint r) {
     for (uint z = lo.z; z <= hi.z; ++z)
         for (uint y = lo.y; y <= hi.y; ++y)
             for (uint x = lo.x; x <= hi.x; ++x)
-                if (is_kept(cell_index(uvec3(x, y, z), r))) return uvec3(x, y, z);
-    return lo;
+                if (is_kept(cell_index(uvec3(x, y, z), r))) {
+                    owner = uvec3(x, y, z);
+                    return true;
+                }
+    owner = lo;
+    return false;
+}
+// For points of a kept cell, where an owner exists.
+uvec3 owner_cell(uvec3 n, uint s, uint r) {
+    uvec3 o;
+    find_owner(n, s, r, o);
+    return o;
 }
 
 // Value at point l of the child grid of kept cell p (rank k) at level r.

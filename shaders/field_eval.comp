@@ -7,7 +7,12 @@
 // POINTS x 4 multiply-adds. Network sizes are specialization constants so loop bounds are
 // constants, without unrolling whole layers. Measured on 2-core llvmpipe, width 32, 1M points,
 // CPU time: this shape 0.9 s; outputs unrolled with inputs read by constant index 2.1 s (and a
-// 25 s compile); activations in named variables with fully unrolled layers 3.3 s.
+// 25 s compile); activations in named variables with fully unrolled layers 3.3 s. Later tries
+// (1M points, wall with about one core free; this shape 1.0 s): [[unroll]] on the input and point
+// loops, 0.9 s after a 40 s compile; whole layers unrolled at 2 or 4 points per invocation, 6 s
+// and 3 s after 45-67 s compiles; 4 or 16 points per invocation 1.3 s / 1.0 s; local size 8 or 64
+// no change. A constant in place of the `ping`/`pong` reads (which also lets the compiler drop
+// the encoding and layer 0) gives 0.3 s: the per-lane gathers at loop-counter indices dominate.
 //
 // Weight layout (written by gpu_decode.cpp): per layer, rows of `in4` vec4s, the output padded to
 // a multiple of 4 with zero rows, then the bias as out4 vec4s. Layer 0's columns are permuted to
@@ -35,9 +40,6 @@ layout(constant_id = 12) const uint MAX4 = 25;       // widest layer input/outpu
 layout(constant_id = 13) const uint POINTS = 8;      // points per invocation
 layout(local_size_x_id = 14) in;
 layout(constant_id = 14) const uint LOCAL_SIZE = 32;
-// Evaluate point i at the i % 6-th central-difference sample around point i / 6 (+x, -x, +y, -y,
-// +z, -z by push.normal_step) instead of at point i: vertex normals need no sample buffer.
-layout(constant_id = 15) const bool CENTRAL_DIFFERENCES = false;
 
 const uint ENC4 = 1 + 6 * FREQ4;
 
@@ -60,7 +62,7 @@ WEIGHT_BLOCK(8, layer5)
 WEIGHT_BLOCK(9, layer6)
 WEIGHT_BLOCK(10, layer7)
 
-layout(push_constant) uniform Push { uint count; float normal_step; } push;
+layout(push_constant) uniform Push { uint count; } push;
 
 vec4 ping[POINTS * MAX4];
 vec4 pong[POINTS * MAX4];
@@ -100,13 +102,7 @@ void main() {
     // Positional encoding into ping; points past the end repeat the last one (results dropped).
     for (uint p = 0; p < POINTS; ++p) {
         uint i = min(first + p, push.count - 1);
-        uint j = CENTRAL_DIFFERENCES ? i / 6 : i;
-        vec3 u = vec3(points[3 * j], points[3 * j + 1], points[3 * j + 2]);
-        if (CENTRAL_DIFFERENCES) {
-            uint axis = (i % 6) / 2;
-            precise float moved = u[axis] + ((i & 1) == 0 ? push.normal_step : -push.normal_step);
-            u[axis] = moved;
-        }
+        vec3 u = vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
         ping[p * MAX4] = vec4(u, 0.0);
         for (uint b = 0; b < FREQ4; ++b) {
             vec4 f = frequencies[b];

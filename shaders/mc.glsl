@@ -15,6 +15,10 @@
 // triangle_count[256], then kEdgeCorners[12][2].
 layout(std430, binding = 7) readonly buffer Tables { int mc_tables[]; };
 layout(std430, binding = 8) buffer EdgeMasks { uvec2 edge_masks[]; };  // owned crossed edges
+// Each parent's child grid (27 values, 0 where a point does not exist), written by mc_classify
+// from the level's sparse storage once, so that later kernels read any parent's values with one
+// load.
+layout(std430, binding = 9) buffer ChildGrids { float child_grids[]; };
 
 int mc_triangle_edge(uint cube_case, uint i) { return mc_tables[16u * cube_case + i]; }
 uint mc_triangle_count(uint cube_case) { return uint(mc_tables[4096u + cube_case]); }
@@ -43,13 +47,60 @@ uint mask_rank(uvec2 mask, uint id) {  // set bits below id
 }
 
 float grid[27];  // the current parent's child grid (0 where a point does not exist)
-void load_grid(uvec3 p, uint k, uint r) {
+void load_grid(uvec3 p, uint k, uint r) {  // mc_classify: from the sparse storage
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, lv, r) : 0.0;
+        child_grids[27u * k + l] = grid[l];
     }
 }
+void reload_grid(uint k) {  // mc_emit: from child_grids
+    for (uint l = 0u; l < 27u; ++l) grid[l] = child_grids[27u * k + l];
+}
 bool inside(uvec3 l) { return grid[local_index(l)] < 0.0; }
+
+// The value at child-grid point w (which may lie one step outside the grid), if it was evaluated:
+// from kept parent p's (rank k) child grid when its box contains w, else from another kept one.
+bool grid_value(ivec3 w, uvec3 p, uint k, uint r, out float f) {
+    if (any(lessThan(w, ivec3(0))) || !child_point_exists(uvec3(w))) return false;
+    ivec3 l = w - 2 * ivec3(p);
+    if (all(greaterThanEqual(l, ivec3(0))) && all(lessThanEqual(l, ivec3(2)))) {
+        f = child_grids[27u * k + local_index(uvec3(l))];
+        return true;
+    }
+    uvec3 o;  // any kept parent whose box contains w holds its value
+    if (!find_owner(uvec3(w), 2u, r, o)) return false;
+    f = child_grids[27u * kept_rank(cell_index(o, r)) + local_index(uvec3(w) - 2u * o)];
+    return true;
+}
+
+// extract.h's normal: derivative along axis b at point w (value fw), in units of 1 / cell, central
+// where both neighbours were evaluated, one-sided where one was, 0 where neither (as
+// extract_cpu.cpp's grid_derivative).
+float grid_derivative(ivec3 w, float fw, uint b, uvec3 p, uint k, uint r) {
+    ivec3 e = ivec3(unit_axis(b));
+    float hi, lo;
+    bool has_hi = grid_value(w + e, p, k, r, hi);
+    bool has_lo = grid_value(w - e, p, k, r, lo);
+    precise float d = has_hi && has_lo ? 0.5 * (hi - lo) : has_hi ? hi - fw : has_lo ? fw - lo : 0.0;
+    return d;
+}
+vec3 edge_normal(uvec3 v, uint a, float fa, float fb, float t, uvec3 p, uint k, uint r) {
+    vec3 g;
+    g[a] = fb - fa;
+    for (uint b = 0u; b < 3u; ++b) {
+        if (b == a) continue;
+        float d0 = grid_derivative(ivec3(v), fa, b, p, k, r);
+        float d1 = grid_derivative(ivec3(v + unit_axis(a)), fb, b, p, k, r);
+        precise float gb = d0 + t * (d1 - d0);
+        g[b] = gb;
+    }
+    float len = sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
+    if (len > 0.0 && !isinf(len) && !isnan(len)) return g / len;
+    vec3 n = vec3(0.0);  // flat field at the vertex: its edge still tells inside from outside
+    n[a] = fa < 0.0 ? 1.0 : -1.0;
+    return n;
+}
 
 uint cube_case(uvec3 d) {  // child d of the current parent
     uint c = 0u;

@@ -1,14 +1,15 @@
 // Marching cubes, step 1: per parent, the crossed edges it owns (its vertices) and the number of
-// triangles of its children; the host prefix-sums both counts.
+// triangles of its children; the host prefix-sums both counts. Also stores the parent's child grid
+// (mc.glsl's child_grids) for mc_emit.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
 layout(local_size_x = 64) in;
-layout(std430, binding = 9) writeonly buffer VertexCounts { uint vertex_counts[]; };
-layout(std430, binding = 10) writeonly buffer TriangleCounts { uint triangle_counts[]; };
-layout(std430, binding = 11) buffer ActiveCells { uint active_cells; };  // cells with triangles
+layout(std430, binding = 10) writeonly buffer VertexCounts { uint vertex_counts[]; };
+layout(std430, binding = 11) writeonly buffer TriangleCounts { uint triangle_counts[]; };
+layout(std430, binding = 12) buffer ActiveCells { uint active_cells; };  // cells with triangles
 
 void main() {
     uint k = global_invocation_index(64);

@@ -20,7 +20,7 @@ extern const Spirv bitmap_compact;      // kept bitmap -> sorted list of cell in
 extern const Spirv scan;                // exclusive prefix sum per block, block totals
 extern const Spirv scan_add;            // adds scanned block totals back
 extern const Spirv mc_classify;         // per finest-level parent: owned edges, triangle count
-extern const Spirv mc_emit;             // vertices (edge crossings) and triangles
-extern const Spirv normals;             // normals from field samples around each vertex
+extern const Spirv mc_emit;             // per finest-level parent: vertex edges, triangles
+extern const Spirv mc_vertices;         // per vertex: position (edge crossing), normal
 
 }  // namespace nfd::shaders

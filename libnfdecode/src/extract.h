@@ -36,10 +36,13 @@ struct ExtractStats {
     double seconds_mesh = 0;        // marching cubes, welding, normals
 };
 
-// Normals are the normalised field gradient by central differences with step
-// kNormalStepCells * (fine cell edge) around each vertex; where it vanishes, the direction of the
-// vertex's grid edge from its inside to its outside corner.
-constexpr float kNormalStepCells = 0.5f;
+// Normals are the normalised gradient of the grid values, with no field evaluation of their own:
+// a crossed edge from vertex v along axis a (crossed at t) is shared by four cells that all have a
+// sign change, so the grid values around it were evaluated. Along a it is f(v + e_a) - f(v); across
+// (axis b) it is the derivative at v and at v + e_a lerped by t, each (f(w + e_b) - f(w - e_b)) / 2,
+// or one-sided where only one neighbour was evaluated (domain boundary, a cell outside the band),
+// or 0 where neither was. All in units of 1 / cell. Where the gradient vanishes: the direction of
+// the edge from its inside to its outside end.
 
 // CPU reference: coarse-to-fine evaluation + marching cubes (mc_tables.h) on the final-level cells
 // with a sign change, one welded vertex per crossed grid edge, normals as above, positions mapped

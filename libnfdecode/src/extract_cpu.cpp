@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <vector>
 
 #include "extract.h"
@@ -41,8 +40,10 @@ public:
     explicit VertexSet(uint32_t cells_per_axis)
         : side_(uint64_t(cells_per_axis) + 1), bits_((side_ * side_ * side_ + 63) / 64) {}
 
+    uint64_t side() const { return side_; }
     uint64_t index(uint32_t x, uint32_t y, uint32_t z) const { return (z * side_ + y) * side_ + x; }
     void insert(uint64_t i) { bits_[i >> 6] |= uint64_t(1) << (i & 63); }
+    bool contains(uint64_t i) const { return bits_[i >> 6] >> (i & 63) & 1; }
     void finish() {
         prefix_.resize(bits_.size());
         uint32_t total = 0;
@@ -104,6 +105,15 @@ struct Level {
     float corner(const uint32_t* cell, int c) const {
         const uint8_t* o = mc::kCornerOffset[c];
         return values[vertices.rank(vertices.index(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2]))];
+    }
+    // The value at vertex v, if v is on the grid and was evaluated (a corner of a visited cell).
+    bool find(const int64_t v[3], float* f) const {
+        for (int a = 0; a < 3; ++a)
+            if (v[a] < 0 || uint64_t(v[a]) >= vertices.side()) return false;
+        const uint64_t i = vertices.index(uint32_t(v[0]), uint32_t(v[1]), uint32_t(v[2]));
+        if (!vertices.contains(i)) return false;
+        *f = values[vertices.rank(i)];
+        return true;
     }
 };
 
@@ -168,15 +178,48 @@ std::vector<uint32_t> refine(const Grid& grid, const Level& level,
     return children;
 }
 
-struct PendingVertex {
-    float unit[3];
-    uint8_t axis;
-    bool first_inside;  // the edge runs from its inside corner to its outside one
-};
+// Derivative along axis b at vertex w (value fw) in units of 1 / cell: central where both
+// neighbours were evaluated, one-sided where one was (the domain boundary, the edge of the band).
+float grid_derivative(const Level& level, int64_t w[3], float fw, int b) {
+    float hi = 0.0f, lo = 0.0f;
+    ++w[b];
+    const bool has_hi = level.find(w, &hi);
+    w[b] -= 2;
+    const bool has_lo = level.find(w, &lo);
+    ++w[b];
+    if (has_hi && has_lo) return 0.5f * (hi - lo);
+    if (has_hi) return hi - fw;
+    if (has_lo) return fw - lo;
+    return 0.0f;
+}
 
+// extract.h's vertex normal on the grid edge from v (value fa) along `axis` (value fb), crossed at
+// t. The four cells around a crossed edge all have a sign change, so in the band the neighbour
+// values are ones already evaluated: normals cost no field evaluation.
+void edge_normal(const Level& level, const uint32_t v[3], int axis, float fa, float fb, float t,
+                 float n[3]) {
+    float g[3];
+    g[axis] = fb - fa;
+    for (int b = 0; b < 3; ++b) {
+        if (b == axis) continue;
+        int64_t w[3] = {v[0], v[1], v[2]};
+        const float d0 = grid_derivative(level, w, fa, b);
+        ++w[axis];
+        const float d1 = grid_derivative(level, w, fb, b);
+        g[b] = d0 + t * (d1 - d0);
+    }
+    const float len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    if (len > 0.0f && std::isfinite(len)) {
+        for (int a = 0; a < 3; ++a) n[a] = g[a] / len;
+    } else {  // flat field at the vertex: its edge still tells inside from outside
+        n[0] = n[1] = n[2] = 0.0f;
+        n[axis] = fa < 0.0f ? 1.0f : -1.0f;
+    }
+}
+
+// Vertices (unit frame) and normals go to `mesh`; the caller maps positions to the original frame.
 void marching_cubes(const Grid& grid, const Level& level, const std::vector<uint32_t>& cells,
-                    std::vector<PendingVertex>* vertices, std::vector<uint32_t>* indices,
-                    uint64_t* active_cells) {
+                    MeshData* mesh, uint64_t* active_cells) {
     const mc::Tables& t = mc::tables();
     constexpr uint32_t kNone = ~0u;
     // One slot per grid edge (vertex rank * 3 + axis): welding is a lookup, not a hash.
@@ -201,44 +244,17 @@ void marching_cubes(const Grid& grid, const Level& level, const std::vector<uint
                 edge_vertex[size_t(level.vertices.rank(level.vertices.index(v[0], v[1], v[2]))) *
                                 3 + size_t(axis)];
             if (slot == kNone) {
-                PendingVertex pv;
-                for (int j = 0; j < 3; ++j) pv.unit[j] = grid.coord(v[j]);
+                float u[3], n[3];
+                for (int j = 0; j < 3; ++j) u[j] = grid.coord(v[j]);
                 float t_cross = f[a] / (f[a] - f[b]);  // f[a], f[b] differ in sign
                 if (!(t_cross >= 0.0f && t_cross <= 1.0f)) t_cross = 0.5f;  // an infinite corner
-                pv.unit[axis] += t_cross * (grid.coord(v[axis] + 1) - pv.unit[axis]);
-                pv.axis = uint8_t(axis);
-                pv.first_inside = f[a] < 0.0f;
-                slot = uint32_t(vertices->size());
-                vertices->push_back(pv);
+                u[axis] += t_cross * (grid.coord(v[axis] + 1) - u[axis]);
+                edge_normal(level, v, axis, f[a], f[b], t_cross, n);
+                slot = uint32_t(mesh->positions.size() / 3);
+                mesh->positions.insert(mesh->positions.end(), u, u + 3);
+                mesh->normals.insert(mesh->normals.end(), n, n + 3);
             }
-            indices->push_back(slot);
-        }
-    }
-}
-
-void compute_normals(const Network& net, const Grid& grid, const std::vector<PendingVertex>& v,
-                     unsigned threads, std::vector<float>* normals) {
-    const float eps = kNormalStepCells * grid.step;
-    std::vector<float> diff(v.size() * 6);
-    evaluate_chunked(
-        net, diff.size(), threads,
-        [&](size_t k, float* xyz) {  // point k: vertex k / 6, axis k % 6 / 2, sign k % 2
-            const PendingVertex& p = v[k / 6];
-            std::memcpy(xyz, p.unit, sizeof p.unit);
-            xyz[k % 6 / 2] += k % 2 ? -eps : eps;
-        },
-        [&](size_t k, float value) { diff[k] = value; });
-    normals->resize(3 * v.size());
-    for (size_t i = 0; i < v.size(); ++i) {
-        float g[3];
-        for (int a = 0; a < 3; ++a) g[a] = diff[6 * i + 2 * a] - diff[6 * i + 2 * a + 1];
-        const float len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-        float* n = &(*normals)[3 * i];
-        if (len > 0.0f && std::isfinite(len)) {
-            for (int a = 0; a < 3; ++a) n[a] = g[a] / len;
-        } else {  // flat field at the vertex: its edge still tells inside from outside
-            n[0] = n[1] = n[2] = 0.0f;
-            n[v[i].axis] = v[i].first_inside ? 1.0f : -1.0f;
+            mesh->indices.push_back(slot);
         }
     }
 }
@@ -297,15 +313,10 @@ nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshD
     st.seconds_field = seconds_since(t_field);
 
     const auto t_mesh = std::chrono::steady_clock::now();
-    std::vector<PendingVertex> pending;
     MeshData out;
-    marching_cubes(grid, level, cells, &pending, &out.indices, &st.active_cells);
-    level = Level{};  // release the grid before the normal evaluations
-    compute_normals(net, grid, pending, threads, &out.normals);
-    out.positions.resize(3 * pending.size());
-    for (size_t i = 0; i < pending.size(); ++i)
-        for (int a = 0; a < 3; ++a)
-            out.positions[3 * i + a] = pending[i].unit[a] * geometry.scale + geometry.center[a];
+    marching_cubes(grid, level, cells, &out, &st.active_cells);
+    for (size_t i = 0; i < out.positions.size(); ++i)
+        out.positions[i] = out.positions[i] * geometry.scale + geometry.center[i % 3];
     st.seconds_mesh = seconds_since(t_mesh);
 
     *mesh = std::move(out);

@@ -1,8 +1,10 @@
 // CPU extraction: the generated marching-cubes table, the coarse-to-fine schedule, meshes of a
-// closed field (watertight, consistently wound, outward, on the zero set), sparse == dense, and the
-// Python reference meshes of the golden vectors.
+// closed field (watertight, consistently wound, outward, on the zero set, normals the grid
+// gradient), sparse == dense, and the Python reference meshes of the golden vectors.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <cstdio>
 
 #include "extract.h"
@@ -203,6 +205,56 @@ TEST(Extract, ClosedFieldGivesWatertightOutwardMeshOnTheZeroSet) {
             dot += fn[a] * (m.normals[3 * tri[0] + a] + m.normals[3 * tri[1] + a] + m.normals[3 * tri[2] + a]);
         ASSERT_GT(dot, 0.0) << "triangle " << t;
     }
+}
+
+// Normals cost no field evaluation: they are the grid gradient around each vertex's edge
+// (extract.h), recomputed here from fresh evaluations of the grid vertices. The blob's band keeps
+// every neighbour of a crossed edge and stays off the domain boundary: central differences only.
+TEST(Extract, NormalsAreTheGridGradientAtTheCrossing) {
+    const uint32_t r = 64;
+    const Extracted e = extract(closed_blob(), r);
+    const MeshData& m = e.mesh;
+    const float step = 2.0f / float(r);
+    auto coord = [&](int i) { return -1.0f + float(i) * step; };
+    auto f = [&](std::array<int, 3> v) {
+        const float p[3] = {coord(v[0]), coord(v[1]), coord(v[2])};
+        float value;
+        evaluate_cpu(e.geometry.network, p, 1, &value, 1);
+        return double(value);
+    };
+    size_t checked = 0;
+    for (size_t i = 0; i < m.vertex_count(); ++i) {
+        const float* p = &m.positions[3 * i];
+        std::array<int, 3> v;
+        int axis = -1;
+        for (int a = 0; a < 3; ++a) {
+            const float g = (p[a] + 1.0f) / step;
+            v[a] = int(std::lround(g));
+            if (std::fabs(g - float(v[a])) > 1e-3f) axis = a, v[a] = int(std::floor(g));
+        }
+        if (axis < 0) continue;  // on a grid vertex (t = 0 or 1): its edge is ambiguous
+        const double t = (p[axis] - coord(v[axis])) / step;
+        std::array<int, 3> end = v;
+        ++end[axis];
+        double g[3], len = 0, dot = 0;
+        g[axis] = f(end) - f(v);
+        for (int b = 0; b < 3; ++b) {
+            if (b == axis) continue;
+            auto derivative = [&](std::array<int, 3> w) {
+                std::array<int, 3> lo = w, hi = w;
+                --lo[b];
+                ++hi[b];
+                return 0.5 * (f(hi) - f(lo));
+            };
+            const double d0 = derivative(v), d1 = derivative(end);
+            g[b] = d0 + t * (d1 - d0);
+        }
+        for (int a = 0; a < 3; ++a) len += g[a] * g[a];
+        for (int a = 0; a < 3; ++a) dot += g[a] / std::sqrt(len) * m.normals[3 * i + a];
+        ASSERT_GT(dot, 0.9999) << "vertex " << i;
+        ++checked;
+    }
+    EXPECT_GT(checked, m.vertex_count() * 9 / 10);
 }
 
 TEST(Extract, SparseVisitsEverySignChangeOfTheDenseGrid) {

@@ -78,11 +78,6 @@ struct LevelPush {
     float step = 0, threshold = 0, scale = 1;
 };
 
-struct FieldPush {
-    uint32_t count;
-    float normal_step;
-};
-
 }  // namespace
 
 class Device {
@@ -98,7 +93,7 @@ public:
     std::list<FieldKernel> field_kernels;  // a list: DeviceNetwork keeps pointers into it
 
     Pipeline refine_count, refine_points, refine_cells, gather_corners, bitmap_compact;
-    Pipeline scan, scan_popcount, scan_add, mc_classify, mc_emit, normals;
+    Pipeline scan, scan_popcount, scan_add, mc_classify, mc_emit, mc_vertices;
     Buffer mc_tables;
 
     ~Device() {
@@ -106,7 +101,7 @@ public:
         for (FieldKernel& k : field_kernels) vk->destroy(k.pipeline);
         for (Pipeline* p : {&refine_count, &refine_points, &refine_cells, &gather_corners,
                             &bitmap_compact, &scan, &scan_popcount, &scan_add, &mc_classify,
-                            &mc_emit, &normals})
+                            &mc_emit, &mc_vertices})
             vk->destroy(*p);
         vk->destroy(mc_tables);
     }
@@ -131,13 +126,13 @@ nfd_result create_kernels(Device& d) {
     NFD_TRY(make(shaders::refine_points, 8, level, 64, {}, &d.refine_points));
     NFD_TRY(make(shaders::refine_cells, 8, level, 64, {}, &d.refine_cells));
     NFD_TRY(make(shaders::gather_corners, 9, level, 64, {}, &d.gather_corners));
-    NFD_TRY(make(shaders::mc_classify, 12, level, 64, {}, &d.mc_classify));
-    NFD_TRY(make(shaders::mc_emit, 15, level, 64, {}, &d.mc_emit));
+    NFD_TRY(make(shaders::mc_classify, 13, level, 64, {}, &d.mc_classify));
+    NFD_TRY(make(shaders::mc_emit, 14, level, 64, {}, &d.mc_emit));
+    NFD_TRY(make(shaders::mc_vertices, 13, level, 64, {}, &d.mc_vertices));
     NFD_TRY(make(shaders::bitmap_compact, 3, 4, 64, {}, &d.bitmap_compact));
     NFD_TRY(make(shaders::scan, 3, 4, 256, {0}, &d.scan));
     NFD_TRY(make(shaders::scan, 3, 4, 256, {1}, &d.scan_popcount));
     NFD_TRY(make(shaders::scan_add, 3, 4, 256, {}, &d.scan_add));
-    NFD_TRY(make(shaders::normals, 3, 4, 64, {}, &d.normals));
 
     // The marching-cubes tables, exactly as the CPU reference uses them (mc.glsl's layout).
     const mc::Tables& t = mc::tables();
@@ -162,8 +157,7 @@ struct DeviceNetwork {
     VkDeviceSize offset[kMaxNetworkLayers] = {}, range[kMaxNetworkLayers] = {};
     std::vector<uint32_t> specialization;
     bool storage = false;
-    const Pipeline* pipeline = nullptr;   // plain evaluation
-    const Pipeline* gradient = nullptr;   // CENTRAL_DIFFERENCES variant, made on first use
+    const Pipeline* pipeline = nullptr;
     uint32_t points_per_invocation = 1;
     DeviceNetwork() = default;
     DeviceNetwork(const DeviceNetwork&) = delete;
@@ -197,7 +191,7 @@ nfd_result get_field_kernel(Device& d, const std::vector<uint32_t>& specializati
                      VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER};
     desc.bindings.resize(3 + kMaxNetworkLayers, storage ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
                                                         : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
-    desc.push_constant_bytes = sizeof(FieldPush);
+    desc.push_constant_bytes = 4;  // the point count
     desc.local_size = kFieldLocalSize;
     desc.local_size_id = 14;
     desc.specialization = specialization;
@@ -277,26 +271,19 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     spec = {freq4, layers};
     spec.insert(spec.end(), out4.begin(), out4.end());
     spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), max4, out->points_per_invocation,
-                             kFieldLocalSize, 0});
+                             kFieldLocalSize});
     return get_field_kernel(d, spec, out->storage, &out->pipeline);
 }
 
-// Records the evaluation of `count` points (or, with `normal_step` > 0, of the six central-
-// difference samples around each of count / 6 points) into `values`.
-nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points,
-                        const Buffer& values, uint32_t count, float normal_step = 0.0f) {
+// Records the evaluation of `count` points into `values`.
+nfd_result record_field(Device& d, const DeviceNetwork& net, const Buffer& points,
+                        const Buffer& values, uint32_t count) {
     const Buffer& w = net.weights;
     auto layer = [&](uint32_t l) { return BufferRange(w, net.offset[l], net.range[l]); };
-    FieldPush push{count, normal_step};
-    if (normal_step > 0 && !net.gradient) {
-        std::vector<uint32_t> spec = net.specialization;
-        spec.back() = 1;  // CENTRAL_DIFFERENCES
-        NFD_TRY(get_field_kernel(d, spec, net.storage, &net.gradient));
-    }
-    return d.vk->dispatch(normal_step > 0 ? *net.gradient : *net.pipeline,
+    return d.vk->dispatch(*net.pipeline,
                           {points, values, net.frequencies, layer(0), layer(1), layer(2), layer(3),
                            layer(4), layer(5), layer(6), layer(7)},
-                          &push, div_up(count, net.points_per_invocation));
+                          &count, div_up(count, net.points_per_invocation));
 }
 
 // Records an exclusive prefix sum of `count` words of `in` (or of their popcounts) into `out`.
@@ -455,14 +442,17 @@ nfd_result refine_level(Device& d, DeviceNetwork& net, const Level& parent,
     return d.vk->submit();
 }
 
-// Marching cubes on the children of `parent` (level 1), whose child grids `g` holds.
-nfd_result marching_cubes(Device& d, DeviceNetwork& net, const Level& parent,
-                          const LevelPush& push, const ChildGrid& g, float normal_step,
-                          MeshData* mesh, ExtractStats* stats) {
+// Marching cubes on the children of `parent` (level 1), whose child grids `g` holds; releases
+// parent.corners and g's buffers on the way.
+nfd_result marching_cubes(Device& d, const Level& parent, const LevelPush& push,
+                          const ChildGrid& g, MeshData* mesh, ExtractStats* stats) {
     Buffers buffers(*d.vk);
     const uint32_t k = parent.kept;
-    Buffer *masks, *vertex_counts, *vertex_offsets, *triangle_counts, *triangle_offsets, *active;
+    if (k >= 1u << 26) return NFD_ERROR_LIMIT_EXCEEDED;  // mc_emit's vertex records: k << 6 | edge
+    Buffer *masks, *grids, *vertex_counts, *vertex_offsets, *triangle_counts, *triangle_offsets,
+        *active;
     NFD_TRY(buffers.make(VkDeviceSize(k) * 8, &masks));
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 27 * 4, &grids));
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &vertex_counts));
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &vertex_offsets));
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &triangle_counts));
@@ -473,7 +463,7 @@ nfd_result marching_cubes(Device& d, DeviceNetwork& net, const Level& parent,
     d.vk->fill(*active, 0);
     NFD_TRY(d.vk->dispatch(d.mc_classify,
                            {*parent.bits, *parent.prefix, *parent.list, *parent.corners, *g.owned,
-                            *g.offsets, *g.values, d.mc_tables, *masks, *vertex_counts,
+                            *g.offsets, *g.values, d.mc_tables, *masks, *grids, *vertex_counts,
                             *triangle_counts, *active},
                            &push, k));
     NFD_TRY(record_scan(d, scratch, *vertex_counts, *vertex_offsets, k, false));
@@ -483,22 +473,27 @@ nfd_result marching_cubes(Device& d, DeviceNetwork& net, const Level& parent,
     const uint32_t vertices = word(*vertex_offsets, k - 1) + word(*vertex_counts, k - 1);
     const uint32_t triangles = word(*triangle_offsets, k - 1) + word(*triangle_counts, k - 1);
     stats->active_cells = word(*active, 0);
+    // mc_emit and mc_vertices read the child grids from `grids`: the sparse storage goes before
+    // the mesh buffers are made (peak memory), and its bindings take any live buffer.
+    for (Buffer* b : {parent.corners, g.owned, g.offsets, g.values}) d.vk->destroy(*b);
 
-    Buffer *positions, *unit, *edges, *indices, *samples, *normals;
-    NFD_TRY(buffers.make(VkDeviceSize(vertices) * 12, &positions));
-    NFD_TRY(buffers.make(VkDeviceSize(vertices) * 12, &unit));
+    Buffer *edges, *positions, *normals, *indices;
     NFD_TRY(buffers.make(VkDeviceSize(vertices) * 4, &edges));
-    NFD_TRY(buffers.make(VkDeviceSize(triangles) * 12, &indices));
-    NFD_TRY(buffers.make(VkDeviceSize(vertices) * 24, &samples));
+    NFD_TRY(buffers.make(VkDeviceSize(vertices) * 12, &positions));
     NFD_TRY(buffers.make(VkDeviceSize(vertices) * 12, &normals));
+    NFD_TRY(buffers.make(VkDeviceSize(triangles) * 12, &indices));
     NFD_TRY(d.vk->begin());
     NFD_TRY(d.vk->dispatch(d.mc_emit,
-                           {*parent.bits, *parent.prefix, *parent.list, *parent.corners, *g.owned,
-                            *g.offsets, *g.values, d.mc_tables, *masks, *vertex_offsets,
-                            *triangle_offsets, *positions, *unit, *edges, *indices},
+                           {*parent.bits, *parent.prefix, *parent.list, *masks, *masks, *masks,
+                            *masks, d.mc_tables, *masks, *grids, *vertex_offsets,
+                            *triangle_offsets, *edges, *indices},
                            &push, k));
-    NFD_TRY(record_field(d, net, *unit, *samples, 6 * vertices, normal_step));
-    NFD_TRY(d.vk->dispatch(d.normals, {*samples, *edges, *normals}, &vertices, vertices));
+    LevelPush per_vertex = push;
+    per_vertex.count = vertices;
+    NFD_TRY(d.vk->dispatch(d.mc_vertices,
+                           {*parent.bits, *parent.prefix, *parent.list, *masks, *masks, *masks,
+                            *masks, d.mc_tables, *masks, *grids, *edges, *positions, *normals},
+                           &per_vertex, vertices));
     NFD_TRY(d.vk->submit());
 
     try {
@@ -588,8 +583,7 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
             device.vk->destroy(*g.points);  // the mesh buffers take their place
             st.seconds_field = seconds_since(t_field);
             const auto t_mesh = Clock::now();
-            NFD_TRY(marching_cubes(device, net, level, push, g, kNormalStepCells * step, &out,
-                                   &st));
+            NFD_TRY(marching_cubes(device, level, push, g, &out, &st));
             st.seconds_mesh = seconds_since(t_mesh);
         }
     }

@@ -1,0 +1,41 @@
+// Marching cubes, step 3: per vertex, its position (the edge crossing, interpolated linearly, in
+// the original frame) and normal (mc.glsl's edge_normal), from the edge mc_emit recorded. One
+// vertex per invocation keeps the SIMD lanes of CPU implementations busy. Arithmetic as in
+// extract_cpu.cpp, so that both paths place vertices identically for identical field values.
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+#include "extract.glsl"
+#include "mc.glsl"
+layout(local_size_x = 64) in;
+layout(std430, binding = 10) readonly buffer VertexEdges { uint vertex_edges[]; };
+layout(std430, binding = 11) writeonly buffer Positions { float positions[]; };
+layout(std430, binding = 12) writeonly buffer Normals { float normals[]; };
+
+void main() {
+    uint vertex = global_invocation_index(64);
+    if (vertex >= push.count) return;
+    uint r = push.parent_cells;
+    uint k = vertex_edges[vertex] >> 6;
+    uvec3 p = cell_coords(kept_cells[k], r);
+    uint a;
+    uvec3 s;
+    edge_from_id(vertex_edges[vertex] & 63u, a, s);
+    uvec3 v = 2u * p + s;
+    float fa = child_grids[27u * k + local_index(s)];
+    float fb = child_grids[27u * k + local_index(s + unit_axis(a))];
+    vec3 u = child_point(v);
+    precise float t = fa / (fa - fb);
+    if (!(t >= 0.0 && t <= 1.0)) t = 0.5;  // an infinite corner
+    float ub = fine_coordinate(v[a] + 1u, push.step);
+    precise float along = u[a] + t * (ub - u[a]);
+    u[a] = along;
+    precise vec3 x = u * push.scale + push.center.xyz;
+    positions[3u * vertex] = x.x;
+    positions[3u * vertex + 1u] = x.y;
+    positions[3u * vertex + 2u] = x.z;
+    vec3 n = edge_normal(v, a, fa, fb, t, p, k, r);
+    normals[3u * vertex] = n.x;
+    normals[3u * vertex + 1u] = n.y;
+    normals[3u * vertex + 2u] = n.z;
+}
