@@ -58,15 +58,12 @@ def time_paper_path(nfc, resolution: int) -> float:
     import torch
     from skimage.measure import marching_cubes
 
-    from nfencode.bitstream import positional_frequencies
     from nfencode.reference import dequantize
 
     t0 = time.perf_counter()
     net = dequantize(nfc.geometry.network)
-    block = nfc.geometry.network
-    freqs = torch.from_numpy(positional_frequencies(block.num_frequencies, block.frequency_base))
-    layers = [(torch.from_numpy(np.asarray(w, np.float32)), torch.from_numpy(np.asarray(b, np.float32)))
-              for w, b in net.layers]
+    freqs = torch.from_numpy(net.frequencies)
+    layers = [(torch.from_numpy(w), torch.from_numpy(b)) for w, b in zip(net.weights, net.biases)]
     axis = torch.linspace(-1.0, 1.0, resolution + 1)
     values = torch.empty((resolution + 1) ** 3)
     grid = torch.stack(torch.meshgrid(axis, axis, axis, indexing="ij"), -1).reshape(-1, 3)
@@ -78,10 +75,15 @@ def time_paper_path(nfc, resolution: int) -> float:
             for i, (w, b) in enumerate(layers):
                 h = h @ w.T + b
                 if i < len(layers) - 1:
-                    h = torch.sin(block.omega0 * h)
+                    h = torch.sin(float(net.omega0) * h)
             values[start:start + len(u)] = h[:, 0]
     marching_cubes(values.reshape((resolution + 1,) * 3).numpy(), level=0.0)
     return time.perf_counter() - t0
+
+
+def opt(x: float, spec: str, suffix: str = "") -> str:
+    """A measurement, or a dash for a path that was not run."""
+    return "—" if np.isnan(x) else f"{x:{spec}}{suffix}"
 
 
 def median_of(fn, repeats: int) -> float:
@@ -95,6 +97,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--device", default="vulkan", choices=["vulkan", "cpu", "auto"])
     parser.add_argument("--no-paper", action="store_true", help="skip the dense PyTorch path")
+    parser.add_argument("--no-reference", action="store_true", help="skip the numpy reference")
     args = parser.parse_args()
     if not NFC_DECODE.exists():
         sys.exit(f"decode.py: error: {NFC_DECODE} not built (run scripts/setup.sh)")
@@ -113,12 +116,13 @@ def main() -> None:
             mesh = statistics.median(r[0].get("mesh", float("nan")) for r in runs)
             peak = max(r[1] for r in runs)
             tris = runs[0][0].get("triangles", float("nan"))
-            ref = median_of(lambda: time_reference(nfc, res), 1 if res > 256 else args.repeats)
+            ref = float("nan") if args.no_reference else median_of(
+                lambda: time_reference(nfc, res), 1 if res > 256 else args.repeats)
             paper = float("nan") if args.no_paper else median_of(
                 lambda: time_paper_path(nfc, res), 1 if res > 256 else args.repeats)
             print(f"| {path.name} | {res} | {total:.3f} | {field:.3f} | {mesh:.3f} | {peak:.0f} | "
-                  f"{tris:.0f} | {ref:.2f} | {paper:.2f} | {ref / total:.1f}x | "
-                  f"{paper / total:.1f}x |", flush=True)
+                  f"{tris:.0f} | {opt(ref, '.2f')} | {opt(paper, '.2f')} | "
+                  f"{opt(ref / total, '.1f', 'x')} | {opt(paper / total, '.1f', 'x')} |", flush=True)
     print(f"\npython peak RSS (reference + paper paths): "
           f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
 

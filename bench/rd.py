@@ -98,11 +98,25 @@ def run_draco(gt: Shape) -> list[Point]:
     return points
 
 
-def gpcc_points(baseline_name: str) -> list[Point]:
+def shared_baseline(baseline_name: str, codec: str) -> list[Point]:
+    """Rows of ../shared/baselines/baselines.csv (same metric, decoded surface vs ground truth)."""
     rows = csv.DictReader(open(SHARED / "baselines" / "baselines.csv"))
-    return [Point("gpcc", f"{r['mode']} {r['param']}", int(r["bytes"]), float(r["cd_surf"]))
+    return [Point(codec, f"{r['mode']} {r['param']} (shared)", int(r["bytes"]),
+                  float(r["cd_surf"]))
             for r in rows
-            if r["shape"] == baseline_name and r["codec"] == "gpcc" and r["cd_surf"]]
+            if r["shape"] == baseline_name and r["codec"] == codec and r["cd_surf"]]
+
+
+def load_csv(path: Path) -> tuple[list[Point], list[Point]]:
+    """nfc and own-Draco points of an earlier run (to re-render tables without re-encoding)."""
+    ours, draco = [], []
+    for r in csv.DictReader(open(path)):
+        p = Point(r["codec"], r["setting"], int(r["bytes"]), float(r["cd"]), float(r["encode_s"]))
+        if r["codec"] == "nfc":
+            ours.append(p)
+        elif r["codec"] == "draco" and "(shared)" not in r["setting"]:
+            draco.append(p)
+    return ours, draco
 
 
 def lower_envelope(points: list[Point]) -> list[Point]:
@@ -115,16 +129,17 @@ def lower_envelope(points: list[Point]) -> list[Point]:
 
 
 def interpolate_cd(envelope: list[Point], size: int) -> float | None:
-    """CD of an envelope at `size` bytes, linear in log(bytes)-log(CD); None outside its range."""
+    """CD of an envelope at `size` bytes, linear in log(bytes)-log(CD). Above its largest file the
+    envelope's best CD (more bytes never hurt); None below its smallest file (it cannot get there)."""
     xs = np.log([p.bytes for p in envelope])
-    if not len(xs) or np.log(size) < xs[0] or np.log(size) > xs[-1]:
+    if not len(xs) or np.log(size) < xs[0]:
         return None
     return float(np.exp(np.interp(np.log(size), xs, np.log([p.cd for p in envelope]))))
 
 
 def verdict(cd: float, draco: float | None, gpcc: float | None) -> str:
-    wins = [name for name, other in (("Draco", draco), ("G-PCC", gpcc))
-            if other is None or cd < other]
+    wins = [name + (" (none this small)" if other is None else "")
+            for name, other in (("Draco", draco), ("G-PCC", gpcc)) if other is None or cd < other]
     return "nfc beats " + " and ".join(wins) if wins else "baselines win"
 
 
@@ -172,6 +187,10 @@ def main() -> None:
                         choices=["fast", "paper"])
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--no-draco", action="store_true", help="skip the Draco runs")
+    parser.add_argument("--append", action="store_true",
+                        help="add to the nfc/Draco points of bench/out/rd_<shape>.csv")
+    parser.add_argument("--from-csv", action="store_true",
+                        help="no encoding: re-render tables and plots from bench/out/rd_<shape>.csv")
     args = parser.parse_args()
 
     out_dir = REPO / "bench" / "out"
@@ -181,11 +200,18 @@ def main() -> None:
         gt = load_shape(str(SHARED / "data" / rel))
         gt.name = shape
         floor = sampling_floor(gt, seed=SEED)
-        ours = [run_nfc(gt, field, w, p, args.resolution, out_dir / "nfc")
-                for p in args.presets for w in args.widths]
-        draco = [] if args.no_draco else run_draco(gt)
-        gpcc = gpcc_points(baseline_name)
-        draco_env, gpcc_env = lower_envelope(draco), lower_envelope(gpcc)
+        csv_path = out_dir / f"rd_{shape}.csv"
+        ours, draco = load_csv(csv_path) if args.from_csv or args.append else ([], [])
+        if not args.from_csv:
+            ours += [run_nfc(gt, field, w, p, args.resolution, out_dir / "nfc")
+                     for p in args.presets for w in args.widths]
+            if not args.no_draco and not draco:
+                draco = run_draco(gt)
+        # The Draco envelope takes our own decimation runs and the shared measurements together:
+        # the stronger baseline at every size.
+        draco_all = draco + shared_baseline(baseline_name, "draco")
+        gpcc = shared_baseline(baseline_name, "gpcc")
+        draco_env, gpcc_env = lower_envelope(draco_all), lower_envelope(gpcc)
 
         print(f"\n### {shape} ({rel}, {field.upper()}; floor {floor:.4g}, seed {SEED})\n")
         print("| setting | bytes | CD | excess | Draco env. @bytes | G-PCC env. @bytes | "
@@ -196,13 +222,13 @@ def main() -> None:
             v = "—" if np.isnan(p.cd) else verdict(p.cd, d, g)
             print(f"| {p.setting} | {p.bytes} | {fmt(p.cd)} | {fmt(p.cd - floor)} | {fmt(d)} | "
                   f"{fmt(g)} | {p.seconds:.1f} | {v} |")
-        with open(out_dir / f"rd_{shape}.csv", "w", newline="") as f:
+        with open(csv_path, "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(["codec", "setting", "bytes", "cd", "encode_s", "floor"])
-            for p in ours + draco + gpcc:
+            for p in ours + draco_all + gpcc:
                 w.writerow([p.codec, p.setting, p.bytes, f"{p.cd:.6g}", f"{p.seconds:.2f}",
                             f"{floor:.6g}"])
-        plot(shape, floor, ours, draco, gpcc, REPO / "bench" / "plots" / f"rd_{shape}.png")
+        plot(shape, floor, ours, draco_all, gpcc, REPO / "bench" / "plots" / f"rd_{shape}.png")
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 status=0
+export NFD_REQUIRE_VULKAN=1  # lavapipe is installed: GPU tests must run, not skip
 ctest --test-dir build --output-on-failure -j2 || status=1
 .venv/bin/python -m pytest tests/python -q || status=1
 exit $status

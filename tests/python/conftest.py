@@ -21,7 +21,8 @@ from nfencode.bitstream import (
     write_nfc,
 )
 
-SHARED_DATA = Path("/work/shared/data")
+SHARED = Path(__file__).resolve().parents[2].parent / "shared"  # beside the checkout
+SHARED_DATA = SHARED / "data"
 
 
 def random_network(

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from conftest import SHARED_DATA
+from conftest import SHARED, SHARED_DATA
 
 from nfencode.io import Shape, load_shape
 from nfencode.metrics import chamfer_distance, color_psnr, sampling_floor
@@ -83,7 +83,7 @@ def test_large_point_clouds_are_subsampled() -> None:
 
 def test_floor_matches_the_shared_baselines() -> None:
     path = SHARED_DATA / "stanford" / "armadillo_remeshed_odedstein.obj.gz"
-    floors = Path("/work/shared/baselines/floors.csv")
+    floors = SHARED / "baselines" / "floors.csv"
     if not path.exists() or not floors.exists():
         pytest.skip("shared data not available")
     expected = {row["shape"]: float(row["cd_floor"]) for row in csv.DictReader(floors.open())}["armadillo"]
