@@ -168,6 +168,7 @@ def plot(shape: str, floor: float, ours: list[Point], draco: list[Point], gpcc: 
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlim(200, 40000)
+    ax.set_ylim(0.9 * floor, 0.03)
     ax.set_xlabel("bytes")
     ax.set_ylabel("Chamfer distance (unit ball)")
     ax.set_title(shape)
