@@ -4,6 +4,7 @@
 #include <brotli/encode.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -12,9 +13,11 @@
 #include <fstream>
 #include <map>
 #include <random>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -320,6 +323,54 @@ inline MeshData read_ply(const std::string& path) {
     }
     if (!in) throw std::runtime_error("short PLY " + path);
     return m;
+}
+
+// Maps every vertex of `a` to the nearest vertex of `b` (grid hash, cells of `cell`), or -1 when
+// none lies within `tolerance`.
+inline std::vector<int64_t> match_vertices(const MeshData& a, const MeshData& b, float cell,
+                                           float tolerance) {
+    auto key = [cell](const float* p, int dx, int dy, int dz) {
+        const int64_t x = int64_t(std::floor(p[0] / cell)) + dx, y = int64_t(std::floor(p[1] / cell)) + dy,
+                      z = int64_t(std::floor(p[2] / cell)) + dz;
+        return (x * 73856093) ^ (y * 19349663) ^ (z * 83492791);
+    };
+    std::unordered_multimap<int64_t, size_t> grid;
+    for (size_t i = 0; i < b.vertex_count(); ++i) grid.emplace(key(&b.positions[3 * i], 0, 0, 0), i);
+    std::vector<int64_t> match(a.vertex_count(), -1);
+    for (size_t i = 0; i < a.vertex_count(); ++i) {
+        const float* p = &a.positions[3 * i];
+        float best = tolerance;
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    auto range = grid.equal_range(key(p, dx, dy, dz));
+                    for (auto it = range.first; it != range.second; ++it) {
+                        const float* q = &b.positions[3 * it->second];
+                        const float d = std::sqrt((p[0] - q[0]) * (p[0] - q[0]) +
+                                                  (p[1] - q[1]) * (p[1] - q[1]) +
+                                                  (p[2] - q[2]) * (p[2] - q[2]));
+                        if (d <= best) best = d, match[i] = int64_t(it->second);
+                    }
+                }
+    }
+    return match;
+}
+
+// Triangles as sorted index triples after mapping a's vertices onto b's: equal multisets mean the
+// same triangles; the rotation that puts the smallest index first also keeps the winding.
+inline std::multiset<std::array<int64_t, 3>> triangles(const MeshData& m,
+                                                      const std::vector<int64_t>* map) {
+    std::multiset<std::array<int64_t, 3>> out;
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+        std::array<int64_t, 3> v;
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t i = m.indices[3 * t + k];
+            v[k] = map ? (*map)[i] : int64_t(i);
+        }
+        std::rotate(v.begin(), std::min_element(v.begin(), v.end()), v.end());
+        out.insert(v);
+    }
+    return out;
 }
 
 // Every undirected edge used by exactly two triangles, once in each direction: closed, manifold

@@ -121,9 +121,10 @@ typedef struct nfd_context_options {
 
 /* options may be NULL (all defaults). Creating a Vulkan device compiles the pipelines; later
  * contexts reuse the driver's pipeline cache where it has one.
- * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (out_context NULL, unknown device kind, or
- * `adopt` with NFD_DEVICE_CPU); NFD_ERROR_DEVICE_UNAVAILABLE (VULKAN requested, or a device to
- * adopt given, and no usable device, or a build without Vulkan); NFD_ERROR_DEVICE;
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (out_context NULL, unknown device kind,
+ * `adopt` with NFD_DEVICE_CPU, or with a NULL handle or a queue family index that the physical
+ * device lacks or that has no compute); NFD_ERROR_DEVICE_UNAVAILABLE (VULKAN requested, or a
+ * device to adopt given, and no usable device, or a build without Vulkan); NFD_ERROR_DEVICE;
  * NFD_ERROR_OUT_OF_MEMORY. AUTO without `adopt` never fails for lack of a device: it falls back to
  * the CPU when no Vulkan device can be created or initialised. */
 nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context);

@@ -172,6 +172,14 @@ nfd_result Context::create_command_objects() {
         NFD_VK_INSTANCE_FUNCTIONS(NFD_VK_LOAD)
 #undef NFD_VK_LOAD
         if (!all) return NFD_ERROR_DEVICE_UNAVAILABLE;
+        // The host's queue family index is used for our command pool: an index the device does
+        // not have, or one without compute, is invalid usage that drivers need not catch.
+        uint32_t families = 0;
+        vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, nullptr);
+        std::vector<VkQueueFamilyProperties> family(families);
+        vkGetPhysicalDeviceQueueFamilyProperties(physical_, &families, family.data());
+        if (queue_family_ >= families || !(family[queue_family_].queueFlags & VK_QUEUE_COMPUTE_BIT))
+            return NFD_ERROR_INVALID_ARGUMENT;
     }
     bool all = true;
 #define NFD_VK_LOAD(name)                                                                    \
