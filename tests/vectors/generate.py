@@ -22,7 +22,7 @@ from nfencode.io import load_shape, save_mesh
 from nfencode.reference import dequantize, evaluate, extract_mesh
 
 HERE = Path(__file__).resolve().parent
-DATA = HERE.parents[2] / "shared" / "data"
+DATA = HERE.parents[2] / "shared" / "data"  # ../shared beside the checkout
 VECTORS = [  # name, shape, field, width, bits, epochs
     ("bunny_sdf_w16", "stanford/bun_zipper_res3.ply.gz", "sdf", 16, 8, 40),
     ("bunny_sdf_w32", "stanford/bun_zipper_res3.ply.gz", "sdf", 32, 8, 40),
