@@ -100,12 +100,26 @@ nfd_result Context::create_instance(bool enable_validation) {
     info.enabledLayerCount = have_validation ? 1 : 0;
     info.ppEnabledLayerNames = &validation;
     NFD_VK_TRY(vkCreateInstance(&info, nullptr, &instance_));
+    return load_functions(false);
+}
+
+// Resolves the instance-level (`device_level` false, through vkGetInstanceProcAddr) or device-level
+// (through vkGetDeviceProcAddr) entry points; a missing one means no usable device.
+nfd_result Context::load_functions(bool device_level) {
     bool all = true;
-#define NFD_VK_LOAD(name)                                                                    \
-    name = reinterpret_cast<PFN_##name>(get_instance_proc_addr_(instance_, #name));         \
+#define NFD_VK_LOAD_THROUGH(getter, handle, name)                                            \
+    name = reinterpret_cast<PFN_##name>(getter(handle, #name));                              \
     all &= name != nullptr;
-    NFD_VK_INSTANCE_FUNCTIONS(NFD_VK_LOAD)
-#undef NFD_VK_LOAD
+#define NFD_VK_LOAD_INSTANCE(name) NFD_VK_LOAD_THROUGH(get_instance_proc_addr_, instance_, name)
+#define NFD_VK_LOAD_DEVICE(name) NFD_VK_LOAD_THROUGH(vkGetDeviceProcAddr, device_, name)
+    if (device_level) {
+        NFD_VK_DEVICE_FUNCTIONS(NFD_VK_LOAD_DEVICE)
+    } else {
+        NFD_VK_INSTANCE_FUNCTIONS(NFD_VK_LOAD_INSTANCE)
+    }
+#undef NFD_VK_LOAD_DEVICE
+#undef NFD_VK_LOAD_INSTANCE
+#undef NFD_VK_LOAD_THROUGH
     return all ? NFD_SUCCESS : NFD_ERROR_DEVICE_UNAVAILABLE;
 }
 
@@ -165,13 +179,7 @@ nfd_result Context::create_logical_device() {
 
 nfd_result Context::create_command_objects() {
     if (!owns_device_) {  // adopted: instance-level functions come from the host's instance
-        bool all = true;
-#define NFD_VK_LOAD(name)                                                                    \
-    name = reinterpret_cast<PFN_##name>(get_instance_proc_addr_(instance_, #name));         \
-    all &= name != nullptr;
-        NFD_VK_INSTANCE_FUNCTIONS(NFD_VK_LOAD)
-#undef NFD_VK_LOAD
-        if (!all) return NFD_ERROR_DEVICE_UNAVAILABLE;
+        if (const nfd_result r = load_functions(false); r != NFD_SUCCESS) return r;
         // The host's queue family index is used for our command pool: an index the device does
         // not have, or one without compute, is invalid usage that drivers need not catch.
         uint32_t families = 0;
@@ -181,13 +189,7 @@ nfd_result Context::create_command_objects() {
         if (queue_family_ >= families || !(family[queue_family_].queueFlags & VK_QUEUE_COMPUTE_BIT))
             return NFD_ERROR_INVALID_ARGUMENT;
     }
-    bool all = true;
-#define NFD_VK_LOAD(name)                                                                    \
-    name = reinterpret_cast<PFN_##name>(vkGetDeviceProcAddr(device_, #name));               \
-    all &= name != nullptr;
-    NFD_VK_DEVICE_FUNCTIONS(NFD_VK_LOAD)
-#undef NFD_VK_LOAD
-    if (!all) return NFD_ERROR_DEVICE_UNAVAILABLE;
+    if (const nfd_result r = load_functions(true); r != NFD_SUCCESS) return r;
     if (owns_device_) vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
 
     vkGetPhysicalDeviceProperties(physical_, &properties_);

@@ -115,6 +115,7 @@ private:
     nfd_result pick_physical_device();
     nfd_result create_logical_device();
     nfd_result create_command_objects();
+    nfd_result load_functions(bool device_level);
     void barrier();
 
     void* library_ = nullptr;  // dlopen handle of the loader, when we opened it
