@@ -96,7 +96,9 @@ def fit(
     total_steps = max(1, epochs * batches_per_epoch)
     step = 0
     epoch_loss = float("nan")
-    bar = tqdm(range(epochs), desc=desc, unit="epoch", disable=quiet, leave=False, dynamic_ncols=True)
+    # disable=None: tqdm draws only on a terminal, so logs and CI output stay free of bar frames.
+    bar = tqdm(range(epochs), desc=desc, unit="epoch", disable=True if quiet else None, leave=False,
+               dynamic_ncols=True)
     for _ in bar:
         order = torch.from_numpy(draw_epoch(pool, rng))
         running = 0.0
