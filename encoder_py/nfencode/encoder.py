@@ -100,14 +100,15 @@ def compress(shape: Shape, cfg: EncodeConfig) -> EncodeResult:
         pool = build_pool(sampler, field, rng)
         model = Siren(cfg.width, "identity" if field == "sdf" else "abs", generator=generator)
         data = prepare_data(model, pool)
-        fit(model, data, pool, epochs=epochs, lr=preset.lr, cosine=preset.cosine, rng=rng, quiet=cfg.quiet)
+        fit(model, data, pool, epochs=epochs, lr=preset.lr, cosine=preset.cosine,
+            batch_size=preset.batch_size, rng=rng, quiet=cfg.quiet)
 
         # QAT; keep whichever quantized network, before or after it, validates better.
         best_loss = validation_loss(model, data, cfg.bits)
         best_layers = copy.deepcopy(model.layers)
         if preset.qat_epochs > 0:
-            fit(model, data, pool, epochs=preset.qat_epochs, lr=preset.qat_lr, cosine=True, rng=rng,
-                bits=cfg.bits, quiet=cfg.quiet, desc="qat")
+            fit(model, data, pool, epochs=preset.qat_epochs, lr=preset.qat_lr, cosine=True,
+                batch_size=preset.batch_size, rng=rng, bits=cfg.bits, quiet=cfg.quiet, desc="qat")
             qat_loss = validation_loss(model, data, cfg.bits)
             if qat_loss < best_loss:
                 best_loss, best_layers = qat_loss, model.layers

@@ -80,6 +80,7 @@ def fit(
     epochs: int,
     lr: float,
     cosine: bool,
+    batch_size: int,
     rng: np.random.Generator,
     bits: int | None = None,
     quiet: bool = False,
@@ -92,7 +93,7 @@ def fit(
     """
     transform = quantizer(bits)
     optimizer = torch.optim.Adam(model.parameters(), lr=lr)
-    batches_per_epoch = math.ceil(sum(epoch_counts(1.0)) / config.BATCH_SIZE)
+    batches_per_epoch = math.ceil(sum(epoch_counts(1.0)) / batch_size)
     total_steps = max(1, epochs * batches_per_epoch)
     step = 0
     epoch_loss = float("nan")
@@ -102,7 +103,7 @@ def fit(
     for _ in bar:
         order = torch.from_numpy(draw_epoch(pool, rng))
         running = 0.0
-        for batch in order.split(config.BATCH_SIZE):
+        for batch in order.split(batch_size):
             if cosine:
                 for group in optimizer.param_groups:
                     group["lr"] = 0.5 * lr * (1.0 + math.cos(math.pi * step / total_steps))
