@@ -1,41 +1,30 @@
-// Sparse coarse-to-fine field sampling and marching cubes: the definitions shared by the CPU
-// reference (extract_cpu.cpp) and the GPU path (gpu/), so that both visit the same cells.
+// The meshers over the sparse grid (grid.h): marching cubes of an SDF, pseudo-signed marching
+// cubes of a UDF. Shared definitions of the CPU reference (mesh_sdf_cpu.cpp, mesh_udf_cpu.cpp),
+// the GPU path (gpu/) and the numpy reference (encoder_py/nfencode/reference.py): all three visit
+// the same cells, use the same generated table (mc_tables.h) and produce the same topology.
 #pragma once
 #include <cstdint>
 
+#include "grid.h"
 #include "mesh.h"
 #include "network.h"
 #include "nfdecode/nfdecode.h"
 
 namespace nfd {
 
-// Grid of `resolution` cells per axis over the unit frame [-1, 1]^3: vertex i sits at
-// -1 + 2 i / resolution (computed in f32 as -1.0f + float(i) * (2.0f / float(resolution))).
-// Refinement halves the cell size from coarse_resolution() up: level l (0 = finest, up to
-// refinement_levels()) has ceil(resolution / 2^l) cells per axis, each 2^l fine cells wide, and
-// its vertices are the fine vertices whose indices are multiples of 2^l. When 2^l does not divide
-// the resolution the last cell reaches past u = 1, where the field is still defined; children
-// starting at or past fine index `resolution` are dropped, so level 0 is exactly the fine grid.
-// Any resolution works (not only c * 2^k), and no level is denser than the coarsest one needs.
-uint32_t coarse_resolution(uint32_t resolution);  // ceil(resolution / 2^refinement_levels())
-// The largest l with ceil(resolution / 2^l) >= 32, else 0: coarser grids would prune nothing for
-// d* = 0.1, since the keep test below only rejects cells whose half-diagonal is well under d*.
-uint32_t refinement_levels(uint32_t resolution);
-
-// A cell of edge length h (unit frame) is kept for refinement when its corner values change sign
-// or when min |f| over its corners <= kLipschitzMargin * h * sqrt(3) / 2: a surface point inside the
-// cell is within h*sqrt(3)/2 of its nearest corner, and the margin covers a network whose gradient
-// norm exceeds 1 (a true distance field has exactly 1).
-constexpr float kLipschitzMargin = 2.0f;
-bool cell_may_contain_surface(const float corner_values[8], float h);
-
 struct ExtractStats {
-    uint64_t points_evaluated = 0;  // field evaluations over all levels
-    uint64_t active_cells = 0;      // cells with a sign change at the final level
-    double seconds_field = 0;       // coarse-to-fine evaluation
-    double seconds_mesh = 0;        // marching cubes, welding, normals
+    uint64_t points_evaluated = 0;     // field evaluations over all levels (values only)
+    uint64_t gradients_evaluated = 0;  // value + gradient evaluations (UDF)
+    uint64_t active_cells = 0;         // finest-level cells that produced triangles
+    double seconds_field = 0;          // coarse-to-fine evaluation (the grid stage)
+    double seconds_mesh = 0;           // marching cubes, welding, normals
 };
 
+// ---- SDF ----------------------------------------------------------------------------------------
+// Marching cubes (mc_tables.h) on the finest cells with a sign change (case bit c set when
+// f(corner c) < 0), one welded vertex per crossed grid edge at the linear crossing, triangles in
+// the order of the cells (GridLevel::cells) and of the table, vertices numbered by first use.
+//
 // Normals are the normalised gradient of the grid values, with no field evaluation of their own:
 // a crossed edge from vertex v along axis a (crossed at t) is shared by four cells that all have a
 // sign change, so the grid values around it were evaluated. Along a it is f(v + e_a) - f(v); across
@@ -43,10 +32,39 @@ struct ExtractStats {
 // or one-sided where only one neighbour was evaluated (domain boundary, a cell outside the band),
 // or 0 where neither was. All in units of 1 / cell. Where the gradient vanishes: the direction of
 // the edge from its inside to its outside end.
+nfd_result mesh_sdf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active_cells);
 
-// CPU reference: coarse-to-fine evaluation + marching cubes (mc_tables.h) on the final-level cells
-// with a sign change, one welded vertex per crossed grid edge, normals as above, positions mapped
-// to the original frame (u * scale + center). `threads` as for evaluate_cpu.
+// ---- UDF (MeshUDF-style, fully parallel per cell) -------------------------------------------------
+// A UDF f >= 0 has no sign to mesh; MeshUDF (Guillard et al., ECCV 2022) recovers one locally from
+// the gradient: corners on opposite sides of the surface have opposite gradient directions. Every
+// step below depends on one cell or one grid edge only, so cells run independently (GPU) and the
+// three implementations agree:
+//  1. Near cells: finest cells with min corner value <= udf_near_threshold(h) (grid.h). Only they
+//     can carry triangles; the grid holds the analytic gradient g at all their corners.
+//  2. Cell orientation n: the gradient at the corner with the smallest value (lowest corner index
+//     on ties), flipped so that its largest-magnitude component (lowest axis on ties) is > 0. A
+//     cell whose n is zero or not finite produces nothing.
+//  3. Pseudo-signs: corner c is "inside" (case bit c set) when dot(g_c, n) < 0. Marching cubes on
+//     that case with the same table as the SDF; triangles face +n (the side the gradients at
+//     "outside" corners point to).
+//  4. Vertices: on a crossed edge a-b (pseudo-signs differ) at t = f_a / (f_a + f_b) from a (0.5
+//     when the sum is 0): the minimum of the V-shaped |distance| along the edge. t depends on the
+//     edge only, so neighbouring cells weld to the same vertex (keyed by grid edge, as for SDF).
+//  5. Face filter: an edge is *valid* when f_a + f_b <= kUdfEdgeFactor * h (a true distance field
+//     crossing the edge has f_a + f_b <= h) and dot(g_a, g_b) < 0 (the gradients really oppose).
+//     A triangle is emitted only when its three edges are valid: this removes the faces that the
+//     pseudo-signs put where there is no surface (past an open boundary, across the medial axis).
+//     Validity depends on the edge only, so the filter is the same in both cells of an edge.
+//  6. Normals: per vertex (edge), normalize(g_a - g_b) flipped by the rule of step 2 (largest
+//     component > 0); the edge axis where that is zero or not finite. UDF meshes have no inside:
+//     winding and normals agree with each other cell by cell, not globally.
+//  7. Order: triangles in cell order then table order, vertices numbered by first use, as for SDF.
+constexpr float kUdfEdgeFactor = 1.5f;
+// The grid must hold gradients (GridOptions::udf_gradients), else NFD_ERROR_INTERNAL.
+nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active_cells);
+
+// Grid (with gradients for a UDF) then the mesher of the asset's field type, positions mapped to
+// the original frame (u * scale + center). `threads` as for evaluate_cpu.
 nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshData* mesh,
                             ExtractStats* stats, unsigned threads = 0);
 

@@ -153,8 +153,6 @@ void run(const Options& o) {
     const double ms_parse = ms_since(t);
     nfd_asset_info info;
     check(nfd_asset_get_info(h.asset, &info), o.input);
-    if (info.field_type != NFD_FIELD_SDF)
-        fail(1, o.input + ": unsigned distance fields (UDF) are not meshed by this version");
 
     t = Clock::now();
     nfd_context_options co = {};

@@ -284,7 +284,7 @@ TEST(Extract, PositionsAreMappedToTheOriginalFrame) {
         ASSERT_EQ(moved.mesh.positions[i], unit.mesh.positions[i] * 3.0f + center[i % 3]);
 }
 
-TEST(Extract, EmptyFieldUdfAndLimits) {
+TEST(Extract, EmptyFieldAndLimits) {
     GeomSpec positive = closed_blob();
     positive.levels.back() = 20000;  // output bias: f > 0 everywhere, no surface
     const Extracted e = extract(positive, 32);
@@ -296,8 +296,6 @@ TEST(Extract, EmptyFieldUdfAndLimits) {
     EXPECT_EQ(extract_mesh_cpu(g, NFD_MIN_RESOLUTION - 1, &m, nullptr), NFD_ERROR_LIMIT_EXCEEDED);
     EXPECT_EQ(extract_mesh_cpu(g, NFD_MAX_RESOLUTION + 1, &m, nullptr), NFD_ERROR_LIMIT_EXCEEDED);
     EXPECT_EQ(extract_mesh_cpu(g, NFD_MIN_RESOLUTION, &m, nullptr), NFD_SUCCESS);
-    g.field = FieldType::Udf;
-    EXPECT_EQ(extract_mesh_cpu(g, 32, &m, nullptr), NFD_ERROR_UNSUPPORTED_FEATURE);
 }
 
 // A SIREN with random weights has a complicated open surface: no crash, no NaN, and the mesh is

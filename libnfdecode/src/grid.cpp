@@ -1,0 +1,256 @@
+// CPU reference of the sparse grid (grid.h). Each level keeps the list of cells it visits; their
+// corners are collected in a blocked VertexSet, evaluated once, and the cells that may contain the
+// surface pass their eight children to the next level. The GPU path (gpu/) mirrors this.
+#include "grid.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "mc_tables.h"
+
+namespace nfd {
+namespace {
+
+constexpr uint32_t kMinCoarse = 32;
+constexpr size_t kEvalChunk = size_t(1) << 20;  // points per evaluate call: bounds scratch
+
+// Evaluates points in chunks: `emit(k, xyz)` writes the k-th point, `store(k, value, gradient)`
+// takes its value (and gradient when `gradients`). Scratch stays at kEvalChunk points.
+template <class Emit, class Store>
+void evaluate_chunked(const Network& net, size_t count, bool gradients, unsigned threads,
+                      Emit&& emit, Store&& store) {
+    const size_t chunk = std::min(count, kEvalChunk);
+    std::vector<float> xyz(3 * chunk), values(chunk), grad(gradients ? 3 * chunk : 0);
+    for (size_t begin = 0; begin < count; begin += kEvalChunk) {
+        const size_t n = std::min(kEvalChunk, count - begin);
+        for (size_t k = 0; k < n; ++k) emit(begin + k, &xyz[3 * k]);
+        if (gradients)
+            evaluate_gradient_cpu(net, xyz.data(), n, values.data(), grad.data(), threads);
+        else
+            evaluate_cpu(net, xyz.data(), n, values.data(), threads);
+        for (size_t k = 0; k < n; ++k) store(begin + k, values[k], gradients ? &grad[3 * k] : nullptr);
+    }
+}
+
+// Collects and evaluates the corners of `cells`. Vertices with all-even coordinates were corners
+// of the parent level (every child's even corners are its parent's corners) and are copied, not
+// re-evaluated: one evaluation in eight saved.
+void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel* parent,
+                    unsigned threads, GridLevel* out, uint64_t* evaluated) {
+    out->vertices = VertexSet(out->cells_per_axis + 1);
+    for (uint32_t packed : out->cells) {
+        uint32_t c[3];
+        unpack_coords(packed, c);
+        for (const auto& o : mc::kCornerOffset) out->vertices.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+    }
+    out->vertices.finish();
+    out->values.assign(out->vertices.size(), 0.0f);
+
+    std::vector<uint32_t> todo, todo_rank;  // packed vertices to evaluate, with their ranks
+    out->vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        if (parent && ((x | y | z) & 1) == 0) {
+            out->values[r] = parent->values[parent->vertices.rank(x / 2, y / 2, z / 2)];
+        } else {
+            todo.push_back(pack_coords(x, y, z));
+            todo_rank.push_back(r);
+        }
+    });
+    const uint32_t l = out->level;
+    evaluate_chunked(
+        net, todo.size(), false, threads,
+        [&](size_t k, float* xyz) {
+            uint32_t v[3];
+            unpack_coords(todo[k], v);
+            for (int a = 0; a < 3; ++a) xyz[a] = grid.coord(v[a] << l);
+        },
+        [&](size_t k, float value, const float*) { out->values[todo_rank[k]] = value; });
+    *evaluated += todo.size();
+}
+
+// The children of the cells of `level` that may contain the surface, in order.
+std::vector<uint32_t> refine(const SparseGrid& grid, const GridLevel& level) {
+    const float h = grid.step * float(1u << level.level);
+    const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
+    std::vector<uint32_t> children;
+    for (uint32_t packed : level.cells) {
+        uint32_t c[3];
+        unpack_coords(packed, c);
+        float f[8];
+        for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
+        if (!cell_may_contain_surface(f, h)) continue;
+        for (const auto& o : mc::kCornerOffset) {
+            const uint32_t x = 2 * c[0] + o[0], y = 2 * c[1] + o[1], z = 2 * c[2] + o[2];
+            if (x < child_cells && y < child_cells && z < child_cells)
+                children.push_back(pack_coords(x, y, z));
+        }
+    }
+    return children;
+}
+
+// Gradients at every corner of every near cell of the finest level (GridOptions::udf_gradients).
+void evaluate_udf_gradients(const Network& net, unsigned threads, SparseGrid* grid) {
+    const GridLevel& fine = grid->levels.front();
+    std::vector<uint8_t> wanted(fine.vertices.size(), 0);
+    for (uint32_t packed : fine.cells) {
+        uint32_t c[3];
+        unpack_coords(packed, c);
+        float f[8];
+        for (int k = 0; k < 8; ++k) f[k] = fine.corner(c, k);
+        if (!udf_cell_is_near(f, grid->step)) continue;
+        for (const auto& o : mc::kCornerOffset)
+            wanted[fine.vertices.rank(c[0] + o[0], c[1] + o[1], c[2] + o[2])] = 1;
+    }
+    std::vector<uint32_t> todo, todo_rank;
+    fine.vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        if (!wanted[r]) return;
+        todo.push_back(pack_coords(x, y, z));
+        todo_rank.push_back(r);
+    });
+    grid->gradients.assign(size_t(3) * fine.vertices.size(), NAN);
+    evaluate_chunked(
+        net, todo.size(), true, threads,
+        [&](size_t k, float* xyz) {
+            uint32_t v[3];
+            unpack_coords(todo[k], v);
+            for (int a = 0; a < 3; ++a) xyz[a] = grid->coord(v[a]);
+        },
+        [&](size_t k, float, const float* g) {
+            std::copy(g, g + 3, &grid->gradients[size_t(3) * todo_rank[k]]);
+        });
+    grid->stats.gradients_evaluated += todo.size();
+}
+
+}  // namespace
+
+// ---- VertexSet ------------------------------------------------------------------------------
+
+VertexSet::VertexSet(uint32_t side)
+    : side_(side), blocks_per_axis_((side + 7) / 8),
+      table_(size_t(blocks_per_axis_) * blocks_per_axis_ * blocks_per_axis_, kNoBlock) {}
+
+// Blocks are appended on first touch, then sorted by index in finish(): ranks do not depend on
+// the insertion order.
+void VertexSet::insert(uint32_t x, uint32_t y, uint32_t z) {
+    uint32_t& slot = table_[block_index(x, y, z)];
+    if (slot == kNoBlock) {
+        slot = uint32_t(blocks_.size());
+        blocks_.push_back(Block{{}, {}, block_index(x, y, z)});
+    }
+    blocks_[slot].words[z & 7] |= uint64_t(1) << ((x & 7) + 8 * (y & 7));
+}
+
+void VertexSet::finish() {
+    std::sort(blocks_.begin(), blocks_.end(),
+              [](const Block& a, const Block& b) { return a.index < b.index; });
+    uint32_t total = 0;
+    for (size_t s = 0; s < blocks_.size(); ++s) {
+        Block& b = blocks_[s];
+        table_[b.index] = uint32_t(s);
+        for (int w = 0; w < 8; ++w) {
+            b.prefix[w] = total;
+            total += uint32_t(__builtin_popcountll(b.words[w]));
+        }
+    }
+    size_ = total;
+}
+
+uint32_t VertexSet::rank(uint32_t x, uint32_t y, uint32_t z) const {
+    const Block& b = blocks_[table_[block_index(x, y, z)]];
+    const uint64_t below = b.words[z & 7] & ((uint64_t(1) << ((x & 7) + 8 * (y & 7))) - 1);
+    return b.prefix[z & 7] + uint32_t(__builtin_popcountll(below));
+}
+
+bool VertexSet::find(int64_t x, int64_t y, int64_t z, uint32_t* out_rank) const {
+    if (x < 0 || y < 0 || z < 0 || x >= side_ || y >= side_ || z >= side_) return false;
+    const uint32_t slot = table_[block_index(uint32_t(x), uint32_t(y), uint32_t(z))];
+    if (slot == kNoBlock) return false;
+    if (!(blocks_[slot].words[z & 7] >> ((x & 7) + 8 * (y & 7)) & 1)) return false;
+    *out_rank = rank(uint32_t(x), uint32_t(y), uint32_t(z));
+    return true;
+}
+
+size_t VertexSet::memory_bytes() const {
+    return table_.capacity() * sizeof(uint32_t) + blocks_.capacity() * sizeof(Block);
+}
+
+// ---- levels and rules ---------------------------------------------------------------------
+
+uint32_t cells_at_level(uint32_t resolution, uint32_t level) {
+    return (resolution + (1u << level) - 1) >> level;
+}
+
+uint32_t refinement_levels(uint32_t resolution) {
+    uint32_t levels = 0;
+    while (levels < 31 && cells_at_level(resolution, levels + 1) >= kMinCoarse) ++levels;
+    return levels;
+}
+
+uint32_t coarse_resolution(uint32_t resolution) {
+    return cells_at_level(resolution, refinement_levels(resolution));
+}
+
+bool cell_may_contain_surface(const float corner_values[8], float h) {
+    bool negative = false, positive = false;
+    float min_abs = INFINITY;
+    for (int k = 0; k < 8; ++k) {
+        const float f = corner_values[k];
+        negative |= f < 0.0f;
+        positive |= f >= 0.0f;
+        min_abs = std::min(min_abs, std::fabs(f));
+    }
+    return (negative && positive) || min_abs <= kLipschitzMargin * h * kHalfDiagonal;
+}
+
+bool udf_cell_is_near(const float corner_values[8], float h) {
+    // A non-finite corner has no usable gradient or crossing: the cell is not meshed.
+    float lowest = INFINITY;
+    for (int k = 0; k < 8; ++k) {
+        if (!std::isfinite(corner_values[k])) return false;
+        lowest = std::min(lowest, corner_values[k]);
+    }
+    return lowest <= udf_near_threshold(h);
+}
+
+float GridLevel::corner(const uint32_t cell[3], int corner_index) const {
+    const uint8_t* o = mc::kCornerOffset[corner_index];
+    return values[vertices.rank(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2])];
+}
+
+nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,
+                          SparseGrid* out, unsigned threads) {
+    if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
+        return NFD_ERROR_LIMIT_EXCEEDED;
+    const auto t0 = std::chrono::steady_clock::now();
+    SparseGrid grid;
+    grid.resolution = resolution;
+    grid.step = 2.0f / float(resolution);
+    grid.field = geometry.field;
+
+    const uint32_t top = refinement_levels(resolution);
+    grid.levels.resize(top + 1);
+    GridLevel& coarse = grid.levels[top];
+    coarse.level = top;
+    coarse.cells_per_axis = cells_at_level(resolution, top);
+    const uint32_t n = coarse.cells_per_axis;
+    coarse.cells.reserve(size_t(n) * n * n);
+    for (uint32_t z = 0; z < n; ++z)
+        for (uint32_t y = 0; y < n; ++y)
+            for (uint32_t x = 0; x < n; ++x) coarse.cells.push_back(pack_coords(x, y, z));
+    evaluate_level(geometry.network, grid, nullptr, threads, &coarse, &grid.stats.points_evaluated);
+    for (uint32_t l = top; l-- > 0;) {
+        GridLevel& child = grid.levels[l];
+        child.level = l;
+        child.cells_per_axis = cells_at_level(resolution, l);
+        child.cells = refine(grid, grid.levels[l + 1]);
+        evaluate_level(geometry.network, grid, &grid.levels[l + 1], threads, &child,
+                       &grid.stats.points_evaluated);
+    }
+    if (options.udf_gradients) evaluate_udf_gradients(geometry.network, threads, &grid);
+    grid.stats.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    *out = std::move(grid);
+    return NFD_SUCCESS;
+}
+
+}  // namespace nfd

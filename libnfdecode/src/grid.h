@@ -1,0 +1,152 @@
+// The sparse grid: the product of coarse-to-fine field sampling, shared by every output (the SDF
+// mesher, the UDF mesher, the VDB narrow band, progressive levels). The CPU reference builds it in
+// grid.cpp; the GPU path (gpu/) visits the same cells with the same rule.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "network.h"
+#include "nfdecode/nfdecode.h"
+
+namespace nfd {
+
+// Grid of `resolution` cells per axis over the unit frame [-1, 1]^3: vertex i sits at
+// -1 + 2 i / resolution (computed in f32 as -1.0f + float(i) * (2.0f / float(resolution))).
+// Refinement halves the cell size from coarse_resolution() up: level l (0 = finest, up to
+// refinement_levels()) has ceil(resolution / 2^l) cells per axis, each 2^l fine cells wide, and
+// its vertices are the fine vertices whose indices are multiples of 2^l. When 2^l does not divide
+// the resolution the last cell reaches past u = 1, where the field is still defined; children
+// starting at or past fine index `resolution` are dropped, so level 0 is exactly the fine grid.
+// Any resolution works (not only c * 2^k), and no level is denser than the coarsest one needs.
+uint32_t cells_at_level(uint32_t resolution, uint32_t level);  // ceil(resolution / 2^level)
+uint32_t coarse_resolution(uint32_t resolution);  // ceil(resolution / 2^refinement_levels())
+// The largest l with ceil(resolution / 2^l) >= 32, else 0: coarser grids would prune nothing for
+// d* = 0.1, since the keep test below only rejects cells whose half-diagonal is well under d*.
+uint32_t refinement_levels(uint32_t resolution);
+
+// The keep rule. A cell of edge length h (unit frame) is kept for refinement when its corner
+// values change sign or when min |f| over its corners <= kLipschitzMargin * h * sqrt(3) / 2: a
+// surface point inside the cell is within h*sqrt(3)/2 of its nearest corner, and the margin covers
+// a network whose gradient norm exceeds 1 (a true distance field has exactly 1). A UDF never
+// changes sign, so for it the rule is the distance test alone. NaN corners fail every comparison:
+// such cells are dropped rather than meshed from garbage.
+constexpr float kLipschitzMargin = 2.0f;
+constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
+bool cell_may_contain_surface(const float corner_values[8], float h);
+
+// Cell and vertex coordinates of any level are <= 1024: 11 bits each, x lowest.
+inline uint32_t pack_coords(uint32_t x, uint32_t y, uint32_t z) { return x | y << 11 | z << 22; }
+inline void unpack_coords(uint32_t packed, uint32_t xyz[3]) {
+    xyz[0] = packed & 0x7FF;
+    xyz[1] = packed >> 11 & 0x7FF;
+    xyz[2] = packed >> 22;
+}
+
+// A set of grid vertices with dense ranks, stored by blocks of 8^3 vertices: a block table over
+// the (side / 8)^3 blocks (4 bytes each: 8.6 MB at resolution 1024) and, per occupied block, a
+// 512-bit mask with the rank of its first vertex and a prefix count per 64-bit word. Memory
+// follows the occupied blocks (the band around the surface), not side^3.
+// Ranks follow the blocks in raster order (x fastest), then the vertices inside a block in
+// raster order: for_each visits them in that order.
+class VertexSet {
+public:
+    VertexSet() = default;
+    // `side` vertices per axis (cells per axis + 1), at most 1025.
+    explicit VertexSet(uint32_t side);
+    uint32_t side() const { return side_; }
+
+    // Building: insert every vertex, then finish() once; the set is read-only afterwards.
+    void insert(uint32_t x, uint32_t y, uint32_t z);
+    void finish();
+
+    uint32_t size() const { return size_; }
+    // The rank of vertex (x, y, z), which must be in the set.
+    uint32_t rank(uint32_t x, uint32_t y, uint32_t z) const;
+    // The rank of (x, y, z) if it is on the grid and in the set; coordinates may be out of range.
+    bool find(int64_t x, int64_t y, int64_t z, uint32_t* rank) const;
+    // fn(rank, x, y, z) for every vertex, in rank order.
+    template <class Fn>
+    void for_each(Fn&& fn) const;
+
+    size_t memory_bytes() const;
+
+private:
+    static constexpr uint32_t kNoBlock = ~0u;
+    struct Block {
+        uint64_t words[8];   // word z & 7, bit (x & 7) + 8 * (y & 7)
+        uint32_t prefix[8];  // rank of the first vertex of each word
+        uint32_t index;      // linear block index in the block table; blocks_ is sorted by it
+    };
+    uint32_t block_index(uint32_t x, uint32_t y, uint32_t z) const {
+        return ((z >> 3) * blocks_per_axis_ + (y >> 3)) * blocks_per_axis_ + (x >> 3);
+    }
+    uint32_t side_ = 0, blocks_per_axis_ = 0, size_ = 0;
+    std::vector<uint32_t> table_;  // block index -> slot in blocks_, or kNoBlock
+    std::vector<Block> blocks_;
+};
+
+// One level of the grid: the cells visited at that level (the coarse level: all of them; finer
+// levels: the children of the previous level's kept cells, in order, each parent's children in
+// mc::kCornerOffset order) and the field at their corners.
+struct GridLevel {
+    uint32_t level = 0;           // l: 0 = finest; vertex v of this level is fine vertex v << l
+    uint32_t cells_per_axis = 0;  // cells_at_level(resolution, l)
+    std::vector<uint32_t> cells;  // packed cell coordinates (their minimum corner)
+    VertexSet vertices;           // the corners of `cells`
+    std::vector<float> values;    // field at each vertex, by rank
+    float corner(const uint32_t cell[3], int corner_index) const;  // mc::kCornerOffset numbering
+};
+
+struct GridOptions {
+    // Also evaluate the field gradient (unit frame) at the corners of the finest level's cells
+    // with min corner value <= udf_near_threshold(step): what the UDF mesher needs.
+    bool udf_gradients = false;
+};
+
+// A finest-level cell of a UDF is *near* (may carry triangles) when its smallest corner value is
+// at most kUdfNearFactor * h * sqrt(3)/2: a true distance field whose surface meets the cell has a
+// corner within the half-diagonal; the factor covers a learned field that does not quite reach 0.
+constexpr float kUdfNearFactor = 1.0f;
+inline float udf_near_threshold(float h) { return kUdfNearFactor * h * kHalfDiagonal; }
+bool udf_cell_is_near(const float corner_values[8], float h);
+
+struct GridStats {
+    uint64_t points_evaluated = 0;     // field evaluations over all levels (values)
+    uint64_t gradients_evaluated = 0;  // value + gradient evaluations (UDF meshing)
+    double seconds = 0;
+};
+
+struct SparseGrid {
+    uint32_t resolution = 0;
+    float step = 0;                 // fine cell edge in the unit frame, 2.0f / resolution
+    FieldType field = FieldType::Sdf;
+    std::vector<GridLevel> levels;  // levels[l] is level l: levels[0] is the finest
+    // With GridOptions::udf_gradients: 3 floats per vertex of levels[0] (by rank), the gradient
+    // at the corners of near cells and NaN elsewhere. Empty otherwise.
+    std::vector<float> gradients;
+    GridStats stats;
+
+    const GridLevel& finest() const { return levels.front(); }
+    float coord(uint32_t fine_index) const { return -1.0f + float(fine_index) * step; }
+};
+
+// CPU reference: coarse-to-fine evaluation with the keep rule above. `threads` as for
+// evaluate_cpu. NFD_ERROR_LIMIT_EXCEEDED outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION.
+nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,
+                          SparseGrid* grid, unsigned threads = 0);
+
+template <class Fn>
+void VertexSet::for_each(Fn&& fn) const {
+    uint32_t r = 0;
+    for (const Block& b : blocks_) {
+        const uint32_t bx = b.index % blocks_per_axis_, by = b.index / blocks_per_axis_ % blocks_per_axis_,
+                       bz = b.index / (blocks_per_axis_ * blocks_per_axis_);
+        for (uint32_t w = 0; w < 8; ++w)
+            for (uint64_t bits = b.words[w]; bits; bits &= bits - 1) {
+                const uint32_t i = uint32_t(__builtin_ctzll(bits));  // x + 8 y within slice z = w
+                fn(r++, 8 * bx + (i & 7), 8 * by + (i >> 3), 8 * bz + w);
+            }
+    }
+}
+
+}  // namespace nfd

@@ -1,0 +1,78 @@
+// CPU reference of the UDF mesher (extract.h, steps 1-7): pseudo-signs from the gradients at the
+// corners of each near cell, marching cubes on them, and the edge filter that drops the faces the
+// pseudo-signs invent where there is no surface.
+#include <cmath>
+
+#include "extract.h"
+#include "marching.h"
+
+namespace nfd {
+namespace {
+
+float dot3(const float* a, const float* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// Step 2's canonical direction: the largest-magnitude component (lowest axis on ties) positive.
+// False when the vector is zero or not finite.
+bool canonical_direction(const float v[3], float out[3]) {
+    int major = 0;
+    for (int a = 1; a < 3; ++a)
+        if (std::fabs(v[a]) > std::fabs(v[major])) major = a;
+    if (!(std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2])) || v[major] == 0.0f)
+        return false;
+    const float s = v[major] > 0.0f ? 1.0f : -1.0f;
+    for (int a = 0; a < 3; ++a) out[a] = s * v[a];
+    return true;
+}
+
+}  // namespace
+
+nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active_cells) {
+    if (grid.gradients.size() != size_t(3) * grid.finest().vertices.size())
+        return NFD_ERROR_INTERNAL;  // built without GridOptions::udf_gradients
+    const GridLevel& level = grid.finest();
+    const float* gradients = grid.gradients.data();
+    auto gradient = [&](uint32_t x, uint32_t y, uint32_t z) {
+        return gradients + size_t(3) * level.vertices.rank(x, y, z);
+    };
+    const float max_edge_sum = kUdfEdgeFactor * grid.step;
+    *active_cells = march_cells(
+        grid,
+        [&](const uint32_t* c, const float* f, int* index) {
+            if (!udf_cell_is_near(f, grid.step)) return false;  // step 1
+            int nearest = 0;
+            for (int k = 1; k < 8; ++k)
+                if (f[k] < f[nearest]) nearest = k;
+            const uint8_t* o = mc::kCornerOffset[nearest];
+            float n[3];
+            if (!canonical_direction(gradient(c[0] + o[0], c[1] + o[1], c[2] + o[2]), n))
+                return false;  // step 2
+            for (int k = 0; k < 8; ++k) {  // step 3
+                const uint8_t* ok = mc::kCornerOffset[k];
+                *index |= int(dot3(gradient(c[0] + ok[0], c[1] + ok[1], c[2] + ok[2]), n) < 0.0f) << k;
+            }
+            return true;
+        },
+        [&](const CrossedEdge& e) {  // step 5
+            return e.fa + e.fb <= max_edge_sum &&
+                   dot3(gradients + size_t(3) * e.rank_a, gradients + size_t(3) * e.rank_b) < 0.0f;
+        },
+        [&](const CrossedEdge& e, float u[3], float n[3]) {
+            const float sum = e.fa + e.fb;
+            edge_point(grid, e, sum > 0.0f ? e.fa / sum : 0.5f, u);  // step 4
+            const float* ga = gradients + size_t(3) * e.rank_a;
+            const float* gb = gradients + size_t(3) * e.rank_b;
+            const float d[3] = {ga[0] - gb[0], ga[1] - gb[1], ga[2] - gb[2]};
+            float m[3];
+            const float len = std::sqrt(dot3(d, d));
+            if (canonical_direction(d, m) && len > 0.0f && std::isfinite(len)) {  // step 6
+                for (int a = 0; a < 3; ++a) n[a] = m[a] / len;
+            } else {
+                n[0] = n[1] = n[2] = 0.0f;
+                n[e.axis] = 1.0f;
+            }
+        },
+        mesh);
+    return NFD_SUCCESS;
+}
+
+}  // namespace nfd
