@@ -7,7 +7,8 @@ cd "$(dirname "$0")/.."
 APT_PACKAGES=(
   build-essential cmake ninja-build pkg-config python3 python3-venv
   libvulkan-dev mesa-vulkan-drivers vulkan-tools glslang-tools spirv-tools
-  libbrotli-dev libtinygltf-dev nlohmann-json3-dev libglm-dev libglfw3-dev libopenvdb-dev libgtest-dev
+  libbrotli-dev libtinygltf-dev nlohmann-json3-dev libglm-dev libglfw3-dev libgtest-dev
+  libopenvdb-dev libboost-iostreams-dev libopenvdb-tools
   draco
 )
 missing=()
