@@ -344,3 +344,39 @@ TEST(Extract, MatchesPythonReferenceMesh) {
 
 }  // namespace
 }  // namespace nfd::test
+
+namespace nfd::test {
+namespace {
+
+// ---- UDF -------------------------------------------------------------------------------------
+
+// Boundary edges (used by one triangle) and edges used by more than two.
+void edge_use(const MeshData& m, size_t* boundary, size_t* over_used) {
+    std::map<std::pair<uint32_t, uint32_t>, int> uses;
+    for (size_t t = 0; t < m.triangle_count(); ++t)
+        for (int k = 0; k < 3; ++k) {
+            uint32_t a = m.indices[3 * t + k], b = m.indices[3 * t + (k + 1) % 3];
+            ++uses[{std::min(a, b), std::max(a, b)}];
+        }
+    *boundary = *over_used = 0;
+    for (const auto& [edge, n] : uses) *boundary += n == 1, *over_used += n > 2;
+}
+
+// |f| of the closed blob is a UDF whose zero set is the blob's surface: the UDF mesher must find
+// the same closed surface as the SDF mesher, one sheet, no holes.
+TEST(ExtractUdf, AbsoluteValueOfAClosedFieldGivesItsClosedSurface) {
+    GeomSpec spec = closed_blob();
+    const Extracted sdf = extract(spec, 64);
+    spec.field_type = 1;
+    spec.output = 1;
+    const Extracted udf = extract(spec, 64);
+    size_t boundary, over_used;
+    edge_use(udf.mesh, &boundary, &over_used);
+    std::printf("UDF %zu triangles (SDF %zu), %zu boundary edges, %zu over-used\n",
+                udf.mesh.triangle_count(), sdf.mesh.triangle_count(), boundary, over_used);
+    EXPECT_EQ(boundary, 0u);
+    EXPECT_EQ(over_used, 0u);
+}
+
+}  // namespace
+}  // namespace nfd::test
