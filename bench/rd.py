@@ -38,6 +38,13 @@ SHAPES: dict[str, tuple[str, str, str]] = {
     "dragon": ("stanford/dragon_vrip_res3.ply.gz", "sdf", "dragon_res3"),
     "spot": ("misc/spot.obj.gz", "sdf", "spot"),
     "tshirt": ("garments/TShirtNoCoat.obj.gz", "udf", "TShirtNoCoat"),
+    "shirt": ("garments/ShirtNoCoat1.obj.gz", "udf", "ShirtNoCoat1"),
+    "longcoat": ("garments/LongCoat1.obj.gz", "udf", "LongCoat1"),
+    "pants": ("garments/Pants1.obj.gz", "udf", "Pants1"),
+    "skirt": ("garments/skirt_2.obj.gz", "udf", "skirt_2"),
+    "bunny-udf": ("stanford/bun_zipper.ply.gz", "udf", "bunny"),
+    "dragon-udf": ("stanford/dragon_vrip_res3.ply.gz", "udf", "dragon_res3"),
+    "happy-udf": ("stanford/happy_vrip_res3.ply.gz", "udf", "happy_res3"),
 }
 DRACO_FACES = (500, 1000, 2000, 5000, 10000)
 DRACO_QP = range(6, 15)
@@ -51,6 +58,28 @@ class Point:
     bytes: int
     cd: float
     seconds: float = float("nan")
+    surface: str = ""  # decoded mesh: boundary edges, components, largest floating component
+
+
+def surface_report(mesh: Shape) -> str:
+    """Boundary edges (used by one triangle), edges used by more than two, connected components,
+    and the largest component other than the biggest one as a share of the surface area: the
+    holes, double sheets and floating fragments UDF meshing is known for."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    v, f = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64)
+    if len(f) == 0:
+        return "empty"
+    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    unique, uses = np.unique(edges, axis=0, return_counts=True)
+    n, label = connected_components(coo_matrix((np.ones(len(unique)), tuple(unique.T)),
+                                               shape=(len(v), len(v))))
+    area = 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    shares = np.sort(np.bincount(label[f[:, 0]], weights=area, minlength=n))[::-1] / area.sum()
+    floating = shares[1] if n > 1 else 0.0
+    return (f"{int((uses == 1).sum())} bnd, {int((uses > 2).sum())} non-manifold, {n} comp., "
+            f"largest floating {100 * floating:.2f}%")
 
 
 def run_nfc(gt: Shape, field: str, width: int, preset: str, resolution: int,
@@ -64,13 +93,12 @@ def run_nfc(gt: Shape, field: str, width: int, preset: str, resolution: int,
     keep.mkdir(parents=True, exist_ok=True)
     path = keep / f"{gt.name}_{preset}_w{width}.nfc"
     path.write_bytes(result.data)
-    if read_nfc(result.data).geometry.field_type != 0:  # UDF meshing is a later issue
-        return Point("nfc", f"{preset} w{width} udf", len(result.data), float("nan"), seconds)
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([str(NFC_DECODE), str(path), "-o", f"{tmp}/mesh.ply", "--resolution",
                         str(resolution), "--device", "cpu"], check=True, capture_output=True)
-        cd = chamfer_distance(gt, load_shape(f"{tmp}/mesh.ply"), seed=SEED)
-    return Point("nfc", f"{preset} w{width}", len(result.data), cd, seconds)
+        mesh = load_shape(f"{tmp}/mesh.ply")
+        cd = chamfer_distance(gt, mesh, seed=SEED)
+    return Point("nfc", f"{preset} w{width}", len(result.data), cd, seconds, surface_report(mesh))
 
 
 def run_draco(gt: Shape) -> list[Point]:
@@ -111,7 +139,8 @@ def load_csv(path: Path) -> tuple[list[Point], list[Point]]:
     """nfc and own-Draco points of an earlier run (to re-render tables without re-encoding)."""
     ours, draco = [], []
     for r in csv.DictReader(open(path)):
-        p = Point(r["codec"], r["setting"], int(r["bytes"]), float(r["cd"]), float(r["encode_s"]))
+        p = Point(r["codec"], r["setting"], int(r["bytes"]), float(r["cd"]), float(r["encode_s"]),
+                  r.get("surface", ""))
         if r["codec"] == "nfc":
             ours.append(p)
         elif r["codec"] == "draco" and "(shared)" not in r["setting"]:
@@ -214,21 +243,22 @@ def main() -> None:
         gpcc = shared_baseline(baseline_name, "gpcc")
         draco_env, gpcc_env = lower_envelope(draco_all), lower_envelope(gpcc)
 
-        print(f"\n### {shape} ({rel}, {field.upper()}; floor {floor:.4g}, seed {SEED})\n")
+        print(f"\n### {shape} ({rel}, {field.upper()}; floor {floor:.4g}, seed {SEED}; "
+              f"ground truth: {surface_report(gt) if gt.faces is not None else 'point cloud'})\n")
         print("| setting | bytes | CD | excess | Draco env. @bytes | G-PCC env. @bytes | "
-              "encode s | verdict |")
-        print("|---|---:|---:|---:|---:|---:|---:|---|")
+              "encode s | verdict | decoded surface |")
+        print("|---|---:|---:|---:|---:|---:|---:|---|---|")
         for p in ours:
             d, g = interpolate_cd(draco_env, p.bytes), interpolate_cd(gpcc_env, p.bytes)
             v = "—" if np.isnan(p.cd) else verdict(p.cd, d, g)
             print(f"| {p.setting} | {p.bytes} | {fmt(p.cd)} | {fmt(p.cd - floor)} | {fmt(d)} | "
-                  f"{fmt(g)} | {p.seconds:.1f} | {v} |")
+                  f"{fmt(g)} | {p.seconds:.1f} | {v} | {p.surface} |")
         with open(csv_path, "w", newline="") as f:
             w = csv.writer(f)
-            w.writerow(["codec", "setting", "bytes", "cd", "encode_s", "floor"])
+            w.writerow(["codec", "setting", "bytes", "cd", "encode_s", "floor", "surface"])
             for p in ours + draco_all + gpcc:
                 w.writerow([p.codec, p.setting, p.bytes, f"{p.cd:.6g}", f"{p.seconds:.2f}",
-                            f"{floor:.6g}"])
+                            f"{floor:.6g}", p.surface])
         plot(shape, floor, ours, draco_all, gpcc, REPO / "bench" / "plots" / f"rd_{shape}.png")
 
 

@@ -15,22 +15,58 @@ namespace {
 constexpr uint32_t kMinCoarse = 32;
 constexpr size_t kEvalChunk = size_t(1) << 20;  // points per evaluate call: bounds scratch
 
-// Evaluates points in chunks: `emit(k, xyz)` writes the k-th point, `store(k, value, gradient)`
-// takes its value (and gradient when `gradients`). Scratch stays at kEvalChunk points.
-template <class Emit, class Store>
-void evaluate_chunked(const Network& net, size_t count, bool gradients, unsigned threads,
-                      Emit&& emit, Store&& store) {
-    const size_t chunk = std::min(count, kEvalChunk);
-    std::vector<float> xyz(3 * chunk), values(chunk), grad(gradients ? 3 * chunk : 0);
-    for (size_t begin = 0; begin < count; begin += kEvalChunk) {
-        const size_t n = std::min(kEvalChunk, count - begin);
-        for (size_t k = 0; k < n; ++k) emit(begin + k, &xyz[3 * k]);
-        if (gradients)
-            evaluate_gradient_cpu(net, xyz.data(), n, values.data(), grad.data(), threads);
-        else
-            evaluate_cpu(net, xyz.data(), n, values.data(), threads);
-        for (size_t k = 0; k < n; ++k) store(begin + k, values[k], gradients ? &grad[3 * k] : nullptr);
+// Evaluates points as they are pushed, kEvalChunk at a time, so that scratch memory does not
+// grow with the level: push(slot, xyz) queues a point, and `store(slot, value, gradient)` takes
+// its result at the next flush (gradient null unless `gradients`).
+template <class Store>
+class ChunkedEvaluator {
+public:
+    ChunkedEvaluator(const Network& net, bool gradients, unsigned threads, Store store)
+        : net_(net), gradients_(gradients), threads_(threads), store_(std::move(store)) {}
+    void push(uint32_t slot, const float xyz[3]) {
+        if (slots_.empty()) reserve();
+        slots_.push_back(slot);
+        xyz_.insert(xyz_.end(), xyz, xyz + 3);
+        if (slots_.size() == kEvalChunk) flush();
     }
+    // Evaluates what is queued; returns the number of points evaluated since construction.
+    uint64_t finish() {
+        flush();
+        return total_;
+    }
+
+private:
+    void reserve() {
+        slots_.reserve(kEvalChunk);
+        xyz_.reserve(3 * kEvalChunk);
+    }
+    void flush() {
+        const size_t n = slots_.size();
+        if (n == 0) return;
+        values_.resize(n);
+        grad_.resize(gradients_ ? 3 * n : 0);
+        if (gradients_)
+            evaluate_gradient_cpu(net_, xyz_.data(), n, values_.data(), grad_.data(), threads_);
+        else
+            evaluate_cpu(net_, xyz_.data(), n, values_.data(), threads_);
+        for (size_t k = 0; k < n; ++k) store_(slots_[k], values_[k], gradients_ ? &grad_[3 * k] : nullptr);
+        total_ += n;
+        slots_.clear();
+        xyz_.clear();
+    }
+    const Network& net_;
+    const bool gradients_;
+    const unsigned threads_;
+    Store store_;
+    std::vector<uint32_t> slots_;
+    std::vector<float> xyz_, values_, grad_;
+    uint64_t total_ = 0;
+};
+
+template <class Store>
+ChunkedEvaluator<Store> make_evaluator(const Network& net, bool gradients, unsigned threads,
+                                       Store store) {
+    return ChunkedEvaluator<Store>(net, gradients, threads, std::move(store));
 }
 
 // Collects and evaluates the corners of `cells`. Vertices with all-even coordinates were corners
@@ -47,38 +83,43 @@ void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel*
     out->vertices.finish();
     out->values.assign(out->vertices.size(), 0.0f);
 
-    std::vector<uint32_t> todo, todo_rank;  // packed vertices to evaluate, with their ranks
+    const uint32_t l = out->level;
+    auto evaluator = make_evaluator(net, false, threads, [out](uint32_t r, float value, const float*) {
+        out->values[r] = value;
+    });
     out->vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
         if (parent && ((x | y | z) & 1) == 0) {
             out->values[r] = parent->values[parent->vertices.rank(x / 2, y / 2, z / 2)];
         } else {
-            todo.push_back(pack_coords(x, y, z));
-            todo_rank.push_back(r);
+            const float xyz[3] = {grid.coord(x << l), grid.coord(y << l), grid.coord(z << l)};
+            evaluator.push(r, xyz);
         }
     });
-    const uint32_t l = out->level;
-    evaluate_chunked(
-        net, todo.size(), false, threads,
-        [&](size_t k, float* xyz) {
-            uint32_t v[3];
-            unpack_coords(todo[k], v);
-            for (int a = 0; a < 3; ++a) xyz[a] = grid.coord(v[a] << l);
-        },
-        [&](size_t k, float value, const float*) { out->values[todo_rank[k]] = value; });
-    *evaluated += todo.size();
+    *evaluated += evaluator.finish();
 }
 
 // The children of the cells of `level` that may contain the surface, in order.
 std::vector<uint32_t> refine(const SparseGrid& grid, const GridLevel& level) {
     const float h = grid.step * float(1u << level.level);
     const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
-    std::vector<uint32_t> children;
-    for (uint32_t packed : level.cells) {
+    // Kept flags first, so that the child list is allocated once at its size: the finest level's
+    // list is the grid's largest array, and growing it by doubling would double the peak.
+    std::vector<uint8_t> kept(level.cells.size());
+    size_t count = 0;
+    for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];
-        unpack_coords(packed, c);
+        unpack_coords(level.cells[i], c);
         float f[8];
         for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
-        if (!cell_may_contain_surface(f, h)) continue;
+        kept[i] = cell_may_contain_surface(f, h);
+        count += kept[i];
+    }
+    std::vector<uint32_t> children;
+    children.reserve(8 * count);
+    for (size_t i = 0; i < level.cells.size(); ++i) {
+        if (!kept[i]) continue;
+        uint32_t c[3];
+        unpack_coords(level.cells[i], c);
         for (const auto& o : mc::kCornerOffset) {
             const uint32_t x = 2 * c[0] + o[0], y = 2 * c[1] + o[1], z = 2 * c[2] + o[2];
             if (x < child_cells && y < child_cells && z < child_cells)
@@ -91,34 +132,27 @@ std::vector<uint32_t> refine(const SparseGrid& grid, const GridLevel& level) {
 // Gradients at every corner of every near cell of the finest level (GridOptions::udf_gradients).
 void evaluate_udf_gradients(const Network& net, unsigned threads, SparseGrid* grid) {
     const GridLevel& fine = grid->levels.front();
-    std::vector<uint8_t> wanted(fine.vertices.size(), 0);
+    VertexSet& wanted = grid->gradient_vertices;
+    wanted = VertexSet(fine.cells_per_axis + 1);
     for (uint32_t packed : fine.cells) {
         uint32_t c[3];
         unpack_coords(packed, c);
         float f[8];
         for (int k = 0; k < 8; ++k) f[k] = fine.corner(c, k);
         if (!udf_cell_is_near(f, grid->step)) continue;
-        for (const auto& o : mc::kCornerOffset)
-            wanted[fine.vertices.rank(c[0] + o[0], c[1] + o[1], c[2] + o[2])] = 1;
+        for (const auto& o : mc::kCornerOffset) wanted.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
     }
-    std::vector<uint32_t> todo, todo_rank;
-    fine.vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-        if (!wanted[r]) return;
-        todo.push_back(pack_coords(x, y, z));
-        todo_rank.push_back(r);
+    wanted.finish();
+    std::vector<float>& gradients = grid->gradients;
+    gradients.assign(size_t(3) * wanted.size(), 0.0f);
+    auto evaluator = make_evaluator(net, true, threads, [&gradients](uint32_t r, float, const float* g) {
+        std::copy(g, g + 3, &gradients[size_t(3) * r]);
     });
-    grid->gradients.assign(size_t(3) * fine.vertices.size(), NAN);
-    evaluate_chunked(
-        net, todo.size(), true, threads,
-        [&](size_t k, float* xyz) {
-            uint32_t v[3];
-            unpack_coords(todo[k], v);
-            for (int a = 0; a < 3; ++a) xyz[a] = grid->coord(v[a]);
-        },
-        [&](size_t k, float, const float* g) {
-            std::copy(g, g + 3, &grid->gradients[size_t(3) * todo_rank[k]]);
-        });
-    grid->stats.gradients_evaluated += todo.size();
+    wanted.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        const float xyz[3] = {grid->coord(x), grid->coord(y), grid->coord(z)};
+        evaluator.push(r, xyz);
+    });
+    grid->stats.gradients_evaluated += evaluator.finish();
 }
 
 }  // namespace

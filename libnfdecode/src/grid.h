@@ -121,8 +121,9 @@ struct SparseGrid {
     float step = 0;                 // fine cell edge in the unit frame, 2.0f / resolution
     FieldType field = FieldType::Sdf;
     std::vector<GridLevel> levels;  // levels[l] is level l: levels[0] is the finest
-    // With GridOptions::udf_gradients: 3 floats per vertex of levels[0] (by rank), the gradient
-    // at the corners of near cells and NaN elsewhere. Empty otherwise.
+    // With GridOptions::udf_gradients: the corners of the finest level's near cells, and the
+    // field gradient at each (3 floats per rank). Empty otherwise.
+    VertexSet gradient_vertices;
     std::vector<float> gradients;
     GridStats stats;
 

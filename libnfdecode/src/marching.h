@@ -17,7 +17,6 @@ struct CrossedEdge {
     uint32_t v[3];
     int axis;
     float fa, fb;
-    uint32_t rank_a, rank_b;  // vertex ranks of the two ends in the finest level
 };
 
 // classify(cell, f, &case_index) -> bool: whether the cell is meshed, and its case (bit c: corner
@@ -30,10 +29,10 @@ uint64_t march_cells(const SparseGrid& grid, Classify&& classify, EdgeValid&& ed
                      Place&& place, MeshData* mesh) {
     const GridLevel& level = grid.finest();
     const mc::Tables& t = mc::tables();
-    constexpr uint32_t kNone = ~0u;
-    // One slot per grid edge (vertex rank * 3 + axis): welding is a lookup, not a hash.
-    std::vector<uint32_t> edge_vertex(size_t(level.vertices.size()) * 3, kNone);
-    uint64_t active = 0;
+    // Pass 1: the cells with triangles and their cases. Welding then needs a slot per grid edge of
+    // these cells only (a few percent of the band's vertices), not of the whole finest level.
+    std::vector<uint32_t> active;
+    std::vector<uint8_t> cases;
     for (uint32_t packed : level.cells) {
         uint32_t c[3];
         unpack_coords(packed, c);
@@ -41,6 +40,30 @@ uint64_t march_cells(const SparseGrid& grid, Classify&& classify, EdgeValid&& ed
         for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
         int index = 0;
         if (!classify(c, f, &index) || t.triangle_count[index] == 0) continue;
+        active.push_back(packed);
+        cases.push_back(uint8_t(index));
+    }
+    VertexSet corners(level.cells_per_axis + 1);
+    for (uint32_t packed : active) {
+        uint32_t c[3];
+        unpack_coords(packed, c);
+        for (const auto& o : mc::kCornerOffset) corners.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+    }
+    corners.finish();
+    size_t max_triangles = 0;  // exact for SDF, an upper bound where edge_valid drops some
+    for (uint8_t index : cases) max_triangles += t.triangle_count[index];
+    mesh->indices.reserve(3 * max_triangles);
+
+    // Pass 2: triangles in cell order, one vertex per grid edge (corner rank * 3 + axis).
+    constexpr uint32_t kNone = ~0u;
+    std::vector<uint32_t> edge_vertex(size_t(corners.size()) * 3, kNone);
+    uint64_t emitting = 0;
+    for (size_t i = 0; i < active.size(); ++i) {
+        uint32_t c[3];
+        unpack_coords(active[i], c);
+        float f[8];
+        for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
+        const int index = cases[i];
         bool emitted = false;
         for (int tri = 0; tri < t.triangle_count[index]; ++tri) {
             CrossedEdge edges[3];
@@ -48,18 +71,15 @@ uint64_t march_cells(const SparseGrid& grid, Classify&& classify, EdgeValid&& ed
             for (int j = 0; j < 3; ++j) {
                 const int e = t.triangles[index][3 * tri + j];
                 const int a = mc::kEdgeCorners[e][0], b = mc::kEdgeCorners[e][1];
-                const uint8_t* oa = mc::kCornerOffset[a];
-                const uint8_t* ob = mc::kCornerOffset[b];
-                CrossedEdge& edge = edges[j];
-                edge = {{c[0] + oa[0], c[1] + oa[1], c[2] + oa[2]}, e / 4, f[a], f[b],
-                        level.vertices.rank(c[0] + oa[0], c[1] + oa[1], c[2] + oa[2]),
-                        level.vertices.rank(c[0] + ob[0], c[1] + ob[1], c[2] + ob[2])};
-                valid = valid && edge_valid(edge);
+                const uint8_t* o = mc::kCornerOffset[a];
+                edges[j] = {{c[0] + o[0], c[1] + o[1], c[2] + o[2]}, e / 4, f[a], f[b]};
+                valid = valid && edge_valid(edges[j]);
             }
             if (!valid) continue;
             emitted = true;
             for (const CrossedEdge& edge : edges) {
-                uint32_t& slot = edge_vertex[size_t(edge.rank_a) * 3 + size_t(edge.axis)];
+                const size_t key = size_t(corners.rank(edge.v[0], edge.v[1], edge.v[2])) * 3;
+                uint32_t& slot = edge_vertex[key + size_t(edge.axis)];
                 if (slot == kNone) {
                     float u[3], n[3];
                     place(edge, u, n);
@@ -70,9 +90,9 @@ uint64_t march_cells(const SparseGrid& grid, Classify&& classify, EdgeValid&& ed
                 mesh->indices.push_back(slot);
             }
         }
-        active += emitted;
+        emitting += emitted;
     }
-    return active;
+    return emitting;
 }
 
 // The unit-frame position of the point at t along a crossed edge.

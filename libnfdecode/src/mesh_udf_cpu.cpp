@@ -27,12 +27,16 @@ bool canonical_direction(const float v[3], float out[3]) {
 }  // namespace
 
 nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active_cells) {
-    if (grid.gradients.size() != size_t(3) * grid.finest().vertices.size())
+    if (grid.gradients.size() != size_t(3) * grid.gradient_vertices.size())
         return NFD_ERROR_INTERNAL;  // built without GridOptions::udf_gradients
-    const GridLevel& level = grid.finest();
-    const float* gradients = grid.gradients.data();
     auto gradient = [&](uint32_t x, uint32_t y, uint32_t z) {
-        return gradients + size_t(3) * level.vertices.rank(x, y, z);
+        return grid.gradients.data() + size_t(3) * grid.gradient_vertices.rank(x, y, z);
+    };
+    auto edge_gradients = [&](const CrossedEdge& e, const float** ga, const float** gb) {
+        uint32_t w[3] = {e.v[0], e.v[1], e.v[2]};
+        *ga = gradient(w[0], w[1], w[2]);
+        ++w[e.axis];
+        *gb = gradient(w[0], w[1], w[2]);
     };
     const float max_edge_sum = kUdfEdgeFactor * grid.step;
     *active_cells = march_cells(
@@ -53,14 +57,15 @@ nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active
             return true;
         },
         [&](const CrossedEdge& e) {  // step 5
-            return e.fa + e.fb <= max_edge_sum &&
-                   dot3(gradients + size_t(3) * e.rank_a, gradients + size_t(3) * e.rank_b) < 0.0f;
+            const float *ga, *gb;
+            edge_gradients(e, &ga, &gb);
+            return e.fa + e.fb <= max_edge_sum && dot3(ga, gb) < 0.0f;
         },
         [&](const CrossedEdge& e, float u[3], float n[3]) {
             const float sum = e.fa + e.fb;
             edge_point(grid, e, sum > 0.0f ? e.fa / sum : 0.5f, u);  // step 4
-            const float* ga = gradients + size_t(3) * e.rank_a;
-            const float* gb = gradients + size_t(3) * e.rank_b;
+            const float *ga, *gb;
+            edge_gradients(e, &ga, &gb);
             const float d[3] = {ga[0] - gb[0], ga[1] - gb[1], ga[2] - gb[2]};
             float m[3];
             const float len = std::sqrt(dot3(d, d));
