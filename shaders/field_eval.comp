@@ -20,6 +20,13 @@
 // sin(f u_z), cos(f u_x), cos(f u_y), cos(f u_z)), with zero columns for padded frequencies.
 // Defining WEIGHTS_IN_STORAGE_BUFFER gives the variant for layers larger than the device's
 // maxUniformBufferRange.
+//
+// Defining WITH_GRADIENT gives the value + gradient variant (network.h, evaluate_gradient_cpu):
+// forward mode, each point carries COMP = 4 rows of activations, the value and its derivatives
+// along x, y, z. The derivative rows go through the same weight vec4s as the value row, so a
+// weight load feeds POINTS x COMP rows; only the bias and the activation's chain rule
+// (omega0 cos(omega0 z), from the same sincos_reduced as the value) tell them apart. The output
+// is (value, gradient) as one vec4 per point.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -42,9 +49,19 @@ layout(local_size_x_id = 14) in;
 layout(constant_id = 14) const uint LOCAL_SIZE = 32;
 
 const uint ENC4 = 1 + 6 * FREQ4;
+#ifdef WITH_GRADIENT
+const uint COMP = 4;  // rows per point: value, d/dx, d/dy, d/dz
+#else
+const uint COMP = 1;
+#endif
+const uint ROWS = POINTS * COMP;  // row r is component r % COMP of point r / COMP
 
 layout(std430, binding = 0) readonly buffer Points { float points[]; };  // xyz per point
+#ifdef WITH_GRADIENT
+layout(std430, binding = 1) writeonly buffer Values { vec4 values[]; };  // value, gradient
+#else
 layout(std430, binding = 1) writeonly buffer Values { float values[]; };
+#endif
 layout(std140, binding = 2) uniform Frequencies { vec4 frequencies[6]; };  // 24 = MAX_FREQUENCIES
 
 #ifdef WEIGHTS_IN_STORAGE_BUFFER
@@ -64,34 +81,64 @@ WEIGHT_BLOCK(10, layer7)
 
 layout(push_constant) uniform Push { uint count; } push;
 
-vec4 ping[POINTS * MAX4];
-vec4 pong[POINTS * MAX4];
+vec4 ping[ROWS * MAX4];
+vec4 pong[ROWS * MAX4];
 
 float activate_output(float y) {
     if (OUTPUT_ACTIVATION == 1) return abs(y);
     if (OUTPUT_ACTIVATION == 2) return 1.0 / (1.0 + exp(-y));
     return y;
 }
+float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign(0) = +1
+    if (OUTPUT_ACTIVATION == 1) return y >= 0.0 ? 1.0 : -1.0;
+    if (OUTPUT_ACTIVATION == 2) {
+        float s = 1.0 / (1.0 + exp(-y));
+        return s * (1.0 - s);
+    }
+    return 1.0;
+}
 
-// One linear layer over all POINTS points, four outputs at a time so that each weight vec4
-// feeds POINTS dot products. Hidden layers apply sin(omega0 * .), the last none.
+// Hidden activation of rows p * COMP .. p * COMP + COMP - 1 into DST at output vec4 o4:
+// sin(omega0 z) for the value, omega0 cos(omega0 z) dz for the derivatives.
+#ifdef WITH_GRADIENT
+#define ACTIVATE(DST, p, o4, acc)                                                           \
+    {                                                                                       \
+        vec4 s, slope;                                                                      \
+        for (uint j = 0; j < 4; ++j) {                                                      \
+            vec2 sc = sincos_reduced(OMEGA0 * acc[p * COMP][j]);                            \
+            s[j] = sc.x;                                                                    \
+            slope[j] = OMEGA0 * sc.y;                                                       \
+        }                                                                                   \
+        DST[p * COMP * MAX4 + o4] = s;                                                      \
+        for (uint c = 1; c < COMP; ++c) DST[(p * COMP + c) * MAX4 + o4] = slope * acc[p * COMP + c]; \
+    }
+#else
+#define ACTIVATE(DST, p, o4, acc) DST[p * MAX4 + o4] = sin_reduced(OMEGA0 * acc[p]);
+#endif
+
+// One linear layer over all ROWS rows, four outputs at a time so that each weight vec4 feeds
+// ROWS dot products. Hidden layers apply sin(omega0 * .) (ACTIVATE), the last none. The bias
+// goes to value rows only.
 #define LAYER(K, IN4, OUT4, W, SRC, DST)                                                    \
     if (K < NUM_LAYERS) {                                                                   \
         for (uint o4 = 0; o4 < OUT4; ++o4) {                                                \
-            vec4 acc[POINTS];                                                               \
+            vec4 acc[ROWS];                                                                 \
             vec4 bias = W.w[OUT4 * 4 * IN4 + o4];                                           \
-            for (uint p = 0; p < POINTS; ++p) acc[p] = bias;                                \
+            for (uint r = 0; r < ROWS; ++r) acc[r] = r % COMP == 0 ? bias : vec4(0.0);      \
             uint row = o4 * 4 * IN4;                                                        \
             for (uint i = 0; i < IN4; ++i, ++row) {                                         \
                 vec4 w0 = W.w[row], w1 = W.w[row + IN4];                                    \
                 vec4 w2 = W.w[row + 2 * IN4], w3 = W.w[row + 3 * IN4];                      \
-                for (uint p = 0; p < POINTS; ++p) {                                         \
-                    vec4 x = SRC[p * MAX4 + i];                                             \
-                    acc[p] += vec4(dot(w0, x), dot(w1, x), dot(w2, x), dot(w3, x));         \
+                for (uint r = 0; r < ROWS; ++r) {                                           \
+                    vec4 x = SRC[r * MAX4 + i];                                             \
+                    acc[r] += vec4(dot(w0, x), dot(w1, x), dot(w2, x), dot(w3, x));         \
                 }                                                                           \
             }                                                                               \
-            for (uint p = 0; p < POINTS; ++p)                                               \
-                DST[p * MAX4 + o4] = K + 1 < NUM_LAYERS ? sin_reduced(OMEGA0 * acc[p]) : acc[p]; \
+            if (K + 1 < NUM_LAYERS) {                                                       \
+                for (uint p = 0; p < POINTS; ++p) ACTIVATE(DST, p, o4, acc)                 \
+            } else {                                                                        \
+                for (uint r = 0; r < ROWS; ++r) DST[r * MAX4 + o4] = acc[r];                \
+            }                                                                               \
         }                                                                                   \
     }
 
@@ -103,7 +150,14 @@ void main() {
     for (uint p = 0; p < POINTS; ++p) {
         uint i = min(first + p, push.count - 1);
         vec3 u = vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
-        ping[p * MAX4] = vec4(u, 0.0);
+        uint v = p * COMP * MAX4;  // the value row of point p
+        ping[v] = vec4(u, 0.0);
+#ifdef WITH_GRADIENT
+        for (uint k = 0; k < 3 * MAX4; ++k) ping[v + MAX4 + k] = vec4(0.0);
+        ping[v + MAX4] = vec4(1.0, 0.0, 0.0, 0.0);  // du / du_x
+        ping[v + 2 * MAX4] = vec4(0.0, 1.0, 0.0, 0.0);
+        ping[v + 3 * MAX4] = vec4(0.0, 0.0, 1.0, 0.0);
+#endif
         for (uint b = 0; b < FREQ4; ++b) {
             vec4 f = frequencies[b];
             // The products are rounded to f32 before the reduction, as FORMAT.md specifies.
@@ -114,13 +168,27 @@ void main() {
             vec2 sy2 = sincos_reduced(ay.z), sy3 = sincos_reduced(ay.w);
             vec2 sz0 = sincos_reduced(az.x), sz1 = sincos_reduced(az.y);
             vec2 sz2 = sincos_reduced(az.z), sz3 = sincos_reduced(az.w);
-            uint base = p * MAX4 + 1 + 6 * b;
-            ping[base + 0] = vec4(sx0.x, sx1.x, sx2.x, sx3.x);
-            ping[base + 1] = vec4(sy0.x, sy1.x, sy2.x, sy3.x);
-            ping[base + 2] = vec4(sz0.x, sz1.x, sz2.x, sz3.x);
-            ping[base + 3] = vec4(sx0.y, sx1.y, sx2.y, sx3.y);
-            ping[base + 4] = vec4(sy0.y, sy1.y, sy2.y, sy3.y);
-            ping[base + 5] = vec4(sz0.y, sz1.y, sz2.y, sz3.y);
+            uint base = 1 + 6 * b;
+            vec4 sin_x = vec4(sx0.x, sx1.x, sx2.x, sx3.x), cos_x = vec4(sx0.y, sx1.y, sx2.y, sx3.y);
+            vec4 sin_y = vec4(sy0.x, sy1.x, sy2.x, sy3.x), cos_y = vec4(sy0.y, sy1.y, sy2.y, sy3.y);
+            vec4 sin_z = vec4(sz0.x, sz1.x, sz2.x, sz3.x), cos_z = vec4(sz0.y, sz1.y, sz2.y, sz3.y);
+            ping[v + base + 0] = sin_x;
+            ping[v + base + 1] = sin_y;
+            ping[v + base + 2] = sin_z;
+            ping[v + base + 3] = cos_x;
+            ping[v + base + 4] = cos_y;
+            ping[v + base + 5] = cos_z;
+#ifdef WITH_GRADIENT
+            // d sin(f u_a) = f cos(f u_a) du_a, d cos(f u_a) = -f sin(f u_a) du_a (the other two
+            // derivative rows of these inputs stay zero).
+            uint dx = v + MAX4 + base, dy = dx + MAX4, dz = dy + MAX4;
+            ping[dx + 0] = f * cos_x;
+            ping[dx + 3] = -f * sin_x;
+            ping[dy + 1] = f * cos_y;
+            ping[dy + 4] = -f * sin_y;
+            ping[dz + 2] = f * cos_z;
+            ping[dz + 5] = -f * sin_z;
+#endif
         }
     }
 
@@ -135,7 +203,15 @@ void main() {
 
     // The output layer K = NUM_LAYERS - 1 wrote pong when K is even, ping when odd.
     for (uint p = 0; p < POINTS && first + p < push.count; ++p) {
-        float y = (NUM_LAYERS & 1) == 1 ? pong[p * MAX4].x : ping[p * MAX4].x;
+        uint v = p * COMP * MAX4;
+        float y = (NUM_LAYERS & 1) == 1 ? pong[v].x : ping[v].x;
+#ifdef WITH_GRADIENT
+        vec3 dy = (NUM_LAYERS & 1) == 1
+                      ? vec3(pong[v + MAX4].x, pong[v + 2 * MAX4].x, pong[v + 3 * MAX4].x)
+                      : vec3(ping[v + MAX4].x, ping[v + 2 * MAX4].x, ping[v + 3 * MAX4].x);
+        values[first + p] = vec4(activate_output(y), output_slope(y) * dy);
+#else
         values[first + p] = activate_output(y);
+#endif
     }
 }

@@ -57,6 +57,24 @@ nfd_result guarded(Fn&& fn) noexcept {
 // Points per evaluate call through the API: bounds the unit-frame copy whatever `count` is.
 constexpr size_t kEvaluateBlock = size_t(1) << 20;
 
+// Maps original-frame points to the unit frame kEvaluateBlock at a time and calls
+// fn(unit_xyz, n, first point index) on each block, inside the exception guard.
+template <class Fn>
+nfd_result evaluate_in_blocks(const nfd_asset& asset, const float* points, size_t count, Fn&& fn) {
+    return guarded([&] {
+        const nfd::Geometry& g = asset.file.geometry;
+        std::vector<float> unit(3 * std::min(count, kEvaluateBlock));
+        for (size_t begin = 0; begin < count; begin += kEvaluateBlock) {
+            const size_t n = std::min(kEvaluateBlock, count - begin);
+            for (size_t i = 0; i < 3 * n; ++i)
+                unit[i] = (points[3 * begin + i] - g.center[i % 3]) / g.scale;
+            const nfd_result r = fn(unit.data(), n, begin);
+            if (r != NFD_SUCCESS) return r;
+        }
+        return NFD_SUCCESS;
+    });
+}
+
 // A C caller may store any int in an enum field, which C++ may not even load as the enum type:
 // read the bytes as an int so that the range check itself is defined.
 bool is_device_kind(const nfd_device_kind& k) {
@@ -175,23 +193,32 @@ nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, cons
     if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
     if (count == 0) return NFD_SUCCESS;
     if (!points || !out_values) return NFD_ERROR_INVALID_ARGUMENT;
-    return guarded([&] {
-        const nfd::Geometry& g = asset->file.geometry;
-        std::vector<float> unit(3 * std::min(count, kEvaluateBlock));
-        for (size_t begin = 0; begin < count; begin += kEvaluateBlock) {
-            const size_t n = std::min(kEvaluateBlock, count - begin);
-            for (size_t i = 0; i < 3 * n; ++i)
-                unit[i] = (points[3 * begin + i] - g.center[i % 3]) / g.scale;
+    return evaluate_in_blocks(*asset, points, count, [&](const float* unit, size_t n, size_t begin) {
 #if NFD_WITH_VULKAN
-            if (context->gpu) {
-                const nfd_result r =
-                    nfd::gpu::evaluate(*context->gpu, g.network, unit.data(), n, out_values + begin);
-                if (r != NFD_SUCCESS) return r;
-                continue;
-            }
+        if (context->gpu)
+            return nfd::gpu::evaluate(*context->gpu, asset->file.geometry.network, unit, n,
+                                      out_values + begin);
 #endif
-            nfd::evaluate_cpu(g.network, unit.data(), n, out_values + begin, context->cpu_threads);
-        }
+        nfd::evaluate_cpu(asset->file.geometry.network, unit, n, out_values + begin,
+                          context->cpu_threads);
+        return NFD_SUCCESS;
+    });
+}
+
+nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_asset* asset,
+                                       const float* points, size_t count, float* out_values,
+                                       float* out_gradients) {
+    if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
+    if (count == 0) return NFD_SUCCESS;
+    if (!points || !out_values || !out_gradients) return NFD_ERROR_INVALID_ARGUMENT;
+    return evaluate_in_blocks(*asset, points, count, [&](const float* unit, size_t n, size_t begin) {
+#if NFD_WITH_VULKAN
+        if (context->gpu)
+            return nfd::gpu::evaluate_gradient(*context->gpu, asset->file.geometry.network, unit,
+                                               n, out_values + begin, out_gradients + 3 * begin);
+#endif
+        nfd::evaluate_gradient_cpu(asset->file.geometry.network, unit, n, out_values + begin,
+                                   out_gradients + 3 * begin, context->cpu_threads);
         return NFD_SUCCESS;
     });
 }

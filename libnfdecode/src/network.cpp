@@ -1,7 +1,8 @@
 // CPU reference evaluator (FORMAT.md "Evaluation"): positional encoding, sine layers, linear
-// output, all in f32. Points are processed in blocks with activations stored feature-major
-// (h[feature][point]), so the inner loop of every layer runs over points and vectorises; sin and
-// cos are the C library's, accurate on the whole f32 range (no range-reduction shortcut).
+// output, all in f32, optionally with the forward-mode gradient. Points are processed in blocks
+// with activations stored feature-major (h[feature][point]), so the inner loop of every layer runs
+// over points and vectorises; sin and cos are the C library's, accurate on the whole f32 range (no
+// range-reduction shortcut).
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -14,9 +15,16 @@ namespace {
 
 constexpr size_t kBlock = 64;  // points per block: acc[] stays in registers/L1
 
+// Activations are stored feature-major with C components per feature: the value (component 0)
+// and, for the gradient path (C = 4), its derivatives along x, y, z. Component c of feature i for
+// point p is h[(i * C + c) * kBlock + p]: every component row runs over points and vectorises.
 struct Scratch {
-    std::vector<float> a, b;  // ping-pong activations, max_width x kBlock
+    std::vector<float> a, b;  // ping-pong activations, max_width x C x kBlock
 };
+
+// The axis whose coordinate encoded input i depends on (FORMAT.md order: u, then per frequency
+// sin xyz, cos xyz): its derivative along the two other axes is zero.
+uint32_t encoded_axis(uint32_t i) { return i < 3 ? i : (i - 3) % 3; }
 
 float activate_output(OutputActivation activation, float y) {
     switch (activation) {
@@ -27,20 +35,56 @@ float activate_output(OutputActivation activation, float y) {
     return y;
 }
 
-void evaluate_block(const Network& net, const float* xyz, size_t count, float* out, Scratch& s) {
+// d activate_output / dy at y (abs: sign(y) with sign(0) = +1).
+float output_slope(OutputActivation activation, float y) {
+    switch (activation) {
+        case OutputActivation::Abs: return y >= 0.0f ? 1.0f : -1.0f;
+        case OutputActivation::Sigmoid: {
+            const float s = 1.0f / (1.0f + std::exp(-y));
+            return s * (1.0f - s);
+        }
+        case OutputActivation::Identity: break;
+    }
+    return 1.0f;
+}
+
+// acc[p] += w * x[p]: the one multiply-add of every layer, in input order, for values and
+// derivatives alike (so that the value of the gradient path is the value path's, bit for bit).
+void multiply_add(float* acc, float w, const float* x, size_t count) {
+    for (size_t p = 0; p < count; ++p) acc[p] += w * x[p];
+}
+
+// C = 1: values; C = 4: values and gradients (forward mode: every derivative row goes through
+// the same weights as its value, then the chain rule of the activation).
+template <size_t C>
+void evaluate_block(const Network& net, const float* xyz, size_t count, float* out,
+                    float* out_gradients, Scratch& s) {
     float* h = s.a.data();
-    // Encoding: [u0, u1, u2, then per frequency sin(f u0..2), cos(f u0..2)].
-    for (size_t p = 0; p < count; ++p)
-        for (size_t j = 0; j < 3; ++j) h[j * kBlock + p] = xyz[3 * p + j];
+    auto row = [](float* base, size_t feature, size_t c) { return base + (feature * C + c) * kBlock; };
+    // Encoding: [u0, u1, u2, then per frequency sin(f u0..2), cos(f u0..2)]. Derivative rows are
+    // written only along the input's own axis (the others are zero and layer 0 skips them).
+    for (size_t j = 0; j < 3; ++j) {
+        for (size_t p = 0; p < count; ++p) row(h, j, 0)[p] = xyz[3 * p + j];
+        if (C > 1) std::fill_n(row(h, j, 1 + j), count, 1.0f);
+    }
     for (size_t k = 0; k < net.frequencies.size(); ++k) {
         const float f = net.frequencies[k];
         for (size_t j = 0; j < 3; ++j) {
-            float* sin_row = h + (3 + 6 * k + j) * kBlock;
-            float* cos_row = sin_row + 3 * kBlock;
+            const size_t sin_feature = 3 + 6 * k + j, cos_feature = sin_feature + 3;
+            float* sin_row = row(h, sin_feature, 0);
+            float* cos_row = row(h, cos_feature, 0);
             for (size_t p = 0; p < count; ++p) {
                 const float arg = f * xyz[3 * p + j];  // the f32 product FORMAT.md specifies
                 sin_row[p] = std::sin(arg);
                 cos_row[p] = std::cos(arg);
+            }
+            if (C > 1) {
+                float* dsin = row(h, sin_feature, 1 + j);
+                float* dcos = row(h, cos_feature, 1 + j);
+                for (size_t p = 0; p < count; ++p) {
+                    dsin[p] = f * cos_row[p];
+                    dcos[p] = -f * sin_row[p];
+                }
             }
         }
     }
@@ -50,38 +94,65 @@ void evaluate_block(const Network& net, const float* xyz, size_t count, float* o
         const Layer& layer = net.layers[l];
         const bool hidden = l + 1 < net.layers.size();
         for (uint32_t o = 0; o < layer.out; ++o) {
-            float acc[kBlock] = {};
+            float acc[C][kBlock] = {};
             const float* w = layer.weights.data() + size_t(o) * layer.in;
             for (uint32_t i = 0; i < layer.in; ++i) {
-                const float wi = w[i];
-                const float* hi = h + size_t(i) * kBlock;
-                for (size_t p = 0; p < count; ++p) acc[p] += wi * hi[p];
+                multiply_add(acc[0], w[i], row(h, i, 0), count);
+                if (C == 1) continue;
+                if (l == 0) {
+                    const size_t c = 1 + encoded_axis(i);
+                    multiply_add(acc[c], w[i], row(h, i, c), count);
+                } else {
+                    for (size_t c = 1; c < C; ++c) multiply_add(acc[c], w[i], row(h, i, c), count);
+                }
             }
-            float* row = next + size_t(o) * kBlock;
+            float* value = row(next, o, 0);
             for (size_t p = 0; p < count; ++p) {
-                const float z = acc[p] + layer.bias[o];
-                row[p] = hidden ? std::sin(net.omega0 * z) : z;
+                const float z = acc[0][p] + layer.bias[o];
+                value[p] = hidden ? std::sin(net.omega0 * z) : z;
+                if (C == 1) continue;
+                // d sin(omega0 z) = omega0 cos(omega0 z) dz; the output layer is linear.
+                const float slope = hidden ? net.omega0 * std::cos(net.omega0 * z) : 1.0f;
+                for (size_t c = 1; c < C; ++c) row(next, o, c)[p] = slope * acc[c][p];
             }
         }
         std::swap(h, next);
     }
-    for (size_t p = 0; p < count; ++p) out[p] = activate_output(net.output, h[p]);
+    for (size_t p = 0; p < count; ++p) {
+        const float y = h[p];
+        out[p] = activate_output(net.output, y);
+        if (C == 1) continue;
+        const float slope = output_slope(net.output, y);
+        for (size_t c = 1; c < C; ++c) out_gradients[3 * p + c - 1] = slope * row(h, 0, c)[p];
+    }
+}
+
+template <size_t C>
+void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float* out,
+                     float* out_gradients, unsigned threads) {
+    size_t width = net.input_width();
+    for (const Layer& layer : net.layers) width = std::max<size_t>(width, layer.out);
+    // Below ~4k points a thread costs more than it saves.
+    parallel_for(n, 4096, threads, [&](size_t begin, size_t end) {
+        Scratch s{std::vector<float>(width * C * kBlock), std::vector<float>(width * C * kBlock)};
+        for (size_t p = begin; p < end; p += kBlock) {
+            const size_t count = std::min(kBlock, end - p);
+            evaluate_block<C>(net, unit_xyz + 3 * p, count, out + p,
+                              C > 1 ? out_gradients + 3 * p : nullptr, s);
+        }
+    });
 }
 
 }  // namespace
 
 void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float* out,
                   unsigned threads) {
-    size_t width = network.input_width();
-    for (const Layer& layer : network.layers) width = std::max<size_t>(width, layer.out);
-    // Below ~4k points a thread costs more than it saves.
-    parallel_for(n, 4096, threads, [&](size_t begin, size_t end) {
-        Scratch s{std::vector<float>(width * kBlock), std::vector<float>(width * kBlock)};
-        for (size_t p = begin; p < end; p += kBlock) {
-            const size_t count = std::min(kBlock, end - p);
-            evaluate_block(network, unit_xyz + 3 * p, count, out + p, s);
-        }
-    });
+    evaluate_blocks<1>(network, unit_xyz, n, out, nullptr, threads);
+}
+
+void evaluate_gradient_cpu(const Network& network, const float* unit_xyz, size_t n,
+                           float* out_values, float* out_gradients, unsigned threads) {
+    evaluate_blocks<4>(network, unit_xyz, n, out_values, out_gradients, threads);
 }
 
 }  // namespace nfd

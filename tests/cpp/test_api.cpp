@@ -172,6 +172,85 @@ TEST_F(Api, EvaluateTakesOriginalFrameAndReturnsUnitDistances) {
     EXPECT_NEAR(values[1], 0.0f, 1e-3);
 }
 
+TEST_F(Api, EvaluateGradientArguments) {
+    float v = 0, g[3] = {0, 0, 0};
+    const float p[3] = {0, 0, 0};
+    EXPECT_EQ(nfd_asset_evaluate_gradient(nullptr, asset, p, 1, &v, g), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_asset_evaluate_gradient(ctx, nullptr, p, 1, &v, g), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_asset_evaluate_gradient(ctx, asset, nullptr, 0, nullptr, nullptr), NFD_SUCCESS);
+    EXPECT_EQ(nfd_asset_evaluate_gradient(ctx, asset, nullptr, 1, &v, g), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_asset_evaluate_gradient(ctx, asset, p, 1, nullptr, g), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_asset_evaluate_gradient(ctx, asset, p, 1, &v, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+}
+
+// On the golden vectors (SDF and UDF), original-frame points, on the CPU context and (where there
+// is one) a Vulkan one: the values are nfd_asset_evaluate's and the gradients the internal
+// evaluator's at the same unit-frame points (bit for bit on the CPU, as test_gpu.cpp bounds the
+// GPU's); the blob's closed-form gradient checks the frame: the API's gradient is dimensionless.
+TEST_F(Api, EvaluateGradientOnGoldenVectors) {
+    std::vector<nfd_context*> contexts = {ctx};
+    nfd_context* vk = nullptr;
+    nfd_context_options o = {};
+    o.device = NFD_DEVICE_VULKAN;
+    if (nfd_context_create(&o, &vk) == NFD_SUCCESS) contexts.push_back(vk);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+    for (const std::string& name : golden_names()) {
+        SCOPED_TRACE(name);
+        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
+        nfd_asset* a = nullptr;
+        ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &a), NFD_SUCCESS);
+        const Geometry g = parse_or_throw(bytes);
+        const size_t n = 3000;
+        std::vector<float> points(3 * n), unit(3 * n);
+        for (size_t i = 0; i < 3 * n; ++i) {
+            points[i] = uniform(rng) * g.scale + g.center[i % 3];
+            unit[i] = (points[i] - g.center[i % 3]) / g.scale;  // as the API maps them
+        }
+        std::vector<float> want(n), want_gradients(3 * n);
+        evaluate_gradient_cpu(g.network, unit.data(), n, want.data(), want_gradients.data());
+        for (nfd_context* c : contexts) {
+            SCOPED_TRACE(nfd_context_device_name(c));
+            const bool cpu = nfd_context_device_kind(c) == NFD_DEVICE_CPU;
+            std::vector<float> plain(n), values(n), gradients(3 * n);
+            ASSERT_EQ(nfd_asset_evaluate(c, a, points.data(), n, plain.data()), NFD_SUCCESS);
+            ASSERT_EQ(nfd_asset_evaluate_gradient(c, a, points.data(), n, values.data(),
+                                                  gradients.data()),
+                      NFD_SUCCESS);
+            EXPECT_EQ(values, plain);
+            if (cpu) {
+                EXPECT_EQ(gradients, want_gradients);
+                continue;
+            }
+            for (size_t i = 0; i < 3 * n; ++i)
+                ASSERT_NEAR(gradients[i], want_gradients[i], 1e-4 * (1 + std::fabs(want_gradients[i])))
+                    << i;
+        }
+        nfd_asset_destroy(a);
+    }
+    nfd_context_destroy(vk);
+}
+
+// The closed blob, f(u) = sin(30 * -0.01 * (sum cos(2 u_j) - T)) / 0.6 (test_network.cpp): its
+// gradient in the unit frame, whatever the asset's scale (2 here), since the distance is in the
+// unit frame too.
+TEST_F(Api, EvaluateGradientIsDimensionless) {
+    const float points[6] = {center[0] + 0.6f * 2.0f, center[1], center[2],
+                             center[0] + 0.3f * 2.0f, center[1] - 0.2f * 2.0f, center[2]};
+    const double unit[2][3] = {{0.6, 0, 0}, {0.3, -0.2, 0}};
+    float values[2], gradients[6];
+    ASSERT_EQ(nfd_asset_evaluate_gradient(ctx, asset, points, 2, values, gradients), NFD_SUCCESS);
+    const double T = std::cos(1.2) + 2.0;
+    for (int i = 0; i < 2; ++i) {
+        double sum = 0;
+        for (int j = 0; j < 3; ++j) sum += std::cos(2.0 * unit[i][j]);
+        const double outer = std::cos(30.0 * -0.01 * (sum - T)) * 30.0 * -0.01 / 0.6;
+        for (int j = 0; j < 3; ++j)
+            EXPECT_NEAR(gradients[3 * i + j], outer * -2.0 * std::sin(2.0 * unit[i][j]), 2e-3)
+                << i << " " << j;  // the hand-made weights are quantized (as the value test)
+    }
+}
+
 TEST_F(Api, MeshOptionsDefaultsAndLimits) {
     EXPECT_EQ(nfd_mesh_extract(ctx, asset, nullptr, nullptr), NFD_ERROR_INVALID_ARGUMENT);
     nfd_mesh* m = reinterpret_cast<nfd_mesh*>(0x1);

@@ -118,6 +118,72 @@ TEST_F(Gpu, EvaluatesMorePointsThanOneInvocationBatch) {
     }
 }
 
+// Values and gradients of the WITH_GRADIENT kernel against evaluate_gradient_cpu: a random SDF
+// SIREN, a random UDF one (abs output) of width 192 (the storage-buffer variant), and the golden
+// vectors (SDF and UDF). Values are also compared with the GPU's own value kernel.
+TEST_F(Gpu, GradientMatchesCpu) {
+    const std::vector<float> points = random_points(20000, 17);
+    const size_t n = points.size() / 3;
+    std::vector<Network> networks;
+    std::vector<std::string> labels;
+    for (const auto& [width, field] : {std::pair<uint32_t, uint8_t>{32, 0}, {192, 1}}) {
+        networks.push_back(
+            parse_or_throw(geom_file(random_siren(width, 8, 200 + width, field))).network);
+        labels.push_back("w" + std::to_string(width) + (field ? "_udf" : "_sdf"));
+    }
+    for (const std::string& name : golden_names()) {
+        ParsedFile f;
+        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
+        ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &f), NFD_SUCCESS) << name;
+        networks.push_back(f.geometry.network);
+        labels.push_back(name);
+    }
+    for (size_t k = 0; k < networks.size(); ++k) {
+        SCOPED_TRACE(labels[k]);
+        const Network& net = networks[k];
+        std::vector<float> cpu(n), cpu_gradients(3 * n), gpu_values(n), gpu_plain(n),
+            gpu_gradients(3 * n);
+        evaluate_gradient_cpu(net, points.data(), n, cpu.data(), cpu_gradients.data());
+        ASSERT_EQ(gpu::evaluate_gradient(device(), net, points.data(), n, gpu_values.data(),
+                                         gpu_gradients.data()),
+                  NFD_SUCCESS);
+        ASSERT_EQ(gpu::evaluate(device(), net, points.data(), n, gpu_plain.data()), NFD_SUCCESS);
+        double worst = 0, scale = 0, worst_gradient = 0, gradient_scale = 0;
+        for (size_t i = 0; i < n; ++i) {
+            worst = std::max(worst, double(std::fabs(gpu_values[i] - cpu[i])));
+            scale = std::max(scale, double(std::fabs(cpu[i])));
+            double norm = 0;
+            for (int a = 0; a < 3; ++a) {
+                const double d = double(gpu_gradients[3 * i + a]) - cpu_gradients[3 * i + a];
+                worst_gradient = std::max(worst_gradient, std::fabs(d));
+                norm += double(cpu_gradients[3 * i + a]) * cpu_gradients[3 * i + a];
+            }
+            gradient_scale = std::max(gradient_scale, std::sqrt(norm));
+        }
+        // As FieldMatchesCpuForEveryWidth: f32 in different orders, range-reduced sin/cos.
+        EXPECT_LE(worst, 1e-5 * scale);
+        EXPECT_LE(worst_gradient, 1e-5 * gradient_scale);
+        RecordProperty("gradient_max_rel_diff_" + labels[k],
+                       std::to_string(worst_gradient / gradient_scale));
+        for (size_t i = 0; i < n; ++i) ASSERT_EQ(gpu_values[i], gpu_plain[i]) << i;
+    }
+}
+
+TEST_F(Gpu, GradientOfFewPointsAndOfNone) {
+    const Network net = parse_or_throw(geom_file(random_siren(16, 8, 3, 1))).network;
+    for (size_t n : {1u, 2u, 3u, 257u}) {
+        const std::vector<float> points = random_points(n, uint32_t(n));
+        std::vector<float> cpu(n), cpu_gradients(3 * n), values(n, NAN), gradients(3 * n, NAN);
+        evaluate_gradient_cpu(net, points.data(), n, cpu.data(), cpu_gradients.data());
+        ASSERT_EQ(gpu::evaluate_gradient(device(), net, points.data(), n, values.data(),
+                                         gradients.data()),
+                  NFD_SUCCESS);
+        for (size_t i = 0; i < 3 * n; ++i)
+            EXPECT_NEAR(gradients[i], cpu_gradients[i], 1e-4 * (1 + std::fabs(cpu_gradients[i])));
+    }
+    EXPECT_EQ(gpu::evaluate_gradient(device(), net, nullptr, 0, nullptr, nullptr), NFD_SUCCESS);
+}
+
 struct MeshPair {
     MeshData cpu, gpu;
     ExtractStats cpu_stats, gpu_stats;

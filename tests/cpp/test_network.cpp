@@ -1,5 +1,5 @@
 // The CPU evaluator against an f64 reimplementation (synthetic networks) and against the Python
-// reference decoder's values (golden vectors).
+// reference decoder's values (golden vectors); its gradients against f64 finite differences.
 //
 // Tolerance: |C++ f32 - reference| <= 1e-5 in unit-frame distance, i.e. 0.01% of the truncation
 // band d* = 0.1 and far below a cell at resolution 1024 (0.002). The f32 path's actual error on
@@ -34,6 +34,67 @@ double max_error_vs_f64(const Network& net, const std::vector<float>& points) {
     return worst;
 }
 
+// The field as a smooth function of f64 coordinates (evaluate_f64 rounds the encoding products
+// f * u to f32 as FORMAT.md specifies, which is a staircase at the scale of finite differences).
+double smooth_field_f64(const Network& net, const double u[3]) {
+    std::vector<double> h(u, u + 3);
+    for (int trig = 0; trig < 2 * int(net.frequencies.size()); ++trig)
+        for (int j = 0; j < 3; ++j) {
+            const double arg = double(net.frequencies[trig / 2]) * u[j];
+            h.push_back(trig % 2 ? std::cos(arg) : std::sin(arg));
+        }
+    for (size_t l = 0; l < net.layers.size(); ++l) {
+        const Layer& layer = net.layers[l];
+        std::vector<double> next(layer.bias.begin(), layer.bias.end());
+        for (uint32_t o = 0; o < layer.out; ++o) {
+            for (uint32_t i = 0; i < layer.in; ++i)
+                next[o] += double(layer.weights[o * layer.in + i]) * h[i];
+            if (l + 1 < net.layers.size()) next[o] = std::sin(double(net.omega0) * next[o]);
+        }
+        h.swap(next);
+    }
+    if (net.output == OutputActivation::Abs) return std::fabs(h[0]);
+    if (net.output == OutputActivation::Sigmoid) return 1.0 / (1.0 + std::exp(-h[0]));
+    return h[0];
+}
+
+// Worst |analytic - central difference| over the points, relative to the largest gradient norm.
+// Step 1e-6 in f64: the truncation error h^2 |f'''| / 6, with |f'''| up to ~1e9 for these SIRENs
+// (top frequency ~489, omega0 = 30), stays ~1e-4 on gradients of norm 10-1000, and rounding
+// (1e-16 / 1e-6) is negligible: the comparison measures the f32 analytic path.
+double gradient_error_vs_differences(const Network& net, const std::vector<float>& points) {
+    const size_t n = points.size() / 3;
+    std::vector<float> values(n), gradients(3 * n);
+    evaluate_gradient_cpu(net, points.data(), n, values.data(), gradients.data());
+    double worst = 0, scale = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const double u[3] = {points[3 * i], points[3 * i + 1], points[3 * i + 2]};
+        // A UDF's abs has a kink at 0: differences across it are meaningless.
+        if (net.output == OutputActivation::Abs && std::fabs(smooth_field_f64(net, u)) < 1e-2)
+            continue;
+        double norm = 0;
+        for (int a = 0; a < 3; ++a) {
+            const double h = 1e-6;
+            double lo[3] = {u[0], u[1], u[2]}, hi[3] = {u[0], u[1], u[2]};
+            lo[a] -= h;
+            hi[a] += h;
+            const double fd = (smooth_field_f64(net, hi) - smooth_field_f64(net, lo)) / (2 * h);
+            worst = std::max(worst, std::fabs(gradients[3 * i + a] - fd));
+            norm += fd * fd;
+        }
+        scale = std::max(scale, std::sqrt(norm));
+    }
+    return worst / scale;
+}
+
+// Relative to the largest gradient norm. The limit is the encoding, not the forward pass: FORMAT.md
+// rounds f * u to f32 (half an ulp of ~540 rad is 3e-5 rad at the top frequency ~489 and |u| <=
+// 1.1), so the derivative f cos(f u) of that term is off by up to ~3e-5 of its size. Measured
+// (printed): 1.3e-5 on random SIRENs, 1e-6..5e-6 on the golden vectors; a step of 1e-5 or 1e-7
+// gives the same figures, so the differences are not the limit.
+constexpr double kGradientTolerance = 5e-5;
+
+// Values against f64, and gradients (evaluate_gradient_cpu) against finite differences.
 TEST(Network, MatchesF64ReferenceOnRandomSirens) {
     struct Case {
         uint32_t width;
@@ -42,10 +103,13 @@ TEST(Network, MatchesF64ReferenceOnRandomSirens) {
     for (const Case c : {Case{16, 8, 0}, Case{32, 8, 0}, Case{96, 12, 0}, Case{32, 8, 1}}) {
         const Geometry g = parse_or_throw(geom_file(random_siren(c.width, c.bits, c.width, c.field)));
         // Points inside the unit cube and beyond it (the extractor's last cells reach past 1).
-        const double err = max_error_vs_f64(g.network, random_points(5000, 42, 1.1f));
-        std::printf("width %u, %u bits, field %u: max |f32 - f64| = %.3g\n", c.width, c.bits,
-                    c.field, err);
+        const std::vector<float> points = random_points(5000, 42, 1.1f);
+        const double err = max_error_vs_f64(g.network, points);
+        const double gradient_err = gradient_error_vs_differences(g.network, points);
+        std::printf("width %u, %u bits, field %u: max |f32 - f64| = %.3g, gradient %.3g\n",
+                    c.width, c.bits, c.field, err, gradient_err);
         EXPECT_LE(err, kTolerance);
+        EXPECT_LE(gradient_err, kGradientTolerance);
     }
 }
 
@@ -123,6 +187,55 @@ TEST(Network, MatchesPythonReferenceValues) {
         std::printf("%s: %zu points, max |C++ - Python| = %.3g\n", name.c_str(), expected.size(),
                     worst);
         EXPECT_LE(worst, kTolerance) << name;
+    }
+}
+
+
+TEST(NetworkGradient, MatchesFiniteDifferencesOnGoldenVectors) {
+    const std::vector<std::string> names = golden_names();
+    ASSERT_FALSE(names.empty()) << "no golden vectors in " << vectors_dir();
+    for (const std::string& name : names) {
+        ParsedFile f;
+        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
+        ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &f), NFD_SUCCESS) << name;
+        const double err = gradient_error_vs_differences(f.geometry.network, random_points(2000, 8));
+        std::printf("%s: max |analytic - difference| / max |grad| = %.3g\n", name.c_str(), err);
+        EXPECT_LE(err, kGradientTolerance) << name;
+    }
+}
+
+// The value path of evaluate_gradient_cpu is evaluate_cpu's, bit for bit, whatever the blocking
+// and threading.
+TEST(NetworkGradient, ValuesAreEvaluateCpuValues) {
+    const Network net = parse_or_throw(geom_file(random_siren(32, 8, 9))).network;
+    const size_t n = 20011;
+    const std::vector<float> p = random_points(n, 9, 1.1f);
+    std::vector<float> values(n), with_gradient(n), g1(3 * n), g3(3 * n);
+    evaluate_cpu(net, p.data(), n, values.data());
+    evaluate_gradient_cpu(net, p.data(), n, with_gradient.data(), g1.data(), 1);
+    for (size_t i = 0; i < n; ++i) ASSERT_EQ(with_gradient[i], values[i]) << i;
+    evaluate_gradient_cpu(net, p.data(), n, with_gradient.data(), g3.data(), 3);
+    EXPECT_EQ(g1, g3);
+    evaluate_gradient_cpu(net, p.data(), 0, nullptr, nullptr);
+}
+
+// The output activations' chain rule against the identity network's gradient: abs multiplies by
+// sign(y) (+1 at 0) exactly, sigmoid by s (1 - s).
+TEST(NetworkGradient, OutputActivations) {
+    Network net = parse_or_throw(geom_file(random_siren(16, 8, 7))).network;
+    const size_t n = 500;
+    std::vector<float> p = random_points(n, 7);
+    std::vector<float> y(n), v(n), dy(3 * n), dv(3 * n);
+    evaluate_gradient_cpu(net, p.data(), n, y.data(), dy.data());
+    net.output = OutputActivation::Abs;
+    evaluate_gradient_cpu(net, p.data(), n, v.data(), dv.data());
+    EXPECT_TRUE(std::any_of(y.begin(), y.end(), [](float x) { return x < 0; }));
+    for (size_t i = 0; i < 3 * n; ++i) ASSERT_EQ(dv[i], y[i / 3] >= 0.0f ? dy[i] : -dy[i]) << i;
+    net.output = OutputActivation::Sigmoid;
+    evaluate_gradient_cpu(net, p.data(), n, v.data(), dv.data());
+    for (size_t i = 0; i < 3 * n; ++i) {
+        const double s = 1.0 / (1.0 + std::exp(-double(y[i / 3])));
+        ASSERT_NEAR(dv[i], s * (1 - s) * dy[i], 1e-6 * (std::fabs(dy[i]) + 1)) << i;
     }
 }
 

@@ -174,6 +174,19 @@ nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info);
 nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, const float* points,
                               size_t count, float* out_values);
 
+/* As nfd_asset_evaluate (out_values identical), and also the field's analytic gradient at each
+ * point (forward-mode differentiation of the network, not finite differences): 3*count floats to
+ * out_gradients, xyz interleaved. A distance over a position is dimensionless: this is the gradient
+ * of the unit-frame distance with respect to the unit-frame position, and equally of the original-
+ * frame distance (value * scale) with respect to the original-frame position. A true distance
+ * field has gradient norm 1; a UDF's points away from the surface. Where the network's abs output
+ * is not differentiable (y = 0) the derivative of y >= 0 is taken. Same argument rules, outcomes
+ * and bounded memory as nfd_asset_evaluate; out_gradients NULL with count > 0 gives
+ * NFD_ERROR_INVALID_ARGUMENT. */
+nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_asset* asset,
+                                       const float* points, size_t count, float* out_values,
+                                       float* out_gradients);
+
 /* ---------------------------------------------------------------------------------------------
  * Mesh extraction
  * ------------------------------------------------------------------------------------------- */

@@ -30,9 +30,6 @@ double seconds_since(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-uint32_t cells_at_level(uint32_t resolution, uint32_t level) {
-    return (resolution + (1u << level) - 1) >> level;
-}
 uint32_t div_up(uint64_t a, uint64_t b) { return uint32_t((a + b - 1) / b); }
 
 #define NFD_TRY(expr)                             \
@@ -87,7 +84,7 @@ public:
     // field_eval variants, one per network shape (its sizes are specialization constants).
     struct FieldKernel {
         std::vector<uint32_t> specialization;
-        bool storage = false;
+        bool storage = false, gradient = false;
         Pipeline pipeline;
     };
     std::list<FieldKernel> field_kernels;  // a list: DeviceNetwork keeps pointers into it
@@ -155,10 +152,13 @@ struct DeviceNetwork {
     Device* device = nullptr;
     Buffer weights, frequencies;
     VkDeviceSize offset[kMaxNetworkLayers] = {}, range[kMaxNetworkLayers] = {};
-    std::vector<uint32_t> specialization;
     bool storage = false;
-    const Pipeline* pipeline = nullptr;
-    uint32_t points_per_invocation = 1;
+    uint32_t max4 = 0;                    // widest layer input/output, in vec4s
+    std::vector<uint32_t> specialization;  // field_eval.comp's constants 0-12
+    struct Kernel {
+        const Pipeline* pipeline = nullptr;  // created on first use
+        uint32_t points_per_invocation = 1;
+    } values, gradients;
     DeviceNetwork() = default;
     DeviceNetwork(const DeviceNetwork&) = delete;
     ~DeviceNetwork() {
@@ -178,15 +178,16 @@ uint32_t encoded_column(uint32_t e) {
 }
 
 nfd_result get_field_kernel(Device& d, const std::vector<uint32_t>& specialization, bool storage,
-                            const Pipeline** out) {
+                            bool gradient, const Pipeline** out) {
     for (const Device::FieldKernel& k : d.field_kernels) {
-        if (k.storage == storage && k.specialization == specialization) {
+        if (k.storage == storage && k.gradient == gradient && k.specialization == specialization) {
             *out = &k.pipeline;
             return NFD_SUCCESS;
         }
     }
     PipelineDesc desc;
-    desc.spirv = storage ? &shaders::field_eval_storage : &shaders::field_eval;
+    desc.spirv = gradient ? (storage ? &shaders::field_gradient_storage : &shaders::field_gradient)
+                          : (storage ? &shaders::field_eval_storage : &shaders::field_eval);
     desc.bindings = {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
                      VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER};
     desc.bindings.resize(3 + kMaxNetworkLayers, storage ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
@@ -198,6 +199,7 @@ nfd_result get_field_kernel(Device& d, const std::vector<uint32_t>& specializati
     Device::FieldKernel kernel;
     kernel.specialization = specialization;
     kernel.storage = storage;
+    kernel.gradient = gradient;
     NFD_TRY(d.vk->create_pipeline(desc, &kernel.pipeline));
     d.field_kernels.push_back(std::move(kernel));
     *out = &d.field_kernels.back().pipeline;
@@ -263,27 +265,35 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     float omega0 = net.omega0;
     uint32_t omega0_bits;
     std::memcpy(&omega0_bits, &omega0, 4);
-    uint32_t max4 = in4[0];
-    for (uint32_t l = 0; l < layers; ++l) max4 = std::max(max4, out4[l]);
-    // Fewer points per invocation for wide networks bounds the per-invocation activations.
-    out->points_per_invocation = max4 <= 32 ? kPointsPerInvocation : 2;
+    out->max4 = in4[0];
+    for (uint32_t l = 0; l < layers; ++l) out->max4 = std::max(out->max4, out4[l]);
     std::vector<uint32_t>& spec = out->specialization;
     spec = {freq4, layers};
     spec.insert(spec.end(), out4.begin(), out4.end());
-    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), max4, out->points_per_invocation,
-                             kFieldLocalSize});
-    return get_field_kernel(d, spec, out->storage, &out->pipeline);
+    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), out->max4});
+    return NFD_SUCCESS;
 }
 
-// Records the evaluation of `count` points into `values`.
-nfd_result record_field(Device& d, const DeviceNetwork& net, const Buffer& points,
-                        const Buffer& values, uint32_t count) {
+// Records the evaluation of `count` points into `values` (one float each), or of values and
+// gradients (one vec4 each: value, d/dx, d/dy, d/dz).
+nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& values,
+                        uint32_t count, bool gradient = false) {
+    DeviceNetwork::Kernel& kernel = gradient ? net.gradients : net.values;
+    if (!kernel.pipeline) {
+        // Fewer points per invocation for wide networks bounds the per-invocation activations;
+        // a gradient carries four rows per point.
+        const uint32_t rows = net.max4 <= 32 ? kPointsPerInvocation : 2;
+        kernel.points_per_invocation = gradient ? std::max(rows / 4, 1u) : rows;
+        std::vector<uint32_t> spec = net.specialization;
+        spec.insert(spec.end(), {kernel.points_per_invocation, kFieldLocalSize});
+        NFD_TRY(get_field_kernel(d, spec, net.storage, gradient, &kernel.pipeline));
+    }
     const Buffer& w = net.weights;
     auto layer = [&](uint32_t l) { return BufferRange(w, net.offset[l], net.range[l]); };
-    return d.vk->dispatch(*net.pipeline,
+    return d.vk->dispatch(*kernel.pipeline,
                           {points, values, net.frequencies, layer(0), layer(1), layer(2), layer(3),
                            layer(4), layer(5), layer(6), layer(7)},
-                          &count, div_up(count, net.points_per_invocation));
+                          &count, div_up(count, kernel.points_per_invocation));
 }
 
 // Records an exclusive prefix sum of `count` words of `in` (or of their popcounts) into `out`.
@@ -522,25 +532,51 @@ void destroy_device(Device* device) { delete device; }
 
 const char* device_name(const Device& device) { return device.vk->name().c_str(); }
 
-nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,
-                    float* out) {
+namespace {
+
+// Evaluates n points kEvaluateChunk at a time, handing each chunk's results (a float per point,
+// or a vec4 with `gradient`) to take(first point, count, results).
+template <class Take>
+nfd_result evaluate_in_chunks(Device& device, const Network& network, const float* unit_xyz,
+                              size_t n, bool gradient, Take&& take) {
     if (n == 0) return NFD_SUCCESS;
     DeviceNetwork net;
     NFD_TRY(upload_network(device, network, &net));
     Buffers buffers(*device.vk);
     const size_t chunk = std::min(n, kEvaluateChunk);
-    Buffer *points, *values;
+    Buffer *points, *results;
     NFD_TRY(buffers.make(chunk * 12, &points));
-    NFD_TRY(buffers.make(chunk * 4, &values));
+    NFD_TRY(buffers.make(chunk * (gradient ? 16 : 4), &results));
     for (size_t begin = 0; begin < n; begin += chunk) {
         const uint32_t count = uint32_t(std::min(chunk, n - begin));
         std::memcpy(points->data, unit_xyz + 3 * begin, size_t(count) * 12);
         NFD_TRY(device.vk->begin());
-        NFD_TRY(record_field(device, net, *points, *values, count));
+        NFD_TRY(record_field(device, net, *points, *results, count, gradient));
         NFD_TRY(device.vk->submit());
-        std::memcpy(out + begin, values->data, size_t(count) * 4);
+        take(begin, count, results->as<float>());
     }
     return NFD_SUCCESS;
+}
+
+}  // namespace
+
+nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,
+                    float* out) {
+    return evaluate_in_chunks(device, network, unit_xyz, n, false,
+                              [&](size_t begin, uint32_t count, const float* r) {
+                                  std::memcpy(out + begin, r, size_t(count) * 4);
+                              });
+}
+
+nfd_result evaluate_gradient(Device& device, const Network& network, const float* unit_xyz,
+                             size_t n, float* values, float* gradients) {
+    return evaluate_in_chunks(device, network, unit_xyz, n, true,
+                              [&](size_t begin, uint32_t count, const float* r) {
+                                  for (size_t i = 0; i < count; ++i, r += 4) {
+                                      values[begin + i] = r[0];
+                                      std::copy(r + 1, r + 4, gradients + 3 * (begin + i));
+                                  }
+                              });
 }
 
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,

@@ -23,6 +23,10 @@ const char* device_name(const Device& device);
 // Field values at n unit-frame points (xyz interleaved): the GPU twin of evaluate_cpu.
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,
                     float* out);
+// Values and gradients (3 floats per point, d value / d unit-frame coordinate): the GPU twin of
+// evaluate_gradient_cpu.
+nfd_result evaluate_gradient(Device& device, const Network& network, const float* unit_xyz,
+                             size_t n, float* values, float* gradients);
 
 // The GPU twin of extract_mesh_cpu: same grid, same activity test, same mesh conventions.
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
