@@ -17,6 +17,7 @@ from typing import NoReturn, Sequence
 from . import __version__
 from .bitstream import (
     FIELD_NAMES,
+    FIELD_UDF,
     MAX_BITS,
     MAX_WIDTH,
     MIN_BITS,
@@ -165,9 +166,10 @@ def cmd_decode(args: argparse.Namespace) -> int:
         save_mesh(output, mesh.vertices, mesh.faces, mesh.normals)
         what = f"{len(mesh.vertices)} vertices, {len(mesh.faces)} triangles"
     seconds = time.perf_counter() - start
+    gradients = f" + {mesh.gradients_evaluated} with gradients" if f.geometry.field_type == FIELD_UDF else ""
     print(
-        f"{output}: {what} (resolution {args.resolution}, {mesh.points_evaluated} field evaluations, "
-        f"{seconds:.1f} s)"
+        f"{output}: {what} ({FIELD_NAMES[f.geometry.field_type]}, resolution {args.resolution}, "
+        f"{mesh.points_evaluated} field evaluations{gradients}, {seconds:.1f} s)"
     )
     return 0
 
@@ -221,10 +223,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(run=cmd_info)
 
-    p = sub.add_parser("decode", help="extract a mesh (or sampled points) from an SDF .nfc file")
+    p = sub.add_parser("decode", help="extract a mesh (or sampled points) from an .nfc file (SDF or UDF)")
     p.add_argument("file")
     p.add_argument("-o", "--output", required=True, help="output .ply or .obj")
-    p.add_argument("--resolution", type=int, default=256, help="marching cubes grid cells per axis (8..512)")
+    p.add_argument("--resolution", type=int, default=256, help="marching cubes grid cells per axis (8..1024)")
     p.add_argument("--points", type=int, default=None, help="write this many surface points instead of the mesh")
     p.add_argument("--seed", type=int, default=0, help="seed of the point sampling")
     p.set_defaults(run=cmd_decode)

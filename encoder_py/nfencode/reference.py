@@ -1,19 +1,20 @@
-"""Numpy reference decoder: dequantize, evaluate the field (FORMAT.md, "Evaluation"), extract a mesh.
+"""Numpy reference decoder: dequantize, evaluate the field and its gradient (FORMAT.md,
+"Evaluation"), extract a mesh.
 
 This module must not import torch: it is the oracle the C++ decoder and the golden vectors are
-checked against, and it is what `nfc decode` runs. Extraction follows libnfdecode/src/extract.h:
-sparse coarse-to-fine evaluation near the surface, then marching cubes on the finest cells that
-contain the zero level set.
+checked against, and it is what `nfc decode` runs. Extraction runs libnfdecode's algorithm step for
+step (grid.h, extract.h): the same levels and keep rule (grid), the same generated table
+(mc_tables), the same welding, vertex order and normals (mesh_sdf, mesh_udf), in f32 where C++
+computes in f32, so that both produce the same topology. Only the network is evaluated in f64 (and
+rounded to f32 on the grid); C++ accumulates in f32, ~1e-7 away.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Callable, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
-from skimage.measure import marching_cubes
 
 from .bitstream import (
     FIELD_SDF,
@@ -25,24 +26,11 @@ from .bitstream import (
     positional_frequencies,
 )
 from .errors import InputError, NfcError
+from .grid import FieldFn, GradientFn, build_grid
+from .mesh_sdf import mesh_sdf
+from .mesh_udf import mesh_udf
 
-MIN_RESOLUTION = 8
-MAX_RESOLUTION = 512  # the final level is meshed from a dense (cropped) array
-COARSEST_RESOLUTION = 16
-# A cell is refined when min |f| over its corners <= LIPSCHITZ_MARGIN * h * sqrt(3) / 2: a surface point
-# in the cell is within h*sqrt(3)/2 of a corner, and the margin covers gradient norms above 1.
-LIPSCHITZ_MARGIN = 2.0
-NORMAL_STEP_CELLS = 0.5  # central-difference step of the normals, in fine cells (as libnfdecode)
-EVALUATION_BATCH = 16384  # points per batch: bounds the (batch, width) activations in memory
-
-UDF_NOT_MESHABLE = (
-    "UDF meshing is not implemented yet (MeshUDF extractor planned); use `nfc info` or evaluate the field"
-)
-
-FieldFn = Callable[[np.ndarray], np.ndarray]
-
-# Corner offsets of a cell, in the bit order (dx, dy, dz) = bits (2, 1, 0) of the corner number.
-_CORNERS = np.array([[(c >> 2) & 1, (c >> 1) & 1, c & 1] for c in range(8)], dtype=np.int64)
+EVALUATION_BATCH = 16384  # points per batch: bounds the (batch, width, 3) activations in memory
 
 
 @dataclass
@@ -58,9 +46,11 @@ class DecodedNetwork:
 
 class ExtractedMesh(NamedTuple):
     vertices: np.ndarray  # (V, 3) float32
-    faces: np.ndarray  # (F, 3) int64, counter-clockwise seen from outside (positive field)
-    normals: np.ndarray  # (V, 3) float32, unit length, towards positive field
-    points_evaluated: int  # field evaluations of the coarse-to-fine grid (normals not counted)
+    faces: np.ndarray  # (F, 3) int64; SDF: counter-clockwise seen from outside (positive field)
+    normals: np.ndarray  # (V, 3) float32, unit length; SDF: towards positive field
+    points_evaluated: int  # field value evaluations of the coarse-to-fine grid
+    gradients_evaluated: int  # value + gradient evaluations (UDF meshing)
+    active_cells: int  # finest cells that emitted a triangle
 
 
 def dequantize(block: NetworkBlock) -> DecodedNetwork:
@@ -77,155 +67,93 @@ def dequantize(block: NetworkBlock) -> DecodedNetwork:
     )
 
 
+def _sines_and_cosines(frequencies: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sin and cos (N, L, 3) of the f32 products f_k * u_j, taken accurately (in f64) and rounded
+    to f32 (FORMAT.md step 2)."""
+    angles = (frequencies[None, :, None] * u[:, None, :]).astype(np.float64)  # f32 * f32 -> f32
+    return np.sin(angles).astype(np.float32), np.cos(angles).astype(np.float32)
+
+
 def positional_encoding(frequencies: np.ndarray, unit_points: np.ndarray) -> np.ndarray:
-    """FORMAT.md step 2: [u, sin(f_k u), cos(f_k u) per k], with f32 products f_k * u_j whose sine
-    and cosine are taken accurately (in f64) and rounded to f32."""
+    """FORMAT.md step 2: [u, sin(f_k u), cos(f_k u) per k], (N, 3 + 6L) float32."""
     u = np.asarray(unit_points, dtype=np.float32).reshape(-1, 3)
-    products = frequencies[None, :, None] * u[:, None, :]  # (N, L, 3), f32 * f32 -> f32
-    angles = products.astype(np.float64)
-    per_frequency = np.concatenate([np.sin(angles), np.cos(angles)], axis=2).astype(np.float32)
-    return np.concatenate([u, per_frequency.reshape(len(u), -1)], axis=1)
+    sines, cosines = _sines_and_cosines(frequencies, u)
+    return np.concatenate([u, np.concatenate([sines, cosines], axis=2).reshape(len(u), -1)], axis=1)
+
+
+def _encoding_derivatives(frequencies: np.ndarray, u: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per axis j: (the encoded features that depend on u_j, their derivatives along u_j (N, 1 + 2L)).
+    Every other derivative of the encoding is zero."""
+    sines, cosines = _sines_and_cosines(frequencies, u)
+    f = frequencies.astype(np.float64)[None, :]
+    L = len(frequencies)
+    per_axis = []
+    for j in range(3):
+        features = np.concatenate([[j], 3 + 6 * np.arange(L) + j, 6 + 6 * np.arange(L) + j])
+        derivatives = np.concatenate(
+            [np.ones((len(u), 1)), f * cosines[:, :, j], -f * sines[:, :, j]], axis=1
+        )
+        per_axis.append((features, derivatives))
+    return per_axis
+
+
+def _forward(net: DecodedNetwork, points: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Outputs (N, out) of one batch and, with `gradient`, their derivatives (N, out, 3) by forward
+    mode. Layers accumulate in f64 from the f32 weights and the f32 encoding."""
+    omega0 = float(net.omega0)
+    weights = [w.astype(np.float64) for w in net.weights]
+    h = positional_encoding(net.frequencies, points).astype(np.float64)
+    dh = None
+    if gradient:
+        dz = [derivatives @ weights[0][:, features].T for features, derivatives in
+              _encoding_derivatives(net.frequencies, points)]
+        dh = np.stack(dz, axis=2)  # d(first pre-activation) / du: (N, width, 3)
+    for layer, (w, b) in enumerate(zip(weights, net.biases)):
+        z = h @ w.T + b.astype(np.float64)
+        if dh is not None and layer > 0:
+            dh = np.einsum("nik,oi->nok", dh, w)
+        if layer + 1 == len(weights):
+            h = z
+            break
+        h = np.sin(omega0 * z)
+        if dh is not None:
+            dh = (omega0 * np.cos(omega0 * z))[:, :, None] * dh
+    if net.output == OUTPUT_ABS:
+        slope = np.where(h >= 0, 1.0, -1.0)  # sign(0) = +1, as libnfdecode
+        h = np.abs(h)
+    elif net.output == OUTPUT_SIGMOID:
+        h = 1.0 / (1.0 + np.exp(-h))
+        slope = h * (1.0 - h)
+    elif net.output == OUTPUT_IDENTITY:
+        slope = np.ones_like(h)
+    else:
+        raise NfcError(f"unknown output activation {net.output}")
+    return h, None if dh is None else slope[:, :, None] * dh
+
+
+def _batched(net: DecodedNetwork, unit_points: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray]:
+    points = np.asarray(unit_points, dtype=np.float32).reshape(-1, 3)
+    outputs = len(net.biases[-1])
+    values, gradients = [np.zeros((0, outputs))], [np.zeros((0, outputs, 3))]
+    for start in range(0, len(points), EVALUATION_BATCH):
+        y, dy = _forward(net, points[start : start + EVALUATION_BATCH], gradient)
+        values.append(y)
+        if dy is not None:
+            gradients.append(dy)
+    y, dy = np.concatenate(values), np.concatenate(gradients)
+    return (y[:, 0], dy[:, 0]) if outputs == 1 else (y, dy)
 
 
 def evaluate(net: DecodedNetwork, unit_points: np.ndarray) -> np.ndarray:
-    """Field values at points of the unit frame: (N,) for one output, (N, out) otherwise.
-    Layers accumulate in f64 from the f32 weights and the f32 encoding."""
-    points = np.asarray(unit_points, dtype=np.float32).reshape(-1, 3)
-    weights = [w.astype(np.float64) for w in net.weights]
-    biases = [b.astype(np.float64) for b in net.biases]
-    omega0 = float(net.omega0)
-    outputs = []
-    for start in range(0, len(points), EVALUATION_BATCH):
-        h = positional_encoding(net.frequencies, points[start : start + EVALUATION_BATCH]).astype(np.float64)
-        for w, b in zip(weights[:-1], biases[:-1]):
-            h = np.sin(omega0 * (h @ w.T + b))
-        outputs.append(h @ weights[-1].T + biases[-1])
-    y = np.concatenate(outputs) if outputs else np.zeros((0, len(biases[-1])))
-    if net.output == OUTPUT_ABS:
-        y = np.abs(y)
-    elif net.output == OUTPUT_SIGMOID:
-        y = 1.0 / (1.0 + np.exp(-y))
-    elif net.output != OUTPUT_IDENTITY:
-        raise NfcError(f"unknown output activation {net.output}")
-    return y[:, 0] if y.shape[1] == 1 else y
+    """Field values at points of the unit frame: (N,) for one output, (N, out) otherwise."""
+    return _batched(net, unit_points, gradient=False)[0]
 
 
-def coarse_resolution(resolution: int) -> int:
-    """Halve while the result stays even-derived and at least COARSEST_RESOLUTION (256 -> 16)."""
-    r = resolution
-    while r % 2 == 0 and r // 2 >= COARSEST_RESOLUTION:
-        r //= 2
-    return r
-
-
-def grid_coordinates(indices: np.ndarray, resolution: int) -> np.ndarray:
-    """Unit-frame positions -1 + 2 i / N of grid vertex indices, computed in f32 exactly as
-    libnfdecode does (-1.0f + float(i) * (2.0f / float(N))), so both evaluate the same points."""
-    step = np.float32(2.0) / np.float32(resolution)
-    return np.float32(-1.0) + indices.astype(np.float32) * step
-
-
-def _keys(indices: np.ndarray, resolution: int) -> np.ndarray:
-    n = resolution + 1
-    return (indices[..., 0] * n + indices[..., 1]) * n + indices[..., 2]
-
-
-def _lookup(keys: np.ndarray, values: np.ndarray, query: np.ndarray) -> np.ndarray:
-    """values at `query` keys; every query key must be in the sorted `keys`."""
-    return values[np.searchsorted(keys, query)]
-
-
-def _evaluate_level(
-    field_fn: FieldFn, cells: np.ndarray, resolution: int, previous: tuple[np.ndarray, np.ndarray] | None
-) -> tuple[np.ndarray, np.ndarray, int]:
-    """Values at the deduplicated corners of `cells` (sorted keys, values) and the number of new
-    evaluations. Corners with all-even indices coincide with the previous level's vertices and are
-    looked up instead of evaluated."""
-    corners = (cells[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 3)
-    keys, first = np.unique(_keys(corners, resolution), return_index=True)
-    vertex_indices = corners[first]
-    values = np.empty(len(keys), dtype=np.float64)
-    if previous is None:
-        known = np.zeros(len(keys), dtype=bool)
-    else:
-        known = (vertex_indices % 2 == 0).all(axis=1)
-        values[known] = _lookup(*previous, _keys(vertex_indices[known] // 2, resolution // 2))
-    new = ~known
-    values[new] = field_fn(grid_coordinates(vertex_indices[new], resolution))
-    return keys, values, int(new.sum())
-
-
-def _central_difference_normals(field_fn: FieldFn, points: np.ndarray, eps: float, fallback: np.ndarray) -> np.ndarray:
-    """Normalised central-difference gradients; `fallback` (unit vectors) where the gradient vanishes."""
-    offsets = np.eye(3) * eps
-    stacked = np.concatenate([points + o for o in offsets] + [points - o for o in offsets])
-    values = np.asarray(field_fn(stacked.astype(np.float32)), dtype=np.float64).reshape(6, len(points))
-    gradient = (values[:3] - values[3:]).T / (2.0 * eps)
-    norm = np.linalg.norm(gradient, axis=1, keepdims=True)
-    return np.where(norm > 0, gradient / np.maximum(norm, 1e-300), fallback)
-
-
-def extract_mesh_from_field(
-    field_fn: FieldFn, resolution: int = 256, truncation: float = 0.1
-) -> ExtractedMesh:
-    """Zero level set of a signed field (negative inside) over [-1, 1]^3, in the unit frame.
-
-    Coarse-to-fine: every vertex of the coarse grid is evaluated; at each level a cell is kept when
-    its corners change sign or come within LIPSCHITZ_MARGIN * h * sqrt(3) / 2 of zero, and only the
-    corners of the kept cells' children are evaluated at the next level. Marching cubes then runs on
-    the finest cells whose corners change sign. Normals are the normalised central-difference
-    gradient (step NORMAL_STEP_CELLS fine cells), pointing towards positive values.
-    """
-    if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
-        raise InputError(f"resolution {resolution} outside {MIN_RESOLUTION}..{MAX_RESOLUTION}")
-    r = coarse_resolution(resolution)
-    axis = np.arange(r, dtype=np.int64)
-    cells = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
-    keys, values, evaluated = _evaluate_level(field_fn, cells, r, None)
-    while True:
-        corner_values = _lookup(keys, values, _keys(cells[:, None, :] + _CORNERS[None, :, :], r))
-        sign_change = (corner_values.min(axis=1) < 0) & (corner_values.max(axis=1) >= 0)
-        if r == resolution:
-            break
-        h = 2.0 / r
-        near = np.abs(corner_values).min(axis=1) <= LIPSCHITZ_MARGIN * h * math.sqrt(3.0) / 2.0
-        kept = cells[sign_change | near]
-        cells = (2 * kept[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 3)
-        r *= 2
-        keys, values, new = _evaluate_level(field_fn, cells, r, (keys, values))
-        evaluated += new
-
-    active = cells[sign_change]
-    if len(active) == 0:
-        empty = np.zeros((0, 3), dtype=np.float32)
-        return ExtractedMesh(empty, np.zeros((0, 3), dtype=np.int64), empty, evaluated)
-
-    # Dense array over the bounding box of the active cells; vertices not evaluated stay at
-    # +truncation and the mask keeps marching cubes to the active cells.
-    lo = active.min(axis=0)
-    shape = tuple(int(s) for s in active.max(axis=0) - lo + 2)
-    volume = np.full(shape, np.float32(truncation), dtype=np.float32)
-    local = _indices_from_keys(keys, r) - lo
-    inside_box = ((local >= 0) & (local < np.array(shape))).all(axis=1)
-    local = local[inside_box]
-    volume[local[:, 0], local[:, 1], local[:, 2]] = values[inside_box]
-    mask = np.zeros(shape, dtype=bool)
-    # skimage's Lewiner marching cubes tests the mask at a cell's far corner (x+1, y+1, z+1);
-    # tests/python/test_reference.py would see holes or stray faces if that ever changed.
-    far = active - lo + 1
-    mask[far[:, 0], far[:, 1], far[:, 2]] = True
-    h = 2.0 / resolution
-    # Default gradient direction: triangles come out counter-clockwise seen from the positive side.
-    verts, faces, grid_normals, _ = marching_cubes(volume, level=0.0, spacing=(h, h, h), mask=mask)
-    unit = verts.astype(np.float64) + (-1.0 + h * lo)
-    # skimage's normals point to decreasing values (inside); the gradient is better, they are the fallback.
-    normals = _central_difference_normals(field_fn, unit, NORMAL_STEP_CELLS * h, -grid_normals)
-    return ExtractedMesh(unit.astype(np.float32), faces.astype(np.int64), normals.astype(np.float32), evaluated)
-
-
-def _indices_from_keys(keys: np.ndarray, resolution: int) -> np.ndarray:
-    n = resolution + 1
-    return np.stack([keys // (n * n), (keys // n) % n, keys % n], axis=1)
+def evaluate_gradient(net: DecodedNetwork, unit_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Values (as `evaluate`, bit for bit) and analytic gradients d value / d unit coordinate,
+    (N, 3) for one output, (N, out, 3) otherwise: forward mode through the encoding, the sine layers
+    and the output activation (abs: sign(y) dy with sign(0) = +1; sigmoid: s (1 - s) dy)."""
+    return _batched(net, unit_points, gradient=True)
 
 
 def field_function(file: NfcFile) -> FieldFn:
@@ -234,12 +162,33 @@ def field_function(file: NfcFile) -> FieldFn:
     return lambda points: evaluate(net, points)
 
 
+def gradient_function(file: NfcFile) -> GradientFn:
+    """The gradient of the geometry field of a file at unit-frame points."""
+    net = dequantize(file.geometry.network)
+    return lambda points: evaluate_gradient(net, points)[1]
+
+
+def extract_mesh_from_field(
+    field_fn: FieldFn, resolution: int = 256, udf_gradient: GradientFn | None = None
+) -> ExtractedMesh:
+    """The surface of a field over [-1, 1]^3, in the unit frame, as libnfdecode extracts it.
+
+    Without `udf_gradient` the field is signed (negative inside) and its zero level set is meshed
+    by marching cubes (mesh_sdf). With it the field is unsigned, `udf_gradient` is its gradient, and
+    the pseudo-signed mesher (mesh_udf) runs. Either way the coarse-to-fine grid (grid.build_grid)
+    evaluates the field only near the surface.
+    """
+    grid = build_grid(field_fn, resolution, udf_gradient)
+    mesh = mesh_sdf(grid) if udf_gradient is None else mesh_udf(grid)
+    return ExtractedMesh(mesh.vertices, mesh.faces, mesh.normals, grid.points_evaluated,
+                         grid.gradients_evaluated, mesh.active_cells)
+
+
 def extract_mesh(file: NfcFile, resolution: int = 256) -> ExtractedMesh:
-    """Mesh of an SDF file in the original coordinates (x = u * scale + center, in f32)."""
+    """Mesh of an SDF or UDF file in the original coordinates (x = u * scale + center, in f32)."""
     g = file.geometry
-    if g.field_type != FIELD_SDF:
-        raise NfcError(UDF_NOT_MESHABLE)
-    mesh = extract_mesh_from_field(field_function(file), resolution, g.truncation)
+    udf_gradient = None if g.field_type == FIELD_SDF else gradient_function(file)
+    mesh = extract_mesh_from_field(field_function(file), resolution, udf_gradient)
     positions = mesh.vertices * np.float32(g.scale) + np.asarray(g.center, dtype=np.float32)
     return mesh._replace(vertices=positions.astype(np.float32))
 

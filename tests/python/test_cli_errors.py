@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from conftest import cos_blob_file, random_file
 
-from nfencode.bitstream import FIELD_UDF, write_nfc
+from nfencode.bitstream import write_nfc
 from nfencode.cli import main
 
 
@@ -118,14 +118,22 @@ def test_bad_nfc_files(tmp_path: Path) -> None:
 
 
 def test_decode_refusals(tmp_path: Path) -> None:
-    (tmp_path / "udf.nfc").write_bytes(write_nfc(random_file(FIELD_UDF)))
     (tmp_path / "sdf.nfc").write_bytes(write_nfc(cos_blob_file()))
-    assert_one_line_error(nfc("decode", "udf.nfc", "-o", "out.ply", cwd=tmp_path), contains="UDF meshing")
     assert_one_line_error(nfc("decode", "sdf.nfc", "-o", "out.stl", cwd=tmp_path), contains=".ply or .obj")
     assert_one_line_error(nfc("decode", "sdf.nfc", "-o", "out.ply", "--resolution", "4", cwd=tmp_path),
                           contains="resolution")
     assert_one_line_error(nfc("decode", "sdf.nfc", "-o", "no/such/dir/out.ply", cwd=tmp_path), contains="no such")
     assert not (tmp_path / "out.ply").exists()
+
+
+def test_decode_udf_mesh_and_points(tmp_path: Path) -> None:
+    tshirt = Path(__file__).resolve().parents[1] / "vectors" / "v1_0_tshirt_udf_w16.nfc"
+    mesh = nfc("decode", tshirt, "-o", "tshirt.ply", "--resolution", "32", cwd=tmp_path)
+    assert mesh.returncode == 0 and "triangles (udf" in mesh.stdout, mesh.stderr
+    points = nfc("decode", tshirt, "-o", "points.ply", "--resolution", "32", "--points", "500", cwd=tmp_path)
+    assert points.returncode == 0 and "500 points (udf" in points.stdout, points.stderr
+    again = nfc("decode", tshirt, "-o", "again.ply", "--resolution", "32", "--points", "500", cwd=tmp_path)
+    assert again.returncode == 0 and (tmp_path / "again.ply").read_bytes() == (tmp_path / "points.ply").read_bytes()
 
 
 def test_usage_errors_exit_2(tmp_path: Path) -> None:

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import subprocess
 import sys
+from typing import Callable
 
 import numpy as np
 import pytest
@@ -13,6 +15,7 @@ from conftest import COS_BLOB_LEVEL, cos_blob, cos_blob_file, random_file
 from nfencode.bitstream import (
     FIELD_UDF,
     OUTPUT_ABS,
+    OUTPUT_IDENTITY,
     OUTPUT_SIGMOID,
     GeometryChunk,
     NetworkBlock,
@@ -22,9 +25,10 @@ from nfencode.bitstream import (
 )
 from nfencode.errors import NfcError
 from nfencode.reference import (
-    coarse_resolution,
+    DecodedNetwork,
     dequantize,
     evaluate,
+    evaluate_gradient,
     extract_mesh,
     extract_mesh_from_field,
     field_function,
@@ -96,19 +100,71 @@ def test_reference_does_not_import_torch() -> None:
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-@pytest.mark.parametrize("resolution,coarse", [(256, 16), (512, 16), (100, 25), (48, 24), (24, 24), (8, 8)])
-def test_coarse_resolution(resolution: int, coarse: int) -> None:
-    assert coarse_resolution(resolution) == coarse
+# ---- gradients ----------------------------------------------------------------------------------
 
 
-def edges_used_twice(faces: np.ndarray) -> bool:
-    """Closed 2-manifold check: every undirected edge is shared by exactly two triangles, with
-    opposite directions (consistent orientation)."""
+def finite_differences(net: DecodedNetwork, points: np.ndarray, eps: float = 2.0**-7) -> np.ndarray:
+    """Richardson-extrapolated central differences (error O(eps^4)) on points of a 2^-16 lattice,
+    so that p +- eps is exact in f32 (the evaluator takes f32 points). The f32 rounding of the
+    encoding limits them to ~1e-5 of the gradient's scale."""
+
+    def central(step: float) -> np.ndarray:
+        columns = []
+        for axis in range(3):
+            offset = np.eye(3)[axis] * step
+            plus = evaluate(net, (points + offset).astype(np.float32))
+            minus = evaluate(net, (points - offset).astype(np.float32))
+            columns.append((plus - minus) / (2 * step))
+        return np.stack(columns, axis=-1)
+
+    return (4 * central(eps / 2) - central(eps)) / 3
+
+
+@pytest.mark.parametrize("output", [OUTPUT_IDENTITY, OUTPUT_ABS, OUTPUT_SIGMOID])
+def test_gradient_matches_finite_differences(output: int) -> None:
+    block = random_file(num_frequencies=3, widths=(8, 6, 1)).geometry.network
+    net = dequantize(dataclasses.replace(block, output=output, omega0=3.0))
+    points = np.round(np.random.default_rng(2).uniform(-1, 1, (300, 3)) * 2**16) / 2**16
+    values, gradients = evaluate_gradient(net, points)
+    np.testing.assert_array_equal(values, evaluate(net, points))  # the same forward pass
+    assert gradients.shape == (300, 3)
+    expected = finite_differences(net, points)
+    if output == OUTPUT_ABS:  # |y| has a kink at y = 0: compare away from it
+        pre = evaluate(dequantize(dataclasses.replace(block, output=OUTPUT_IDENTITY, omega0=3.0)), points)
+        smooth = np.abs(pre) > 2 * 2.0**-7 * np.abs(gradients).sum(axis=1)  # no sign change in the stencil
+        assert smooth.mean() > 0.7
+        gradients, expected = gradients[smooth], expected[smooth]
+    scale = np.abs(expected).max()
+    assert scale > 1e-3
+    np.testing.assert_allclose(gradients, expected, atol=1e-4 * scale)
+
+
+def test_gradient_of_several_outputs_and_of_a_known_field() -> None:
+    net = dequantize(random_file(num_frequencies=1, widths=(4, 3)).geometry.network)
+    values, gradients = evaluate_gradient(net, np.zeros((5, 3)))
+    assert values.shape == (5, 3) and gradients.shape == (5, 3, 3)
+    # cos_blob = c - sum cos(u_i): its gradient is sin(u_i), up to the f32 weights.
+    blob = dequantize(cos_blob_file().geometry.network)
+    u = np.random.default_rng(3).uniform(-1, 1, (100, 3))
+    _, g = evaluate_gradient(blob, u)
+    np.testing.assert_allclose(g, np.sin(u.astype(np.float32).astype(np.float64)), atol=1e-6)
+
+
+# ---- SDF extraction -----------------------------------------------------------------------------
+
+
+def edge_uses(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Undirected edges (E, 2) of a triangle list and how many triangles use each."""
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    return np.unique(edges, axis=0, return_counts=True)
+
+
+def closed_and_consistently_wound(faces: np.ndarray) -> bool:
+    """Every undirected edge is shared by exactly two triangles, which run it in opposite directions."""
     directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    as_tuples = {tuple(e) for e in directed.tolist()}
-    if len(as_tuples) != len(directed):
+    if len(np.unique(directed, axis=0)) != len(directed):
         return False  # a directed edge used twice: inconsistent winding or non-manifold
-    return all((b, a) in as_tuples for a, b in as_tuples)
+    return bool((edge_uses(faces)[1] == 2).all())
 
 
 def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
@@ -116,7 +172,12 @@ def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
     return float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() / 6.0)
 
 
-def counting(fn):
+def surface_area(vertices: np.ndarray, faces: np.ndarray) -> float:
+    t = vertices[faces].astype(np.float64)
+    return float(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum())
+
+
+def counting(fn: Callable[[np.ndarray], np.ndarray]) -> tuple[Callable[[np.ndarray], np.ndarray], dict[str, int]]:
     calls = {"points": 0}
 
     def wrapped(points: np.ndarray) -> np.ndarray:
@@ -126,40 +187,49 @@ def counting(fn):
     return wrapped, calls
 
 
+def sphere_distance(center: tuple[float, float, float], radius: float) -> Callable[[np.ndarray], np.ndarray]:
+    return lambda p: np.linalg.norm(p.astype(np.float64) - np.array(center), axis=1) - radius
+
+
 @pytest.mark.parametrize(
-    "radius,center,resolution,volume_tolerance",
+    "radius,center,resolution,volume_tolerance,evaluated_fraction,normal_dot",
     [
-        (0.6, (0.1, 0.05, -0.05), 64, 0.01),
-        # Smaller than a coarse cell (2/16): found only thanks to the Lipschitz margin.
-        (0.03, (0.31, -0.27, 0.44), 128, 0.25),
+        (0.6, (0.1, 0.05, -0.05), 64, 0.01, 0.31, 0.99),  # coarse level 32: 13% of the grid
+        (0.6, (0.1, 0.05, -0.05), 100, 0.005, 0.25, 0.99),  # not a power of two: last cells past u = 1
+        # Smaller than a coarse cell (2/32): found only thanks to the Lipschitz margin. Two cells
+        # across: grid differences give the normals only roughly.
+        (0.03, (0.31, -0.27, 0.44), 128, 0.25, 0.02, 0.95),
     ],
 )
-def test_sphere_mesh(radius: float, center: tuple[float, float, float], resolution: int, volume_tolerance: float) -> None:
+def test_sphere_mesh(
+    radius: float, center: tuple[float, float, float], resolution: int, volume_tolerance: float,
+    evaluated_fraction: float, normal_dot: float,
+) -> None:
     c = np.array(center)
-
-    def sphere(p: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(p.astype(np.float64) - c, axis=1) - radius
-
-    field, calls = counting(sphere)
-    mesh = extract_mesh_from_field(field, resolution, truncation=0.1)
+    field, calls = counting(sphere_distance(center, radius))
+    mesh = extract_mesh_from_field(field, resolution)
     assert len(mesh.faces) > 50
     distance = np.linalg.norm(mesh.vertices - c, axis=1)
     assert np.abs(distance - radius).max() < 0.1 * (2.0 / resolution)  # a tenth of a cell
-    assert edges_used_twice(mesh.faces)
+    assert closed_and_consistently_wound(mesh.faces)
     volume = signed_volume(mesh.vertices, mesh.faces)  # positive: counter-clockwise seen from outside
     assert volume == pytest.approx(4 / 3 * math.pi * radius**3, rel=volume_tolerance)
     outward = (mesh.vertices - c) / distance[:, None]
-    assert np.einsum("ij,ij->i", mesh.normals, outward).min() > 0.99
-    # Sparse: far fewer evaluations than the dense grid (the normals come on top of the count).
-    assert mesh.points_evaluated < 0.3 * (resolution + 1) ** 3
-    assert calls["points"] == mesh.points_evaluated + 6 * len(mesh.vertices)
+    assert np.einsum("ij,ij->i", mesh.normals, outward).min() > normal_dot
+    # Sparse, and the normals cost no evaluation.
+    assert mesh.points_evaluated < evaluated_fraction * (resolution + 1) ** 3
+    assert calls["points"] == mesh.points_evaluated and mesh.gradients_evaluated == 0
+    assert 0 < mesh.active_cells <= len(mesh.faces)
 
 
 def test_field_without_surface_gives_an_empty_mesh() -> None:
     mesh = extract_mesh_from_field(lambda p: np.full(len(p), 0.5), 32)
-    assert mesh.vertices.shape == (0, 3) and mesh.faces.shape == (0, 3)
+    assert mesh.vertices.shape == (0, 3) and mesh.faces.shape == (0, 3) and mesh.active_cells == 0
     with pytest.raises(NfcError):
-        extract_mesh_from_field(lambda p: np.ones(len(p)), 4)  # below the minimum resolution
+        extract_mesh_from_field(lambda p: np.ones(len(p)), 7)  # below NFD_MIN_RESOLUTION
+    with pytest.raises(NfcError):
+        extract_mesh_from_field(lambda p: np.ones(len(p)), 1025)  # above NFD_MAX_RESOLUTION
+    assert len(extract_mesh_from_field(lambda p: np.full(len(p), 0.5), 1024).faces) == 0
 
 
 def test_extract_mesh_of_a_hand_built_file() -> None:
@@ -177,17 +247,105 @@ def test_extract_mesh_of_a_hand_built_file() -> None:
     assert np.abs(cos_blob(unit)).max() < 2e-3
     radius = math.sqrt(2 * (3 - COS_BLOB_LEVEL))
     assert np.linalg.norm(unit, axis=1) == pytest.approx(radius, abs=0.02)
-    assert edges_used_twice(mesh.faces)
+    assert closed_and_consistently_wound(mesh.faces)
     assert signed_volume(unit, mesh.faces) > 0
     gradient = np.sin(unit)  # grad of c - sum cos u
     gradient /= np.linalg.norm(gradient, axis=1, keepdims=True)
     assert np.einsum("ij,ij->i", mesh.normals, gradient).min() > 0.999
 
 
-def test_udf_files_are_not_meshed_yet() -> None:
-    f = random_file(FIELD_UDF)
-    with pytest.raises(NfcError, match="UDF meshing is not implemented yet"):
-        extract_mesh(f, 32)
+# ---- UDF extraction -----------------------------------------------------------------------------
+
+
+def test_udf_file_meshes_the_same_vertices_as_its_sdf() -> None:
+    """|f| meshed by the UDF mesher (analytic network gradients, pseudo-signs) finds the surface of
+    f: the same crossed edges at the same t = |f_a| / (|f_a| + |f_b|) = f_a / (f_a - f_b)."""
+    sdf = cos_blob_file()
+    g = sdf.geometry
+    udf = dataclasses.replace(sdf, geometry=dataclasses.replace(
+        g, field_type=FIELD_UDF, network=dataclasses.replace(g.network, output=OUTPUT_ABS)))
+    signed, unsigned = extract_mesh(sdf, 48), extract_mesh(read_nfc(write_nfc(udf)), 48)
+    assert len(unsigned.faces) == len(signed.faces) and unsigned.active_cells == signed.active_cells
+    np.testing.assert_array_equal(np.unique(unsigned.vertices, axis=0), np.unique(signed.vertices, axis=0))
+    assert (edge_uses(unsigned.faces)[1] == 2).all()  # closed, no hole, no double sheet
+    assert unsigned.gradients_evaluated > 0
+
+
+def sphere_udf(center: np.ndarray, radius: float) -> tuple[Callable, Callable]:
+    def field(p: np.ndarray) -> np.ndarray:
+        return np.abs(np.linalg.norm(p.astype(np.float64) - center, axis=1) - radius)
+
+    def gradient(p: np.ndarray) -> np.ndarray:
+        d = p.astype(np.float64) - center
+        r = np.linalg.norm(d, axis=1, keepdims=True)
+        return np.sign(r - radius) * d / r
+
+    return field, gradient
+
+
+def disk_udf(center: np.ndarray, radius: float) -> tuple[Callable, Callable]:
+    """Distance to the flat disk of `radius` around `center` in the plane z = center z: an open
+    surface whose boundary is its rim."""
+
+    def closest(p: np.ndarray) -> np.ndarray:
+        q = p.astype(np.float64) - center
+        rho = np.linalg.norm(q[:, :2], axis=1, keepdims=True)
+        on_disk = q[:, :2] * np.minimum(1.0, radius / np.maximum(rho, 1e-300))
+        return center + np.concatenate([on_disk, np.zeros((len(p), 1))], axis=1)
+
+    def field(p: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(p.astype(np.float64) - closest(p), axis=1)
+
+    def gradient(p: np.ndarray) -> np.ndarray:
+        d = p.astype(np.float64) - closest(p)
+        return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+    return field, gradient
+
+
+def test_udf_sphere_is_closed_and_on_the_surface() -> None:
+    c, radius, resolution = np.array([0.07, -0.04, 0.11]), 0.55, 64
+    field, gradient = sphere_udf(c, radius)
+    mesh = extract_mesh_from_field(field, resolution, udf_gradient=gradient)
+    assert len(mesh.faces) > 1000
+    assert (edge_uses(mesh.faces)[1] == 2).all()  # no boundary edge, no double sheet
+    distance = np.linalg.norm(mesh.vertices - c, axis=1)
+    assert np.abs(distance - radius).max() < 0.1 * (2.0 / resolution)
+    radial = (mesh.vertices - c) / distance[:, None]
+    assert np.abs(np.einsum("ij,ij->i", mesh.normals, radial)).min() > 0.99
+    area = surface_area(mesh.vertices, mesh.faces)
+    assert area == pytest.approx(4 * math.pi * radius**2, rel=0.01)
+
+
+def test_udf_disk_ends_only_at_its_rim() -> None:
+    """An open surface: the face filter removes what the pseudo-signs would put past the rim, and
+    leaves no hole inside it."""
+    c, radius, resolution = np.array([0.03, -0.05, 0.0123]), 0.5, 64
+    h = 2.0 / resolution
+    field, gradient = disk_udf(c, radius)
+    mesh = extract_mesh_from_field(field, resolution, udf_gradient=gradient)
+    edges, uses = edge_uses(mesh.faces)
+    assert uses.max() == 2
+    rho = np.linalg.norm(mesh.vertices[:, :2] - c[:2], axis=1)
+    boundary_vertices = np.unique(edges[uses == 1])
+    assert len(boundary_vertices) > 2 * math.pi * radius / h  # the rim is a boundary all round
+    assert np.abs(rho[boundary_vertices] - radius).max() < 2 * h
+    inner = rho < radius - 2 * h
+    assert np.abs(mesh.vertices[inner, 2] - c[2]).max() < 1e-6  # exact V-shaped crossings
+    assert np.abs(mesh.normals[inner, 2]).min() > 0.999
+    assert rho.max() < radius + 2 * h
+    area = surface_area(mesh.vertices, mesh.faces)
+    assert area == pytest.approx(math.pi * radius**2, rel=4 * h / radius)
+
+
+def test_udf_mesher_needs_gradients_only_on_near_cells() -> None:
+    field, gradient = sphere_udf(np.zeros(3), 0.5)
+    counted, calls = counting(gradient)
+    mesh = extract_mesh_from_field(field, 64, udf_gradient=counted)
+    assert calls["points"] == mesh.gradients_evaluated
+    # The corners of the near cells: a band about one cell thick around the sphere.
+    shell_vertices = 4 * math.pi * 0.5**2 / (2 / 64) ** 2
+    assert shell_vertices < mesh.gradients_evaluated < 6 * shell_vertices
 
 
 def test_sample_points_is_uniform_by_area() -> None:

@@ -1,0 +1,117 @@
+"""The sparse grid of the numpy reference follows libnfdecode/src/grid.h: level schedule, keep rule
+in f32, visiting order, vertices evaluated once."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nfencode.grid import (
+    HALF_DIAGONAL,
+    LIPSCHITZ_MARGIN,
+    build_grid,
+    cell_may_contain_surface,
+    cells_at_level,
+    coarse_resolution,
+    grid_coordinates,
+    refinement_levels,
+    udf_cell_is_near,
+    udf_near_threshold,
+)
+from nfencode.mc_tables import CORNER_OFFSET
+
+
+@pytest.mark.parametrize(
+    "resolution,levels,coarse",
+    [(1024, 5, 32), (1000, 5, 32), (512, 4, 32), (256, 3, 32), (100, 1, 50), (64, 1, 32), (63, 1, 32),
+     (62, 0, 62), (8, 0, 8)],
+)
+def test_level_schedule(resolution: int, levels: int, coarse: int) -> None:
+    assert refinement_levels(resolution) == levels
+    assert coarse_resolution(resolution) == coarse
+    assert cells_at_level(resolution, 0) == resolution
+    assert cells_at_level(1000, 3) == 125 and cells_at_level(100, 3) == 13  # ceil
+
+
+def test_vertex_coordinates_are_the_f32_formula() -> None:
+    i = np.arange(0, 101)
+    expected = [np.float32(-1.0) + np.float32(k) * (np.float32(2.0) / np.float32(100)) for k in range(101)]
+    np.testing.assert_array_equal(grid_coordinates(i, 100), np.array(expected, dtype=np.float32))
+    assert grid_coordinates(np.array([100]), 100).dtype == np.float32
+
+
+def test_keep_rule_thresholds_are_f32() -> None:
+    h = np.float32(2.0) / np.float32(64)
+    threshold = LIPSCHITZ_MARGIN * h * HALF_DIAGONAL
+    above = np.nextafter(threshold, np.float32(1.0))
+    cells = np.array([
+        [threshold] * 8,  # at the threshold: kept
+        [above] * 8,  # one ulp beyond: dropped
+        [-above] + [above] * 7,  # a sign change: kept
+        [np.nan] + [threshold] * 7,  # NaN corners are left out of the minimum
+        [np.nan] * 8,
+    ], dtype=np.float32)
+    np.testing.assert_array_equal(cell_may_contain_surface(cells, h), [True, False, True, True, False])
+    near = udf_near_threshold(h)
+    udf = np.array([[near] * 8, [np.nextafter(near, np.float32(1.0))] * 8, [np.inf] + [0.0] * 7], dtype=np.float32)
+    np.testing.assert_array_equal(udf_cell_is_near(udf, h), [True, False, False])  # non-finite: not meshed
+
+
+def sphere(points: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(points.astype(np.float64) - [0.05, -0.1, 0.02], axis=1) - 0.5
+
+
+def test_levels_visit_children_of_kept_cells_in_order() -> None:
+    """Written out cell by cell: the coarse level in raster order (x fastest), then per kept parent
+    its children in CORNER_OFFSET order, dropping those past the last cell. At resolution 99 level 1
+    has 50 cells; the last one reaches past u = 1 and its children at fine index 99 are dropped."""
+    resolution = 99
+    grid = build_grid(lambda p: p[:, 0].astype(np.float64) - 0.97, resolution)  # a plane near u = 1
+    coarse, fine = grid.levels[1], grid.levels[0]
+    n = coarse.cells_per_axis
+    assert n == 50 and coarse.cells.tolist() == [[x, y, z] for z in range(n) for y in range(n) for x in range(n)]
+    h = grid.step * np.float32(2)
+    expected, dropped = [], 0
+    for cell, values in zip(coarse.cells.tolist(), coarse.corner_values()):
+        if cell_may_contain_surface(values[None], h)[0]:
+            for offset in CORNER_OFFSET.tolist():
+                child = [2 * c + o for c, o in zip(cell, offset)]
+                if max(child) < resolution:
+                    expected.append(child)
+                else:
+                    dropped += 1
+    assert fine.cells.tolist() == expected
+    assert dropped > 0 and fine.cells.max() == resolution - 1
+
+
+def test_each_vertex_is_evaluated_once_and_even_ones_are_copied() -> None:
+    seen: list[np.ndarray] = []
+
+    def recording(points: np.ndarray) -> np.ndarray:
+        assert points.dtype == np.float32
+        seen.append(points)
+        return sphere(points)
+
+    grid = build_grid(recording, 256)
+    points = np.concatenate(seen)
+    assert len(points) == grid.points_evaluated == len(np.unique(points, axis=0))
+    for finer, coarser in zip(grid.levels[:-1], grid.levels[1:]):
+        even = (finer.vertices % 2 == 0).all(axis=1)
+        index, found = coarser.find(finer.vertices[even] // 2)
+        assert found.all()
+        np.testing.assert_array_equal(finer.values[even], coarser.values[index])
+        # The odd vertices were evaluated at this level's coordinates, in f32.
+        odd = finer.vertices[~even][:50]
+        np.testing.assert_array_equal(
+            finer.values[~even][:50], sphere(grid.coordinates(odd << finer.level)).astype(np.float32))
+    assert grid.finest.values.dtype == np.float32
+
+
+def test_gradients_only_at_corners_of_near_cells() -> None:
+    grid = build_grid(lambda p: np.abs(sphere(p)), 64, lambda p: np.ones((len(p), 3)))
+    fine = grid.finest
+    near = udf_cell_is_near(fine.corner_values(), grid.step)
+    assert grid.gradients is not None
+    has_gradient = ~np.isnan(grid.gradients[:, 0])
+    assert has_gradient.sum() == grid.gradients_evaluated == len(np.unique(fine.corners[near]))
+    assert has_gradient[fine.corners[near]].all()
