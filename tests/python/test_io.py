@@ -10,6 +10,7 @@ import plyfile
 import pytest
 import trimesh
 from conftest import SHARED_DATA
+from scipy.spatial import cKDTree
 
 from nfencode.errors import InputError
 from nfencode.io import load_shape, save_mesh, save_points
@@ -98,3 +99,42 @@ def test_real_scans() -> None:
     assert shape.name == "bun_zipper_res4"
     points = load_shape(scan)  # range scan: vertices and a range_grid, no faces
     assert not points.is_mesh and len(points.vertices) == 37738
+
+
+def test_aligned_scans_are_moved_by_their_transforms_and_merged(tmp_path: Path) -> None:
+    points = np.array([[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+    save_points(tmp_path / "a.ply", points)
+    gzip_copy(tmp_path / "a.ply").rename(tmp_path / "b.ply.gz")  # FILE.gz stands for FILE
+    half = np.sqrt(0.5)
+    (tmp_path / "scans.conf").write_text(
+        "camera 0 0 -1  0 0 0 1\n"
+        "bmesh a.ply 0 0 0 0 0 0 1\n"
+        f"bmesh b.ply 10 20 30 0 0 {half} {half}\n"  # 90 degrees about z, then the translation
+    )
+    shape = load_shape(tmp_path / "scans.conf")
+    assert not shape.is_mesh and shape.name == "scans"
+    # The conjugate rotation: (1, 0, 0) -> (0, -1, 0) and (0, 2, 0) -> (2, 0, 0).
+    np.testing.assert_allclose(shape.vertices, [[1, 0, 0], [0, 2, 0], [10, 19, 30], [12, 20, 30]], atol=1e-6)
+    (tmp_path / "bad.conf").write_text("bmesh a.ply 0 0 zero 0 0 0 1\n")
+    with pytest.raises(InputError, match="bad.conf:1"):
+        load_shape(tmp_path / "bad.conf")
+    (tmp_path / "empty.conf").write_text("camera 0 0 -1  0 0 0 1\n")
+    with pytest.raises(InputError, match="no scans"):
+        load_shape(tmp_path / "empty.conf")
+
+
+def test_bunny_range_scans_align_with_the_zippered_bunny(tmp_path: Path) -> None:
+    """Two of bun.conf's ten scans (those with the largest rotations; all ten take a minute to parse)
+    land on bun_zipper.ply, which was zippered in the same frame."""
+    conf = SHARED_DATA / "stanford" / "bunny_scans" / "bun.conf"
+    if not conf.exists():
+        pytest.skip("shared data not available")
+    lines = [line.split() for line in conf.read_text().splitlines()]
+    chosen = [["bmesh", str(conf.parent / w[1]), *w[2:]]
+              for w in lines if w[:1] == ["bmesh"] and w[1] in ("chin.ply", "top2.ply")]
+    (tmp_path / "two.conf").write_text("\n".join(" ".join(w) for w in chosen))
+    cloud = load_shape(tmp_path / "two.conf")
+    assert cloud.vertices.shape == (37_738 + 38_298, 3) and not cloud.is_mesh
+    reference = load_shape(SHARED_DATA / "stanford" / "bun_zipper.ply.gz").vertices
+    distance, _ = cKDTree(reference).query(cloud.vertices[::10])
+    assert np.median(distance) < 1e-3  # metres; a wrong rotation convention leaves them 7-13 cm off
