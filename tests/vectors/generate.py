@@ -1,13 +1,16 @@
 #!/usr/bin/env python3
-"""Regenerates the golden vectors. Run only on purpose (a format change gets new names; old vectors
-are never deleted): `.venv/bin/python tests/vectors/generate.py`.
+"""Writes the golden vectors. Run only on purpose (`.venv/bin/python tests/vectors/generate.py`):
+an existing `.nfc` is never re-encoded (a vector's bytes and field values are fixed for good; a
+format change gets new names), only its meshes are rewritten from it, when the reference decoder's
+algorithm changes on purpose.
 
 For each vector `v1_0_<name>`:
   <name>.nfc          a real encode of a shape from ../shared/data (short schedule: these vectors
-                      test decoding, not rate-distortion)
+                      test decoding, not rate-distortion); written once
   <name>.values.txt   `x y z value` per line: unit-frame query points and the numpy reference
-                      decoder's field values (%.9g)
-  <name>.mesh64.ply   SDF only: the reference decoder's mesh at resolution 64, original frame
+                      decoder's field values (%.9g); written once, with the .nfc
+  <name>.mesh64.ply   the reference decoder's mesh at resolution 64 (SDF or UDF), original frame,
+                      vertices and faces in the reference's order (README.md)
 """
 
 from __future__ import annotations
@@ -23,11 +26,14 @@ from nfencode.reference import dequantize, evaluate, extract_mesh
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"  # ../shared beside the checkout
+MESH_RESOLUTION = 64
 VECTORS = [  # name, shape, field, width, bits, epochs
     ("bunny_sdf_w16", "stanford/bun_zipper_res3.ply.gz", "sdf", 16, 8, 40),
     ("bunny_sdf_w32", "stanford/bun_zipper_res3.ply.gz", "sdf", 32, 8, 40),
     ("spot_sdf_w24_b6", "misc/spot.obj.gz", "sdf", 24, 6, 40),
     ("tshirt_udf_w16", "garments/TShirtNoCoat.obj.gz", "udf", 16, 8, 30),
+    # The bunny's ten range scans merged by bun.conf's transforms: a point cloud (nfencode.io).
+    ("bunny_scans_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 30),
 ]
 
 
@@ -39,23 +45,25 @@ def query_points(seed: int = 1234) -> np.ndarray:
     return np.concatenate([rng.uniform(-1, 1, (1016, 3)), corners]).astype(np.float32)
 
 
+def encode(name: str, rel: str, field: str, width: int, bits: int, epochs: int) -> None:
+    stem = HERE / f"v1_0_{name}"
+    config = EncodeConfig(field=field, width=width, bits=bits, epochs=epochs, seed=7, quiet=True)
+    data = compress(load_shape(DATA / rel), config).data
+    stem.with_suffix(".nfc").write_bytes(data)
+    points = query_points()
+    values = evaluate(dequantize(read_nfc(data).geometry.network), points)
+    np.savetxt(stem.with_suffix(".values.txt"), np.column_stack([points, values]), fmt="%.9g")
+    print(f"{stem.name}: encoded, {len(data)} bytes")
+
+
 def main() -> None:
-    for name, rel, field, width, bits, epochs in VECTORS:
-        shape = load_shape(str(DATA / rel))
-        config = EncodeConfig(field=field, width=width, bits=bits, epochs=epochs, seed=7,
-                              quiet=True)
-        data = compress(shape, config).data
+    for name, *encoding in VECTORS:
         stem = HERE / f"v1_0_{name}"
-        stem.with_suffix(".nfc").write_bytes(data)
-        nfc = read_nfc(data)
-        points = query_points()
-        values = evaluate(dequantize(nfc.geometry.network), points)
-        np.savetxt(stem.with_suffix(".values.txt"), np.column_stack([points, values]),
-                   fmt="%.9g")
-        if nfc.geometry.field_type == 0:
-            vertices, faces, normals, _ = extract_mesh(nfc, resolution=64)
-            save_mesh(str(stem.with_suffix(".mesh64.ply")), vertices, faces, normals)
-        print(f"{stem.name}: {len(data)} bytes")
+        if not stem.with_suffix(".nfc").exists():
+            encode(name, *encoding)
+        mesh = extract_mesh(read_nfc(stem.with_suffix(".nfc").read_bytes()), MESH_RESOLUTION)
+        save_mesh(stem.with_suffix(f".mesh{MESH_RESOLUTION}.ply"), mesh.vertices, mesh.faces, mesh.normals)
+        print(f"{stem.name}: mesh at {MESH_RESOLUTION}, {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
 
 
 if __name__ == "__main__":
