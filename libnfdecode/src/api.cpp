@@ -1,6 +1,7 @@
 // The C API: argument checks, then the internal calls, inside a guard that turns every exception
 // into a result code (nothing may unwind into C callers).
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <exception>
 #include <memory>
@@ -13,6 +14,7 @@
 #include "bitstream.h"
 #include "export.h"
 #include "extract.h"
+#include "grid.h"
 #include "mesh.h"
 #include "network.h"
 #include "nfdecode/nfdecode.h"
@@ -37,6 +39,15 @@ struct nfd_asset {
 struct nfd_mesh {
     nfd::MeshData data;
     nfd::ExtractStats stats;
+};
+
+// The finest level in the public layout, built once so that nfd_grid_get_voxels hands out stable
+// pointers, and what the VDB metadata needs of the asset, which the grid may outlive.
+struct nfd_grid {
+    std::vector<int32_t> ijk;
+    std::vector<float> values;  // original units
+    nfd_grid_voxels voxels{};   // points into ijk and values
+    uint32_t format_major = 0, format_minor = 0;
 };
 
 namespace {
@@ -295,6 +306,69 @@ nfd_result nfd_points_write_ply(const float* points, const float* normals, size_
                                 const char* path) {
     if (!path || (count > 0 && !points)) return NFD_ERROR_INVALID_ARGUMENT;
     return guarded([&] { return nfd::write_points_ply(points, normals, count, path); });
+}
+
+nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
+                            const nfd_grid_options* options, nfd_grid** out_grid) {
+    if (!out_grid) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_grid = nullptr;
+    if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
+    const nfd_grid_options opts = options ? *options : nfd_grid_options{};
+    const uint32_t resolution = opts.resolution ? opts.resolution : NFD_DEFAULT_RESOLUTION;
+    if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
+        return NFD_ERROR_LIMIT_EXCEEDED;
+    const nfd::Geometry& g = asset->file.geometry;
+    return guarded([&] {
+        // The CPU reference builds the grid on every context for now: a grid built on the device
+        // (gpu/) has the same SparseGrid layout and takes its place here.
+        nfd::SparseGrid sparse;
+        const nfd_result r =
+            nfd::build_grid_cpu(g, resolution, nfd::GridOptions{}, &sparse, context->cpu_threads);
+        if (r != NFD_SUCCESS) return r;
+        const nfd::GridLevel& finest = sparse.finest();
+        auto grid = std::make_unique<nfd_grid>();
+        grid->ijk.resize(3 * size_t(finest.vertices.size()));
+        grid->values.resize(finest.vertices.size());
+        finest.vertices.for_each([&](uint32_t rank, uint32_t x, uint32_t y, uint32_t z) {
+            int32_t* ijk = &grid->ijk[3 * size_t(rank)];
+            ijk[0] = int32_t(x);
+            ijk[1] = int32_t(y);
+            ijk[2] = int32_t(z);
+            grid->values[rank] = finest.values[rank] * g.scale;
+        });
+        nfd_grid_voxels& v = grid->voxels;
+        v.ijk = grid->ijk.data();
+        v.values = grid->values.data();
+        v.count = grid->values.size();
+        v.voxel_size = sparse.step * g.scale;  // unit vertex i is -1 + i * step
+        for (int a = 0; a < 3; ++a) v.origin[a] = g.center[a] - g.scale;
+        v.background = g.truncation * g.scale;
+        v.resolution = resolution;
+        v.field_type = g.field == nfd::FieldType::Sdf ? NFD_FIELD_SDF : NFD_FIELD_UDF;
+        grid->format_major = asset->file.major;
+        grid->format_minor = asset->file.minor;
+        *out_grid = grid.release();
+        return NFD_SUCCESS;
+    });
+}
+
+void nfd_grid_destroy(nfd_grid* grid) { delete grid; }
+
+nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels) {
+    if (!grid || !out_voxels) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_voxels = grid->voxels;
+    return NFD_SUCCESS;
+}
+
+nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char* source_name) {
+    if (!grid || !path) return NFD_ERROR_INVALID_ARGUMENT;
+#if NFD_WITH_OPENVDB
+    const nfd::VdbSource source{source_name, grid->format_major, grid->format_minor};
+    return guarded([&] { return nfd::write_vdb(grid->voxels, source, path); });
+#else
+    (void)source_name;
+    return NFD_ERROR_UNSUPPORTED_FEATURE;
+#endif
 }
 
 }  // extern "C"

@@ -1,6 +1,7 @@
 // File writers. Each returns NFD_ERROR_IO when the file cannot be opened or fully written.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 
 #include "mesh.h"
 #include "nfdecode/nfdecode.h"
@@ -17,5 +18,16 @@ nfd_result write_mesh_ply(const MeshData& mesh, const char* path);
 // Binary little-endian PLY point set: x y z, plus nx ny nz when normals is not null.
 nfd_result write_points_ply(const float* points, const float* normals, size_t count,
                             const char* path);
+
+// Where a grid came from, for the VDB metadata: the .nfc file's name (null: not recorded) and its
+// format version.
+struct VdbSource {
+    const char* file_name;
+    uint32_t format_major, format_minor;
+};
+
+// OpenVDB file with one openvdb::FloatGrid "distance" holding `voxels` (the narrow band) with their
+// index -> original transform, as nfd_grid_write_vdb documents. NFD_WITH_OPENVDB builds only.
+nfd_result write_vdb(const nfd_grid_voxels& voxels, const VdbSource& source, const char* path);
 
 }  // namespace nfd

@@ -21,6 +21,8 @@
  *   nfd_asset    one parsed .nfc file: verified, decompressed, dequantized. Immutable after
  *                creation; may be shared by several contexts and threads.
  *   nfd_mesh     a decoded triangle mesh owned by the library. Immutable; thread-safe to read.
+ *   nfd_grid     the field sampled on a sparse grid around the surface (the stage the meshes are
+ *                extracted from), owned by the library. Immutable; thread-safe to read.
  *
  * Every create function writes its handle only on NFD_SUCCESS (and NULL otherwise, when the out
  * pointer itself is non-NULL). Every destroy function accepts NULL.
@@ -242,6 +244,75 @@ nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path);
 /* Writes a point set (3*count floats, optional normals) as binary little-endian PLY. */
 nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
                                 const char* path);
+
+/* ---------------------------------------------------------------------------------------------
+ * Sparse grid: the field on a narrow band around the surface
+ *
+ * The coarse-to-fine sampling that meshes are extracted from, as a product of its own: the
+ * distances at the grid vertices near the surface, for engines that build their own sparse volume
+ * (bricks, a hash grid, an OpenVDB tree), or written as an OpenVDB file.
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_grid nfd_grid;
+
+/* Zero-initialise, then set what you need. */
+typedef struct nfd_grid_options {
+    uint32_t resolution; /* grid cells per axis over the unit cube, as in nfd_mesh_options */
+} nfd_grid_options;
+
+/* The voxels of a grid's finest level. A voxel is a grid vertex (a point sample, as in OpenVDB)
+ * with integer indices 0..resolution on each axis; voxel n lies in the original frame at
+ *     (ijk[3n], ijk[3n + 1], ijk[3n + 2]) * voxel_size + origin,
+ * where voxel_size = 2 * scale / resolution and origin = center - scale (the unit cube's corner
+ * (-1, -1, -1)), scale and center those of nfd_asset_info.
+ * The band: the corners of the finest cells that refinement visited (the children of the coarser
+ * cells that may hold the surface), several cells deep on each side of it (the bunny at 256: up
+ * to 8; 6% of the dense grid's vertices). A resolution too low to refine (under 63) keeps the
+ * whole grid: (resolution + 1)^3 voxels.
+ * Order: by blocks of 8x8x8 indices starting at multiples of 8 (OpenVDB's leaf nodes), blocks in
+ * raster order (x fastest), then the voxels of a block in raster order. */
+typedef struct nfd_grid_voxels {
+    const int32_t* ijk;        /* 3 * count indices, xyz interleaved */
+    const float* values;       /* count distances in original units: nfd_asset_evaluate at the
+                                  voxel's position * scale; SDF negative inside, UDF >= 0 */
+    size_t count;
+    float voxel_size;          /* original units per index step */
+    float origin[3];           /* original position of index (0, 0, 0) */
+    float background;          /* truncation * scale: the distance the field was truncated at in
+                                  training, to assume off the band (its negative inside an SDF) */
+    uint32_t resolution;       /* cells per axis */
+    nfd_field_type field_type;
+} nfd_grid_voxels;
+
+/* Samples the field coarse-to-fine with the levels and keep rule of nfd_mesh_extract and keeps
+ * the finest level; SDF and UDF assets alike. options may be NULL. The grid refers to neither the
+ * context nor the asset: both may be destroyed first. In this version the grid is computed on the
+ * CPU (the context's cpu_threads), whatever the context's device. The grid keeps 16 bytes per
+ * voxel: memory follows the band, not resolution^3.
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (context, asset or out_grid NULL);
+ * NFD_ERROR_LIMIT_EXCEEDED (resolution outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION);
+ * NFD_ERROR_OUT_OF_MEMORY. */
+nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
+                            const nfd_grid_options* options, nfd_grid** out_grid);
+void nfd_grid_destroy(nfd_grid* grid);
+
+/* Pointers stay valid until nfd_grid_destroy. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
+nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels);
+
+/* Writes the voxels as an OpenVDB file holding one openvdb::FloatGrid named "distance": the voxels
+ * active with their values (full float precision), the linear transform index -> original frame
+ * above, background value `background`.
+ *   SDF: grid class level set. Inactive voxels and tiles inside the surface read -background
+ *        (OpenVDB's signed flood fill), so every read has the sign of inside/outside.
+ *   UDF: grid class unknown, holding an unsigned distance: >= 0 everywhere, +background off the
+ *        band.
+ * Grid metadata: nfc_source_file (source_name; absent when NULL), nfc_field_type ("sdf" or
+ * "udf"), nfc_format_version (the .nfc file's, e.g. "1.0"), nfc_resolution (int32), nfc_decoder
+ * ("libnfdecode MAJOR.MINOR.PATCH").
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (grid or path NULL);
+ * NFD_ERROR_UNSUPPORTED_FEATURE in a build without OpenVDB (CMake NFD_WITH_OPENVDB=OFF), before
+ * the file is touched; NFD_ERROR_IO if the file cannot be created or fully written;
+ * NFD_ERROR_OUT_OF_MEMORY. */
+nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char* source_name);
 
 #ifdef __cplusplus
 } /* extern "C" */

@@ -1,0 +1,64 @@
+// OpenVDB output of the sparse grid's narrow band (export.h). Compiled only with NFD_WITH_OPENVDB;
+// OpenVDB's headers and exceptions stay inside this file.
+#include <openvdb/io/Stream.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/SignedFloodFill.h>
+
+#include <fstream>
+#include <string>
+
+#include "export.h"
+
+namespace nfd {
+
+nfd_result write_vdb(const nfd_grid_voxels& voxels, const VdbSource& source, const char* path) {
+    openvdb::initialize();  // registers the grid and metadata types; idempotent, thread-safe
+    const bool sdf = voxels.field_type == NFD_FIELD_SDF;
+    const openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(voxels.background);
+    grid->setName("distance");
+    grid->setGridClass(sdf ? openvdb::GRID_LEVEL_SET : openvdb::GRID_UNKNOWN);
+    // OpenVDB samples sit at integer index points, as the grid's vertices do: original =
+    // ijk * voxel_size + origin is exactly a scale then a translation.
+    const openvdb::math::Transform::Ptr transform =
+        openvdb::math::Transform::createLinearTransform(double(voxels.voxel_size));
+    transform->postTranslate(openvdb::Vec3d(voxels.origin[0], voxels.origin[1], voxels.origin[2]));
+    grid->setTransform(transform);
+
+    // The voxels come in 8^3 blocks aligned as OpenVDB's leaf nodes are, so the accessor's cached
+    // leaf serves every voxel of a block after the first.
+    openvdb::FloatGrid::Accessor accessor = grid->getAccessor();
+    for (size_t n = 0; n < voxels.count; ++n) {
+        const int32_t* c = voxels.ijk + 3 * n;
+        accessor.setValueOn(openvdb::Coord(c[0], c[1], c[2]), voxels.values[n]);
+    }
+    // Off the band everything reads the background, +d*. The band is closed around the surface
+    // and at least a cell thick on both sides, so the flood fill can give every inactive voxel and
+    // tile enclosed by negative values -d* instead: a level set whose inside reads negative.
+    if (sdf) openvdb::tools::signedFloodFill(grid->tree());
+
+    if (source.file_name) grid->insertMeta("nfc_source_file", openvdb::StringMetadata(source.file_name));
+    grid->insertMeta("nfc_field_type", openvdb::StringMetadata(sdf ? "sdf" : "udf"));
+    grid->insertMeta("nfc_format_version",
+                     openvdb::StringMetadata(std::to_string(source.format_major) + "." +
+                                             std::to_string(source.format_minor)));
+    grid->insertMeta("nfc_resolution", openvdb::Int32Metadata(int32_t(voxels.resolution)));
+    grid->insertMeta("nfc_decoder", openvdb::StringMetadata("libnfdecode " + std::to_string(NFD_VERSION_MAJOR) + "." +
+                                                             std::to_string(NFD_VERSION_MINOR) + "." +
+                                                             std::to_string(NFD_VERSION_PATCH)));
+
+    // io::File would report a file it cannot open but not a failed write (a full disk leaves a
+    // truncated file and no error); io::Stream writes the same format onto a stream we check. It
+    // omits only the per-grid offsets that let readers skip grids in a file of many.
+    std::ofstream out(path, std::ios::binary);
+    if (!out) return NFD_ERROR_IO;
+    out.exceptions(std::ios::failbit | std::ios::badbit);
+    try {
+        openvdb::io::Stream(out).write(openvdb::GridCPtrVec{grid});
+        out.close();
+    } catch (const std::ios::failure&) {
+        return NFD_ERROR_IO;
+    }
+    return NFD_SUCCESS;
+}
+
+}  // namespace nfd
