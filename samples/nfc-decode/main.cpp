@@ -1,6 +1,7 @@
-// nfc-decode: .nfc -> .glb / .ply over the public libnfdecode API only.
+// nfc-decode: .nfc -> .glb / .ply (mesh or points) / .vdb (sparse grid) over the public libnfdecode
+// API only.
 //
-//   nfc-decode IN.nfc -o OUT.{glb,ply} [--resolution N] [--points N]
+//   nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N]
 //              [--device auto|vulkan|cpu] [--stats]
 //
 // Errors are one line on stderr ("nfc-decode: error: ...") and a non-zero exit status: 2 for a
@@ -10,6 +11,7 @@
 #include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -19,9 +21,11 @@
 namespace {
 
 const char kUsage[] =
-    "usage: nfc-decode IN.nfc -o OUT.{glb,ply} [--resolution N] [--points N]\n"
+    "usage: nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N]\n"
     "                  [--device auto|vulkan|cpu] [--stats]\n"
-    "  --resolution N  marching-cubes cells per axis over the unit cube (8..1024, default 256)\n"
+    "  OUT             .glb or .ply: the surface mesh; .vdb: the distance on a narrow band\n"
+    "                  around it (OpenVDB)\n"
+    "  --resolution N  grid cells per axis over the unit cube (8..1024, default 256)\n"
     "  --points N      write N points sampled uniformly on the surface (PLY) instead of the mesh\n"
     "  --device D      auto (Vulkan, else CPU; default), vulkan, or cpu\n"
     "  --stats         print sizes, per-stage timings and counts\n";
@@ -99,9 +103,9 @@ Options parse_args(int argc, char** argv) {
         }
     }
     if (o.input.empty()) fail(2, "no input file (see --help)");
-    if (o.output.empty()) fail(2, "no output file: use -o OUT.glb or -o OUT.ply");
-    if (!ends_with(o.output, ".glb") && !ends_with(o.output, ".ply"))
-        fail(2, "output must end in .glb or .ply: '" + o.output + "'");
+    if (o.output.empty()) fail(2, "no output file: use -o OUT.glb, OUT.ply or OUT.vdb");
+    if (!ends_with(o.output, ".glb") && !ends_with(o.output, ".ply") && !ends_with(o.output, ".vdb"))
+        fail(2, "output must end in .glb or .ply (mesh) or .vdb (grid): '" + o.output + "'");
     if (o.points && !ends_with(o.output, ".ply"))
         fail(2, "--points writes a point cloud: the output must be .ply");
     return o;
@@ -130,17 +134,90 @@ double ms_since(Clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-// Owns the three handles so that every exit path releases them.
+// Owns the handles so that every exit path releases them.
 struct Handles {
     nfd_context* context = nullptr;
     nfd_asset* asset = nullptr;
     nfd_mesh* mesh = nullptr;
+    nfd_grid* grid = nullptr;
     ~Handles() {
+        nfd_grid_destroy(grid);
         nfd_mesh_destroy(mesh);
         nfd_asset_destroy(asset);
         nfd_context_destroy(context);
     }
 };
+
+const char* field_name(const nfd_asset_info& info) {
+    return info.field_type == NFD_FIELD_SDF ? "SDF" : "UDF";
+}
+
+void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
+    nfd_mesh_options mo = {};
+    mo.resolution = o.resolution;
+    check(nfd_mesh_extract(h->context, h->asset, &mo, &h->mesh),
+          o.input + ": meshing the " + field_name(info));
+    nfd_mesh_data data;
+    nfd_decode_stats stats;
+    check(nfd_mesh_get_data(h->mesh, &data), "mesh");
+    check(nfd_mesh_get_stats(h->mesh, &stats), "mesh");
+
+    auto t = Clock::now();
+    double ms_sample = 0;
+    if (o.points) {
+        if (data.triangle_count == 0) fail(1, o.input + ": the surface is empty, no points to sample");
+        std::vector<float> points(3 * o.points), normals(3 * o.points);
+        check(nfd_mesh_sample_points(h->mesh, o.points, 0, points.data(), normals.data()),
+              "point sampling");
+        ms_sample = ms_since(t);
+        t = Clock::now();
+        check(nfd_points_write_ply(points.data(), normals.data(), o.points, o.output.c_str()),
+              o.output);
+    } else if (ends_with(o.output, ".glb")) {
+        check(nfd_mesh_write_glb(h->mesh, o.output.c_str()), o.output);
+    } else {
+        check(nfd_mesh_write_ply(h->mesh, o.output.c_str()), o.output);
+    }
+    const double ms_write = ms_since(t);
+
+    if (o.stats) {
+        std::printf("field       %9.2f ms  (%llu points evaluated)\n", stats.seconds_field * 1e3,
+                    static_cast<unsigned long long>(stats.points_evaluated));
+        std::printf("mesh        %9.2f ms  (%llu active cells)\n", stats.seconds_mesh * 1e3,
+                    static_cast<unsigned long long>(stats.active_cells));
+        if (o.points) std::printf("sample      %9.2f ms  (%zu points)\n", ms_sample, o.points);
+        std::printf("write       %9.2f ms\n", ms_write);
+        std::printf("vertices    %zu\ntriangles   %zu\n", data.vertex_count, data.triangle_count);
+    }
+}
+
+void decode_grid(const Options& o, Handles* h) {
+    auto t = Clock::now();
+    nfd_grid_options go = {};
+    go.resolution = o.resolution;
+    check(nfd_grid_extract(h->context, h->asset, &go, &h->grid), o.input + ": sampling the grid");
+    nfd_grid_voxels voxels;
+    check(nfd_grid_get_voxels(h->grid, &voxels), "grid");
+    const double ms_field = ms_since(t);
+
+    t = Clock::now();
+    // The metadata records the input's file name, not the path it was given by.
+    const size_t slash = o.input.find_last_of("/\\");
+    const std::string name = slash == std::string::npos ? o.input : o.input.substr(slash + 1);
+    const nfd_result r = nfd_grid_write_vdb(h->grid, o.output.c_str(), name.c_str());
+    if (r == NFD_ERROR_UNSUPPORTED_FEATURE)
+        fail(1, o.output + ": this libnfdecode was built without OpenVDB (NFD_WITH_OPENVDB=OFF)");
+    check(r, o.output);
+    const double ms_write = ms_since(t);
+
+    if (o.stats) {
+        const double dense = std::pow(double(voxels.resolution) + 1.0, 3.0);
+        std::printf("field       %9.2f ms\n", ms_field);
+        std::printf("write       %9.2f ms\n", ms_write);
+        std::printf("voxels      %zu (%.2f%% of the dense %u^3 grid's vertices)\n", voxels.count,
+                    100.0 * double(voxels.count) / dense, voxels.resolution + 1);
+    }
+}
 
 void run(const Options& o) {
     Handles h;
@@ -160,48 +237,19 @@ void run(const Options& o) {
     check(nfd_context_create(&co, &h.context), "device");
     const double ms_device = ms_since(t);
 
-    nfd_mesh_options mo = {};
-    mo.resolution = o.resolution;
-    check(nfd_mesh_extract(h.context, h.asset, &mo, &h.mesh), "mesh extraction");
-    nfd_mesh_data data;
-    nfd_decode_stats stats;
-    check(nfd_mesh_get_data(h.mesh, &data), "mesh");
-    check(nfd_mesh_get_stats(h.mesh, &stats), "mesh");
-
-    t = Clock::now();
-    double ms_sample = 0;
-    if (o.points) {
-        if (data.triangle_count == 0) fail(1, o.input + ": the surface is empty, no points to sample");
-        std::vector<float> points(3 * o.points), normals(3 * o.points);
-        check(nfd_mesh_sample_points(h.mesh, o.points, 0, points.data(), normals.data()),
-              "point sampling");
-        ms_sample = ms_since(t);
-        t = Clock::now();
-        check(nfd_points_write_ply(points.data(), normals.data(), o.points, o.output.c_str()),
-              o.output);
-    } else if (ends_with(o.output, ".glb")) {
-        check(nfd_mesh_write_glb(h.mesh, o.output.c_str()), o.output);
-    } else {
-        check(nfd_mesh_write_ply(h.mesh, o.output.c_str()), o.output);
-    }
-    const double ms_write = ms_since(t);
-
     if (o.stats) {
-        std::printf("file        %zu bytes (format %u.%u, %u-bit, %u layers, width %u)\n",
-                    bytes.size(), info.format_major, info.format_minor, info.bits,
-                    info.num_layers, info.layer_widths[0]);
+        std::printf("file        %zu bytes (format %u.%u, %s, %u-bit, %u layers, width %u)\n",
+                    bytes.size(), info.format_major, info.format_minor, field_name(info),
+                    info.bits, info.num_layers, info.layer_widths[0]);
         std::printf("device      %s\n", nfd_context_device_name(h.context));
         std::printf("read        %9.2f ms\n", ms_read);
         std::printf("parse       %9.2f ms\n", ms_parse);
         std::printf("device init %9.2f ms\n", ms_device);
-        std::printf("field       %9.2f ms  (%llu points evaluated)\n", stats.seconds_field * 1e3,
-                    static_cast<unsigned long long>(stats.points_evaluated));
-        std::printf("mesh        %9.2f ms  (%llu active cells)\n", stats.seconds_mesh * 1e3,
-                    static_cast<unsigned long long>(stats.active_cells));
-        if (o.points) std::printf("sample      %9.2f ms  (%zu points)\n", ms_sample, o.points);
-        std::printf("write       %9.2f ms\n", ms_write);
-        std::printf("vertices    %zu\ntriangles   %zu\n", data.vertex_count, data.triangle_count);
     }
+    if (ends_with(o.output, ".vdb"))
+        decode_grid(o, &h);
+    else
+        decode_mesh(o, info, &h);
 }
 
 }  // namespace
