@@ -94,6 +94,7 @@ def cmd_encode(args: argparse.Namespace) -> int:
     result = encoder.compress(shape, config)
     output.write_bytes(result.data)
     seconds = time.perf_counter() - start
+    print(f"field: {result.field}, {result.field_reason}")
     print(
         f"{output}: {len(result.data)} bytes ({result.field}, width {args.width}, {args.bits} bits, "
         f"preset {args.preset}), encoded in {seconds:.1f} s (training {result.seconds:.1f} s, "
@@ -206,10 +207,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("encode", help="compress a mesh or point cloud into an .nfc file")
-    p.add_argument("input", help="PLY, OBJ, OFF, glTF or GLB file, optionally .gz")
+    p.add_argument("input", help="PLY, OBJ, OFF, glTF or GLB file (optionally .gz), or a scanalyze .conf of scans")
     p.add_argument("-o", "--output", required=True, help="output .nfc file")
     p.add_argument("--field", choices=("sdf", "udf", "auto"), default="auto",
-                   help="signed (watertight shapes), unsigned (anything) or auto (SDF when closed)")
+                   help="signed (watertight shapes), unsigned (anything) or auto (SDF when closed, nearly manifold)")
     p.add_argument("--width", type=int, default=32, help="hidden layer width: sets the rate (default 32)")
     p.add_argument("--bits", type=int, default=8, help="quantization bit width (default 8)")
     p.add_argument("--preset", choices=("fast", "paper"), default="fast", help="training schedule")

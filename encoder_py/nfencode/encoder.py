@@ -56,6 +56,7 @@ class EncodeConfig:
 class EncodeResult:
     data: bytes  # the `.nfc` file
     field: str  # "sdf" or "udf", after resolving "auto"
+    field_reason: str  # why that field (sampling.resolve_field), one line
     seconds: float  # wall-clock time of compress()
     final_loss: float  # truncated validation loss of the quantized network that was written
 
@@ -92,7 +93,7 @@ def compress(shape: Shape, cfg: EncodeConfig) -> EncodeResult:
     if not (np.all(np.isfinite(center32)) and math.isfinite(scale32) and scale32 > 0.0):
         raise InputError("the shape has no extent (all vertices coincide) or coordinates overflow float32")
     sampler = SurfaceSampler(to_unit(shape.vertices, center32, scale32), shape.faces)
-    field = resolve_field(sampler, cfg.field, rng)
+    field, field_reason = resolve_field(sampler, cfg.field, rng)
 
     previous_threads = torch.get_num_threads()
     torch.set_num_threads(_torch_threads())
@@ -134,4 +135,4 @@ def compress(shape: Shape, cfg: EncodeConfig) -> EncodeResult:
         network=network,
     )
     data_bytes = write_nfc(NfcFile(geometry))
-    return EncodeResult(data_bytes, field, time.perf_counter() - start, best_loss)
+    return EncodeResult(data_bytes, field, field_reason, time.perf_counter() - start, best_loss)
