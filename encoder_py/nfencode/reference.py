@@ -74,50 +74,49 @@ def _sines_and_cosines(frequencies: np.ndarray, u: np.ndarray) -> tuple[np.ndarr
     return np.sin(angles).astype(np.float32), np.cos(angles).astype(np.float32)
 
 
-def positional_encoding(frequencies: np.ndarray, unit_points: np.ndarray) -> np.ndarray:
-    """FORMAT.md step 2: [u, sin(f_k u), cos(f_k u) per k], (N, 3 + 6L) float32."""
-    u = np.asarray(unit_points, dtype=np.float32).reshape(-1, 3)
-    sines, cosines = _sines_and_cosines(frequencies, u)
+def _encode(u: np.ndarray, sines: np.ndarray, cosines: np.ndarray) -> np.ndarray:
     return np.concatenate([u, np.concatenate([sines, cosines], axis=2).reshape(len(u), -1)], axis=1)
 
 
-def _encoding_derivatives(frequencies: np.ndarray, u: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per axis j: (the encoded features that depend on u_j, their derivatives along u_j (N, 1 + 2L)).
-    Every other derivative of the encoding is zero."""
-    sines, cosines = _sines_and_cosines(frequencies, u)
+def positional_encoding(frequencies: np.ndarray, unit_points: np.ndarray) -> np.ndarray:
+    """FORMAT.md step 2: [u, sin(f_k u), cos(f_k u) per k], (N, 3 + 6L) float32."""
+    u = np.asarray(unit_points, dtype=np.float32).reshape(-1, 3)
+    return _encode(u, *_sines_and_cosines(frequencies, u))
+
+
+def _first_layer_derivatives(
+    weights: np.ndarray, frequencies: np.ndarray, sines: np.ndarray, cosines: np.ndarray
+) -> np.ndarray:
+    """d(first pre-activation) / du, (N, 3, width): along u_j only u_j and its own sines and cosines
+    change (d sin(f u_j) = f cos(f u_j), d cos(f u_j) = -f sin(f u_j))."""
     f = frequencies.astype(np.float64)[None, :]
-    L = len(frequencies)
+    k = np.arange(len(frequencies))
     per_axis = []
     for j in range(3):
-        features = np.concatenate([[j], 3 + 6 * np.arange(L) + j, 6 + 6 * np.arange(L) + j])
-        derivatives = np.concatenate(
-            [np.ones((len(u), 1)), f * cosines[:, :, j], -f * sines[:, :, j]], axis=1
-        )
-        per_axis.append((features, derivatives))
-    return per_axis
+        columns = np.concatenate([[j], 3 + 6 * k + j, 6 + 6 * k + j])
+        derivatives = np.concatenate([np.ones((len(sines), 1)), f * cosines[:, :, j], -f * sines[:, :, j]], axis=1)
+        per_axis.append(derivatives @ weights[:, columns].T)
+    return np.stack(per_axis, axis=1)
 
 
-def _forward(net: DecodedNetwork, points: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """Outputs (N, out) of one batch and, with `gradient`, their derivatives (N, out, 3) by forward
-    mode. Layers accumulate in f64 from the f32 weights and the f32 encoding."""
+def _forward(net: DecodedNetwork, u: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """Outputs (N, out) of one batch of f32 points and, with `gradient`, their derivatives
+    (N, out, 3) by forward mode. Layers accumulate in f64 from the f32 weights and the f32 encoding."""
     omega0 = float(net.omega0)
     weights = [w.astype(np.float64) for w in net.weights]
-    h = positional_encoding(net.frequencies, points).astype(np.float64)
-    dh = None
-    if gradient:
-        dz = [derivatives @ weights[0][:, features].T for features, derivatives in
-              _encoding_derivatives(net.frequencies, points)]
-        dh = np.stack(dz, axis=2)  # d(first pre-activation) / du: (N, width, 3)
+    sines, cosines = _sines_and_cosines(net.frequencies, u)
+    h = _encode(u, sines, cosines).astype(np.float64)
+    dh = _first_layer_derivatives(weights[0], net.frequencies, sines, cosines) if gradient else None
     for layer, (w, b) in enumerate(zip(weights, net.biases)):
         z = h @ w.T + b.astype(np.float64)
         if dh is not None and layer > 0:
-            dh = np.einsum("nik,oi->nok", dh, w)
+            dh = (dh.reshape(-1, w.shape[1]) @ w.T).reshape(len(u), 3, w.shape[0])
         if layer + 1 == len(weights):
             h = z
             break
         h = np.sin(omega0 * z)
         if dh is not None:
-            dh = (omega0 * np.cos(omega0 * z))[:, :, None] * dh
+            dh = (omega0 * np.cos(omega0 * z))[:, None, :] * dh
     if net.output == OUTPUT_ABS:
         slope = np.where(h >= 0, 1.0, -1.0)  # sign(0) = +1, as libnfdecode
         h = np.abs(h)
@@ -128,7 +127,7 @@ def _forward(net: DecodedNetwork, points: np.ndarray, gradient: bool) -> tuple[n
         slope = np.ones_like(h)
     else:
         raise NfcError(f"unknown output activation {net.output}")
-    return h, None if dh is None else slope[:, :, None] * dh
+    return h, None if dh is None else (slope[:, None, :] * dh).transpose(0, 2, 1)
 
 
 def _batched(net: DecodedNetwork, unit_points: np.ndarray, gradient: bool) -> tuple[np.ndarray, np.ndarray]:
