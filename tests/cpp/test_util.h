@@ -318,6 +318,8 @@ inline MeshData read_ply(const std::string& path) {
                 const double v = read_value(type);
                 if (e.name == "vertex" && (name == "x" || name == "y" || name == "z"))
                     m.positions.push_back(float(v));
+                if (e.name == "vertex" && (name == "nx" || name == "ny" || name == "nz"))
+                    m.normals.push_back(float(v));
             }
         }
     }
