@@ -225,6 +225,10 @@ def test_sphere_mesh(
 def test_field_without_surface_gives_an_empty_mesh() -> None:
     mesh = extract_mesh_from_field(lambda p: np.full(len(p), 0.5), 32)
     assert mesh.vertices.shape == (0, 3) and mesh.faces.shape == (0, 3) and mesh.active_cells == 0
+    no_near_cell = extract_mesh_from_field(lambda p: np.full(len(p), 0.5), 32, udf_gradient=np.ones_like)
+    assert no_near_cell.faces.shape == (0, 3) and no_near_cell.gradients_evaluated == 0
+    flat = extract_mesh_from_field(lambda p: np.zeros(len(p)), 16, udf_gradient=np.zeros_like)  # no orientation
+    assert flat.faces.shape == (0, 3) and flat.gradients_evaluated == 17**3
     with pytest.raises(NfcError):
         extract_mesh_from_field(lambda p: np.ones(len(p)), 7)  # below NFD_MIN_RESOLUTION
     with pytest.raises(NfcError):
