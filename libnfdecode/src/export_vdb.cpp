@@ -36,15 +36,17 @@ nfd_result write_vdb(const nfd_grid_voxels& voxels, const VdbSource& source, con
     // tile enclosed by negative values -d* instead: a level set whose inside reads negative.
     if (sdf) openvdb::tools::signedFloodFill(grid->tree());
 
-    if (source.file_name) grid->insertMeta("nfc_source_file", openvdb::StringMetadata(source.file_name));
+    if (source.file_name)
+        grid->insertMeta("nfc_source_file", openvdb::StringMetadata(source.file_name));
     grid->insertMeta("nfc_field_type", openvdb::StringMetadata(sdf ? "sdf" : "udf"));
     grid->insertMeta("nfc_format_version",
                      openvdb::StringMetadata(std::to_string(source.format_major) + "." +
                                              std::to_string(source.format_minor)));
     grid->insertMeta("nfc_resolution", openvdb::Int32Metadata(int32_t(voxels.resolution)));
-    grid->insertMeta("nfc_decoder", openvdb::StringMetadata("libnfdecode " + std::to_string(NFD_VERSION_MAJOR) + "." +
-                                                             std::to_string(NFD_VERSION_MINOR) + "." +
-                                                             std::to_string(NFD_VERSION_PATCH)));
+    grid->insertMeta("nfc_decoder",
+                     openvdb::StringMetadata("libnfdecode " + std::to_string(NFD_VERSION_MAJOR) +
+                                             "." + std::to_string(NFD_VERSION_MINOR) + "." +
+                                             std::to_string(NFD_VERSION_PATCH)));
 
     // io::File would report a file it cannot open but not a failed write (a full disk leaves a
     // truncated file and no error); io::Stream writes the same format onto a stream we check. It

@@ -104,7 +104,8 @@ Options parse_args(int argc, char** argv) {
     }
     if (o.input.empty()) fail(2, "no input file (see --help)");
     if (o.output.empty()) fail(2, "no output file: use -o OUT.glb, OUT.ply or OUT.vdb");
-    if (!ends_with(o.output, ".glb") && !ends_with(o.output, ".ply") && !ends_with(o.output, ".vdb"))
+    if (!ends_with(o.output, ".glb") && !ends_with(o.output, ".ply") &&
+        !ends_with(o.output, ".vdb"))
         fail(2, "output must end in .glb or .ply (mesh) or .vdb (grid): '" + o.output + "'");
     if (o.points && !ends_with(o.output, ".ply"))
         fail(2, "--points writes a point cloud: the output must be .ply");

@@ -1,6 +1,6 @@
-// The sparse-grid C API (nfd_grid_*): argument checks, limits and ownership, and the voxels it hands
-// out checked against the documented layout and nfd_asset_evaluate on the golden vectors. The
-// OpenVDB file itself is test_vdb.cpp's.
+// The sparse-grid C API (nfd_grid_*): argument checks, limits and ownership, and the voxels it
+// hands out checked against the documented layout and nfd_asset_evaluate on the golden vectors.
+// The OpenVDB file itself is test_vdb.cpp's.
 #include <gtest/gtest.h>
 #include <nfdecode/nfdecode.h>
 #include <unistd.h>

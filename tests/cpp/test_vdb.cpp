@@ -38,7 +38,8 @@ openvdb::FloatGrid::Ptr read_only_grid(const std::string& path) {
 
 // What nfd_grid_write_vdb promises for SDF and UDF alike; `source` is the nfc_source_file
 // expected (nullptr: absent). Returns the grid read back.
-openvdb::FloatGrid::Ptr check_file(const GoldenGrid& g, const std::string& path, const char* source) {
+openvdb::FloatGrid::Ptr check_file(const GoldenGrid& g, const std::string& path,
+                                   const char* source) {
     const openvdb::FloatGrid::Ptr grid = read_only_grid(path);
     if (!grid) {
         ADD_FAILURE() << path << " holds no FloatGrid";
