@@ -2,14 +2,15 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
-layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Bits { uint bits[]; };
-layout(std430, binding = 1) readonly buffer Prefix { uint prefix[]; };
-layout(std430, binding = 2) writeonly buffer Cells { uint cells[]; };
+#include "bindings.h"
+layout(local_size_x = NFD_LOCAL_SIZE) in;
+layout(std430, binding = NFD_B_KEPT_BITS) readonly buffer Bits { uint bits[]; };
+layout(std430, binding = NFD_B_KEPT_PREFIX) readonly buffer Prefix { uint prefix[]; };
+layout(std430, binding = NFD_B_KEPT_CELLS) writeonly buffer Cells { uint cells[]; };
 layout(push_constant) uniform Push { uint words; } push;
 
 void main() {
-    uint w = global_invocation_index(64);
+    uint w = global_invocation_index(gl_WorkGroupSize.x);
     if (w >= push.words) return;
     uint word = bits[w];
     uint slot = prefix[w];

@@ -5,6 +5,7 @@
 
 // Large launches are split over gl_NumWorkGroups.y because maxComputeWorkGroupCount[0] may be
 // as small as 65535; the host dispatches ceil(n / local size) groups folded into 2D.
+// Callers pass gl_WorkGroupSize.x: GLSL defines it only after the local size is declared.
 uint global_invocation_index(uint local_size) {
     uint group = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
     return group * local_size + gl_LocalInvocationIndex;

@@ -15,14 +15,16 @@
 // value: owner -> rank -> offset + popcount of the lower owned bits.
 #ifndef NFD_EXTRACT_GLSL
 #define NFD_EXTRACT_GLSL
+#include "bindings.h"
 
-layout(std430, binding = 0) readonly buffer KeptBits { uint kept_bits[]; };
-layout(std430, binding = 1) readonly buffer KeptPrefix { uint kept_prefix[]; };
-layout(std430, binding = 2) readonly buffer KeptCells { uint kept_cells[]; };    // sorted
-layout(std430, binding = 3) readonly buffer Corners { float corners[]; };        // 8 per kept cell
-layout(std430, binding = 4) buffer Owned { uint owned[]; };                      // 27-bit masks
-layout(std430, binding = 5) buffer Offsets { uint offsets[]; };                  // into `values`
-layout(std430, binding = 6) readonly buffer Values { float values[]; };          // new points
+layout(local_size_x = NFD_LOCAL_SIZE) in;
+layout(std430, binding = NFD_B_KEPT_BITS) readonly buffer KeptBits { uint kept_bits[]; };
+layout(std430, binding = NFD_B_KEPT_PREFIX) readonly buffer KeptPrefix { uint kept_prefix[]; };
+layout(std430, binding = NFD_B_KEPT_CELLS) readonly buffer KeptCells { uint kept_cells[]; };
+layout(std430, binding = NFD_B_CORNERS) readonly buffer Corners { float corners[]; };
+layout(std430, binding = NFD_B_OWNED) buffer Owned { uint owned[]; };
+layout(std430, binding = NFD_B_OFFSETS) buffer Offsets { uint offsets[]; };  // into `values`
+layout(std430, binding = NFD_B_VALUES) readonly buffer Values { float values[]; };
 
 // One push-constant block for every kernel of a refinement step (parent level l + 1 -> l).
 layout(push_constant) uniform LevelPush {
@@ -30,11 +32,13 @@ layout(push_constant) uniform LevelPush {
     uint parent_cells;  // cells per axis of the parent level
     uint child_cells;   // of the child level: 2 * parent_cells or one less (the last is dropped)
     uint count;         // invocations: kept parents (kept children: gather_corners; vertices:
-                        // mc_vertices)
+                        // mc_vertices, udf_vertices)
     uint child_level;   // l: child-grid point v is fine vertex v << l
     float step;         // fine cell edge, 2.0f / resolution
-    float threshold;    // refine_cells: the activity threshold of a child cell
-    float scale;        // mc_vertices
+    float threshold;    // refine_cells: the activity threshold of a child cell; UDF: of a near
+                        // cell (grid.h, udf_near_threshold)
+    float scale;        // mc_vertices, udf_vertices
+    float edge_limit;   // UDF: the largest f_a + f_b of a valid edge (extract.h, step 5)
 } push;
 
 vec3 child_point(uvec3 v) {

@@ -30,6 +30,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#include "bindings.h"
 
 layout(constant_id = 0) const uint FREQ4 = 4;        // frequency blocks of 4
 layout(constant_id = 1) const uint NUM_LAYERS = 3;
@@ -45,8 +46,7 @@ layout(constant_id = 10) const float OMEGA0 = 30.0;
 layout(constant_id = 11) const uint OUTPUT_ACTIVATION = 0;  // 0 identity, 1 abs, 2 sigmoid
 layout(constant_id = 12) const uint MAX4 = 25;       // widest layer input/output, in vec4s
 layout(constant_id = 13) const uint POINTS = 8;      // points per invocation
-layout(local_size_x_id = 14) in;
-layout(constant_id = 14) const uint LOCAL_SIZE = 32;
+layout(local_size_x_id = NFD_FIELD_LOCAL_SIZE_ID) in;
 
 const uint ENC4 = 1 + 6 * FREQ4;
 #ifdef WITH_GRADIENT
@@ -56,28 +56,30 @@ const uint COMP = 1;
 #endif
 const uint ROWS = POINTS * COMP;  // row r is component r % COMP of point r / COMP
 
-layout(std430, binding = 0) readonly buffer Points { float points[]; };  // xyz per point
+layout(std430, binding = NFD_B_FIELD_POINTS) readonly buffer Points { float points[]; };
 #ifdef WITH_GRADIENT
-layout(std430, binding = 1) writeonly buffer Values { vec4 values[]; };  // value, gradient
+layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { vec4 values[]; };
 #else
-layout(std430, binding = 1) writeonly buffer Values { float values[]; };
+layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { float values[]; };
 #endif
-layout(std140, binding = 2) uniform Frequencies { vec4 frequencies[6]; };  // 24 = MAX_FREQUENCIES
+layout(std140, binding = NFD_B_FIELD_FREQUENCIES) uniform Frequencies {
+    vec4 frequencies[NFD_GPU_MAX_FREQUENCIES / 4];
+};
 
 #ifdef WEIGHTS_IN_STORAGE_BUFFER
 #define WEIGHT_BLOCK(B, NAME) layout(std430, binding = B) readonly buffer NAME##Block { vec4 w[]; } NAME;
 #else
-// 4096 vec4s = 65536 bytes, the largest range the host binds to one uniform block.
-#define WEIGHT_BLOCK(B, NAME) layout(std140, binding = B) uniform NAME##Block { vec4 w[4096]; } NAME;
+// 64 KiB, the largest range the host binds to one uniform block.
+#define WEIGHT_BLOCK(B, NAME) layout(std140, binding = B) uniform NAME##Block { vec4 w[NFD_GPU_UNIFORM_VEC4S]; } NAME;
 #endif
-WEIGHT_BLOCK(3, layer0)
-WEIGHT_BLOCK(4, layer1)
-WEIGHT_BLOCK(5, layer2)
-WEIGHT_BLOCK(6, layer3)
-WEIGHT_BLOCK(7, layer4)
-WEIGHT_BLOCK(8, layer5)
-WEIGHT_BLOCK(9, layer6)
-WEIGHT_BLOCK(10, layer7)
+WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 0, layer0)
+WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 1, layer1)
+WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 2, layer2)
+WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 3, layer3)
+WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 4, layer4)
+WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 5, layer5)
+WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 6, layer6)
+WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 7, layer7)
 
 layout(push_constant) uniform Push { uint count; } push;
 
@@ -143,7 +145,7 @@ float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign
     }
 
 void main() {
-    uint first = global_invocation_index(LOCAL_SIZE) * POINTS;
+    uint first = global_invocation_index(gl_WorkGroupSize.x) * POINTS;
     if (first >= push.count) return;
 
     // Positional encoding into ping; points past the end repeat the last one (results dropped).

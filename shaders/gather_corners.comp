@@ -1,15 +1,14 @@
 // Refinement, step 4: the corner values of each newly kept cell, in the order of the sorted kept
-// list, read from its parent's child grid. Bindings 0-6 describe the parent level.
+// list, read from its parent's child grid (the parent level's bindings of extract.glsl).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "extract.glsl"
-layout(local_size_x = 64) in;
-layout(std430, binding = 7) readonly buffer ChildCells { uint child_cells[]; };
-layout(std430, binding = 8) writeonly buffer ChildCorners { float child_corners[]; };
+layout(std430, binding = NFD_B_CHILD_CELLS) readonly buffer ChildCells { uint child_cells[]; };
+layout(std430, binding = NFD_B_CHILD_CORNERS) writeonly buffer ChildCorners { float child_corners[]; };
 
 void main() {
-    uint j = global_invocation_index(64);
+    uint j = global_invocation_index(gl_WorkGroupSize.x);
     if (j >= push.count) return;
     uint r = push.parent_cells;
     uvec3 child = cell_coords(child_cells[j], push.child_cells);

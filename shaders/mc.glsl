@@ -1,6 +1,9 @@
-// Marching cubes on the finest level, shared by mc_classify.comp and mc_emit.comp. The parents
-// are the kept cells of level 1 (bindings 0-6 of extract.glsl); the cells that marching cubes
-// visits are all their (existing) children, whose corners are the parents' child grids.
+// Marching cubes on the finest level, shared by the SDF (mc_*.comp) and UDF (udf_*.comp) kernels.
+// The parents are the kept cells of level 1 (extract.glsl); the cells that marching cubes visits
+// are all their (existing) children, whose corners are the parents' child grids. A classify
+// kernel (mc_classify, udf_classify) writes per parent each child's cube case and which of its
+// table triangles are emitted (`cases`), the owned edges that carry a vertex (`edge_masks`) and
+// the triangle count; mc_emit.comp turns them into welded triangles for both field types.
 //
 // A vertex is made for every crossed edge of the child grid (one whose end points differ in
 // sign: f < 0 inside, as mc_tables.h defines). An edge is shared by up to four visited cells,
@@ -8,17 +11,25 @@
 // whose closed box contains it, found like child-grid points (owner_cell) from its midpoint in
 // quarter-cell units. The 54 edges of a 3x3x3 grid are numbered axis by axis:
 // id = 18 a + (index of the start point s, s[a] in {0, 1}, the other two in {0, 1, 2}).
+// A vertex's index is the prefix of the edge masks' popcounts (`vertex_offsets`, per uint word
+// of edge_masks) at its owner's first word plus its rank in the owner's mask.
 #ifndef NFD_MC_GLSL
 #define NFD_MC_GLSL
 
-// mc_tables.h as uploaded by gpu_decode.cpp: triangles[256][16] (edge ids, -1 padded), then
+// mc_tables.h as uploaded by device.cpp: triangles[256][16] (edge ids, -1 padded), then
 // triangle_count[256], then kEdgeCorners[12][2].
-layout(std430, binding = 7) readonly buffer Tables { int mc_tables[]; };
-layout(std430, binding = 8) buffer EdgeMasks { uvec2 edge_masks[]; };  // owned crossed edges
-// Each parent's child grid (27 values, 0 where a point does not exist), written by mc_classify
-// from the level's sparse storage once, so that later kernels read any parent's values with one
+layout(std430, binding = NFD_B_MC_TABLES) readonly buffer Tables { int mc_tables[]; };
+// Each parent's child grid (27 values, 0 where a point does not exist), written once from the
+// level's sparse storage (load_grid), so that later kernels read any parent's values with one
 // load.
-layout(std430, binding = 9) buffer ChildGrids { float child_grids[]; };
+layout(std430, binding = NFD_B_CHILD_GRIDS) buffer ChildGrids { float child_grids[]; };
+// Byte i of cases[k] (i = 0..7 in .xy) is child i's cube case, byte 8 + i (.zw) the mask of its
+// table triangles that are emitted.
+layout(std430, binding = NFD_B_CASES) buffer Cases { uvec4 cases[]; };
+layout(std430, binding = NFD_B_EDGE_MASKS) buffer EdgeMasks { uvec2 edge_masks[]; };
+
+uint case_byte(uvec4 c, uint i) { return (c[i >> 2] >> (8u * (i & 3u))) & 0xffu; }
+void set_case_byte(inout uvec4 c, uint i, uint value) { c[i >> 2] |= value << (8u * (i & 3u)); }
 
 int mc_triangle_edge(uint cube_case, uint i) { return mc_tables[16u * cube_case + i]; }
 uint mc_triangle_count(uint cube_case) { return uint(mc_tables[4096u + cube_case]); }
@@ -47,14 +58,14 @@ uint mask_rank(uvec2 mask, uint id) {  // set bits below id
 }
 
 float grid[27];  // the current parent's child grid (0 where a point does not exist)
-void load_grid(uvec3 p, uint k, uint r) {  // mc_classify: from the sparse storage
+void load_grid(uvec3 p, uint k, uint r) {  // from the sparse storage (extract.glsl)
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, lv, r) : 0.0;
         child_grids[27u * k + l] = grid[l];
     }
 }
-void reload_grid(uint k) {  // mc_emit: from child_grids
+void reload_grid(uint k) {  // from child_grids
     for (uint l = 0u; l < 27u; ++l) grid[l] = child_grids[27u * k + l];
 }
 bool inside(uvec3 l) { return grid[local_index(l)] < 0.0; }
@@ -76,7 +87,7 @@ bool grid_value(ivec3 w, uvec3 p, uint k, uint r, out float f) {
 
 // extract.h's normal: derivative along axis b at point w (value fw), in units of 1 / cell, central
 // where both neighbours were evaluated, one-sided where one was, 0 where neither (as
-// extract_cpu.cpp's grid_derivative).
+// mesh_sdf_cpu.cpp).
 float grid_derivative(ivec3 w, float fw, uint b, uvec3 p, uint k, uint r) {
     ivec3 e = ivec3(unit_axis(b));
     float hi, lo;

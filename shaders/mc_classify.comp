@@ -1,27 +1,29 @@
-// Marching cubes, step 1: per parent, the crossed edges it owns (its vertices) and the number of
-// triangles of its children; the host prefix-sums both counts. Also stores the parent's child grid
-// (mc.glsl's child_grids) for mc_emit.
+// SDF marching cubes, step 1 (mc.glsl): per parent, its child grid (stored for the later kernels),
+// each child's cube case (all its table triangles are emitted), the crossed edges it owns (its
+// vertices) and its triangle count; the host prefix-sums the counts.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
-layout(local_size_x = 64) in;
-layout(std430, binding = 10) writeonly buffer VertexCounts { uint vertex_counts[]; };
-layout(std430, binding = 11) writeonly buffer TriangleCounts { uint triangle_counts[]; };
-layout(std430, binding = 12) buffer ActiveCells { uint active_cells; };  // cells with triangles
+layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts { uint triangle_counts[]; };
+layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; };
 
 void main() {
-    uint k = global_invocation_index(64);
+    uint k = global_invocation_index(gl_WorkGroupSize.x);
     if (k >= push.count) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     load_grid(p, k, r);
     uint triangles = 0u, busy = 0u;
+    uvec4 c = uvec4(0u);
     for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
         if (!child_cell_exists(2u * p + d)) continue;
-        uint n = mc_triangle_count(cube_case(d));
+        uint cc = cube_case(d);
+        uint n = mc_triangle_count(cc);
+        set_case_byte(c, child, cc);
+        set_case_byte(c, 8u + child, (1u << n) - 1u);
         triangles += n;
         busy += n > 0u ? 1u : 0u;
     }
@@ -36,8 +38,8 @@ void main() {
         if (id < 32u) mask.x |= 1u << id;
         else mask.y |= 1u << (id - 32u);
     }
+    cases[k] = c;
     edge_masks[k] = mask;
-    vertex_counts[k] = bitCount(mask.x) + bitCount(mask.y);
     triangle_counts[k] = triangles;
     if (busy > 0u) atomicAdd(active_cells, busy);
 }

@@ -1,19 +1,19 @@
-// Marching cubes, step 3: per vertex, its position (the edge crossing, interpolated linearly, in
-// the original frame) and normal (mc.glsl's edge_normal), from the edge mc_emit recorded. One
+// SDF marching cubes, step 3: per vertex, its position (the edge crossing, interpolated linearly,
+// in the original frame) and normal (mc.glsl's edge_normal), from the edge mc_emit recorded. One
 // vertex per invocation keeps the SIMD lanes of CPU implementations busy. Arithmetic as in
-// extract_cpu.cpp, so that both paths place vertices identically for identical field values.
+// mesh_sdf_cpu.cpp and extract_cpu.cpp, so that both paths place vertices identically for
+// identical field values.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
-layout(local_size_x = 64) in;
-layout(std430, binding = 10) readonly buffer VertexEdges { uint vertex_edges[]; };
-layout(std430, binding = 11) writeonly buffer Positions { float positions[]; };
-layout(std430, binding = 12) writeonly buffer Normals { float normals[]; };
+layout(std430, binding = NFD_B_VERTEX_EDGES) readonly buffer VertexEdges { uint vertex_edges[]; };
+layout(std430, binding = NFD_B_POSITIONS) writeonly buffer Positions { float positions[]; };
+layout(std430, binding = NFD_B_NORMALS) writeonly buffer Normals { float normals[]; };
 
 void main() {
-    uint vertex = global_invocation_index(64);
+    uint vertex = global_invocation_index(gl_WorkGroupSize.x);
     if (vertex >= push.count) return;
     uint r = push.parent_cells;
     uint k = vertex_edges[vertex] >> 6;

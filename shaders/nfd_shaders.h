@@ -21,8 +21,12 @@ extern const Spirv gather_corners;      // corner values of the newly kept cells
 extern const Spirv bitmap_compact;      // kept bitmap -> sorted list of cell indices
 extern const Spirv scan;                // exclusive prefix sum per block, block totals
 extern const Spirv scan_add;            // adds scanned block totals back
-extern const Spirv mc_classify;         // per finest-level parent: owned edges, triangle count
+extern const Spirv mc_classify;         // SDF, per finest-level parent: cases, owned edges
 extern const Spirv mc_emit;             // per finest-level parent: vertex edges, triangles
-extern const Spirv mc_vertices;         // per vertex: position (edge crossing), normal
+extern const Spirv mc_vertices;         // SDF, per vertex: position (edge crossing), normal
+extern const Spirv udf_near;            // UDF, per finest-level parent: near children
+extern const Spirv udf_gradient_count;  // UDF: which points each parent evaluates a gradient at
+extern const Spirv udf_classify;        // UDF, per finest-level parent: pseudo-signed cases
+extern const Spirv udf_vertices;        // UDF, per vertex: position (|f| minimum), normal
 
 }  // namespace nfd::shaders

@@ -4,11 +4,10 @@
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "extract.glsl"
-layout(local_size_x = 64) in;
-layout(std430, binding = 7) buffer ChildBits { uint child_bits[]; };
+layout(std430, binding = NFD_B_CHILD_BITS) buffer ChildBits { uint child_bits[]; };
 
 void main() {
-    uint k = global_invocation_index(64);
+    uint k = global_invocation_index(gl_WorkGroupSize.x);
     if (k >= push.count) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);

@@ -198,7 +198,13 @@ MeshPair extract_both(gpu::Device& device, const Geometry& g, uint32_t resolutio
 
 // The same mesh: the same cells visited, one vertex per crossed edge at the same place (to float
 // rounding of the two evaluators), the same triangles with the same winding, and normals alike.
-void expect_same_mesh(const MeshPair& m, const Geometry& g, uint32_t resolution) {
+// A UDF cell's orientation n is the gradient at its corner with the smallest value: where two
+// corners tie in exact arithmetic (the symmetric blob has many), the evaluators' last-bit
+// differences pick either, and if the two candidates have opposite canonical directions the cell
+// takes the complementary case: the same crossed edges, the other winding and possibly the other
+// triangulation. `max_differing` bounds the fraction of GPU triangles that such cells change.
+void expect_same_mesh(const MeshPair& m, const Geometry& g, uint32_t resolution,
+                      double max_differing = 0) {
     EXPECT_EQ(m.gpu_stats.points_evaluated, m.cpu_stats.points_evaluated);
     EXPECT_EQ(m.gpu_stats.active_cells, m.cpu_stats.active_cells);
     ASSERT_EQ(m.gpu.vertex_count(), m.cpu.vertex_count());
@@ -212,7 +218,12 @@ void expect_same_mesh(const MeshPair& m, const Geometry& g, uint32_t resolution)
         for (int a = 0; a < 3; ++a) dot += m.gpu.normals[3 * i + a] * m.cpu.normals[3 * map[i] + a];
         ASSERT_GT(dot, 0.999f) << "normal of vertex " << i;
     }
-    EXPECT_TRUE(triangles(m.gpu, &map) == triangles(m.cpu, nullptr));
+    const auto gpu_triangles = triangles(m.gpu, &map), cpu_triangles = triangles(m.cpu, nullptr);
+    size_t differing = 0;
+    for (const auto& t : gpu_triangles) differing += cpu_triangles.count(t) == 0;
+    EXPECT_LE(double(differing), max_differing * double(m.gpu.triangle_count()));
+    ::testing::Test::RecordProperty("differing_triangles_r" + std::to_string(resolution),
+                                    int(differing));
 }
 
 // A closed blob in a shifted, scaled frame: watertight, outward, identical to the CPU mesh, at a
@@ -252,15 +263,40 @@ TEST_F(Gpu, FieldWithoutSurfaceGivesEmptyMesh) {
 }
 
 TEST_F(Gpu, RejectsWhatTheCpuRejects) {
-    Geometry g = parse_or_throw(geom_file(closed_blob()));
+    const Geometry g = parse_or_throw(geom_file(closed_blob()));
     MeshData mesh;
     EXPECT_EQ(gpu::extract_mesh(device(), g, NFD_MAX_RESOLUTION + 1, &mesh, nullptr),
               NFD_ERROR_LIMIT_EXCEEDED);
-    g.field = FieldType::Udf;
-    EXPECT_EQ(gpu::extract_mesh(device(), g, 64, &mesh, nullptr), NFD_ERROR_UNSUPPORTED_FEATURE);
+    EXPECT_EQ(gpu::extract_mesh(device(), g, NFD_MIN_RESOLUTION - 1, &mesh, nullptr),
+              NFD_ERROR_LIMIT_EXCEEDED);
 }
 
-// Golden vectors from the Python encoder: GPU mesh vs CPU mesh.
+// The UDF mesher (extract.h, steps 1-7) against mesh_udf_cpu: the same near cells and gradient
+// points (gradients_evaluated), the same triangles as sets of welded grid edges, positions to
+// rounding. |f| of the closed blob (one closed sheet, in a shifted, scaled frame) at a power of
+// two, at 75 (coarse levels drop cells past the last vertex) and at 16 (no refinement); a random
+// UDF SIREN (open sheets, boundaries, the edge filter at work; no ties, so identical winding).
+TEST_F(Gpu, UdfMeshMatchesCpu) {
+    const float center[3] = {1.0f, -2.0f, 0.5f};
+    GeomSpec blob = closed_blob(3.0f, center);
+    blob.field_type = 1;
+    blob.output = 1;
+    const Geometry g = parse_or_throw(geom_file(blob));
+    for (uint32_t resolution : {128u, 75u, 16u}) {
+        SCOPED_TRACE("resolution " + std::to_string(resolution));
+        const MeshPair m = extract_both(device(), g, resolution);
+        ASSERT_GT(m.gpu.triangle_count(), 0u);
+        EXPECT_EQ(m.gpu_stats.gradients_evaluated, m.cpu_stats.gradients_evaluated);
+        expect_same_mesh(m, g, resolution, 0.01);  // measured: 20 of 53864 at 128, 96 of 18284 at 75
+    }
+    const Geometry siren = parse_or_throw(geom_file(random_siren(16, 8, 11, /*field_type=*/1)));
+    const MeshPair m = extract_both(device(), siren, 64);
+    ASSERT_GT(m.gpu.triangle_count(), 0u);
+    EXPECT_EQ(m.gpu_stats.gradients_evaluated, m.cpu_stats.gradients_evaluated);
+    expect_same_mesh(m, siren, 64);
+}
+
+// Golden vectors from the Python encoder (SDF and UDF): GPU mesh vs CPU mesh.
 TEST_F(Gpu, GoldenVectorMeshesMatchCpu) {
     const std::vector<std::string> names = golden_names();
     ASSERT_FALSE(names.empty()) << "no golden vectors in " << vectors_dir();
@@ -269,12 +305,15 @@ TEST_F(Gpu, GoldenVectorMeshesMatchCpu) {
         ParsedFile f;
         const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
         ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &f), NFD_SUCCESS);
-        if (f.geometry.field != FieldType::Sdf) continue;
         const MeshPair m = extract_both(device(), f.geometry, 128);
         // Values agree to ~1e-6, so a grid point can only change sign where |f| is that small:
         // allow a handful of differing vertices, but the surfaces must coincide.
-        const double n = double(m.cpu.vertex_count());
+        const double n = double(m.cpu.vertex_count()), t = double(m.cpu.triangle_count());
         EXPECT_NEAR(double(m.gpu.vertex_count()), n, 1e-3 * n + 2);
+        EXPECT_NEAR(double(m.gpu.triangle_count()), t, 1e-3 * t + 4);  // measured: all equal
+        EXPECT_NEAR(double(m.gpu_stats.gradients_evaluated),
+                    double(m.cpu_stats.gradients_evaluated),
+                    1e-3 * double(m.cpu_stats.gradients_evaluated) + 2);
         EXPECT_LT(chamfer(m.gpu.positions, m.cpu.positions), 1e-4 * f.geometry.scale);
     }
 }

@@ -1,5 +1,7 @@
-// The Vulkan compute path: what api.cpp calls. Implemented in gpu/ (vk_context, gpu_decode) over
-// the shaders in shaders/; every stage has its CPU twin in network.cpp / extract_cpu.cpp.
+// The Vulkan compute path: what api.cpp calls. Implemented in gpu/ over the shaders in shaders/,
+// one file per stage, each with its CPU twin: field.cpp (network.cpp), levels.cpp (grid.cpp),
+// mesh_sdf.cpp and mesh_udf.cpp (mesh_sdf_cpu.cpp, mesh_udf_cpu.cpp); device.cpp holds the
+// kernel table, vk_context.cpp the Vulkan layer.
 #pragma once
 #include <cstddef>
 #include <memory>
@@ -28,7 +30,8 @@ nfd_result evaluate(Device& device, const Network& network, const float* unit_xy
 nfd_result evaluate_gradient(Device& device, const Network& network, const float* unit_xyz,
                              size_t n, float* values, float* gradients);
 
-// The GPU twin of extract_mesh_cpu: same grid, same activity test, same mesh conventions.
+// The GPU twin of extract_mesh_cpu, for SDF and UDF: same grid, same rules, same mesh conventions
+// and topology (triangles and vertices in another order).
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
                         MeshData* mesh, ExtractStats* stats);
 

@@ -10,7 +10,7 @@ namespace nfd::gpu {
 // Descriptor sets are allocated per dispatch from one pool that submit() resets; one batch (one
 // refinement level) records far fewer dispatches than this.
 constexpr uint32_t kMaxDispatchesPerBatch = 256;
-constexpr uint32_t kMaxBindings = 16;
+constexpr uint32_t kMaxBindings = 16;  // per pipeline (the pool is sized for it)
 
 nfd_result to_result(VkResult result) {
     switch (result) {
@@ -297,17 +297,27 @@ void Context::destroy(Buffer& b) {
 
 nfd_result Context::create_pipeline(const PipelineDesc& desc, Pipeline* out) {
     *out = Pipeline{};
+    if ((desc.storage_bindings & desc.uniform_bindings) ||
+        __builtin_popcount(desc.storage_bindings | desc.uniform_bindings) > int(kMaxBindings))
+        return NFD_ERROR_INTERNAL;
     Pipeline p;
-    p.bindings = desc.bindings;
+    p.storage_bindings = desc.storage_bindings;
+    p.uniform_bindings = desc.uniform_bindings;
     p.push_constant_bytes = desc.push_constant_bytes;
     p.local_size = desc.local_size;
     auto fail = [&](VkResult r) {
         destroy(p);
         return to_result(r);
     };
-    std::vector<VkDescriptorSetLayoutBinding> bindings(desc.bindings.size());
-    for (uint32_t i = 0; i < bindings.size(); ++i)
-        bindings[i] = {i, desc.bindings[i], 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    std::vector<VkDescriptorSetLayoutBinding> bindings;
+    for (uint32_t b = 0; b < 32; ++b) {
+        const bool storage = desc.storage_bindings >> b & 1, uniform = desc.uniform_bindings >> b & 1;
+        if (storage || uniform)
+            bindings.push_back({b,
+                                storage ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
+                                        : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+                                1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr});
+    }
     VkDescriptorSetLayoutCreateInfo set{};
     set.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
     set.bindingCount = uint32_t(bindings.size());
@@ -390,9 +400,15 @@ void Context::barrier() {
                          &b, 0, nullptr, 0, nullptr);
 }
 
-nfd_result Context::dispatch(const Pipeline& pipeline, std::initializer_list<BufferRange> buffers,
+nfd_result Context::dispatch(const Pipeline& pipeline, const Bind* buffers, size_t count,
                              const void* push, uint64_t invocations) {
-    if (!recording_ || buffers.size() != pipeline.bindings.size()) return NFD_ERROR_DEVICE;
+    if (!recording_) return NFD_ERROR_INTERNAL;
+    uint32_t given = 0;
+    for (const Bind* b = buffers; b != buffers + count; ++b) {
+        if (b->binding >= 32 || (given >> b->binding & 1)) return NFD_ERROR_INTERNAL;
+        given |= 1u << b->binding;
+    }
+    if (given != (pipeline.storage_bindings | pipeline.uniform_bindings)) return NFD_ERROR_INTERNAL;
     if (invocations == 0) return NFD_SUCCESS;
     VkDescriptorSetAllocateInfo alloc{};
     alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
@@ -404,15 +420,17 @@ nfd_result Context::dispatch(const Pipeline& pipeline, std::initializer_list<Buf
     VkDescriptorBufferInfo infos[kMaxBindings];
     VkWriteDescriptorSet writes[kMaxBindings];
     uint32_t i = 0;
-    for (const BufferRange& b : buffers) {
-        if (i == kMaxBindings) return NFD_ERROR_DEVICE;
-        infos[i] = {b.buffer->buffer, b.offset, b.range};
+    for (const Bind* b = buffers; b != buffers + count; ++b) {
+        const BufferRange& r = b->buffer;
+        infos[i] = {r.buffer->buffer, r.offset, r.range};
         writes[i] = {};
         writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         writes[i].dstSet = set;
-        writes[i].dstBinding = i;
+        writes[i].dstBinding = b->binding;
         writes[i].descriptorCount = 1;
-        writes[i].descriptorType = pipeline.bindings[i];
+        writes[i].descriptorType = pipeline.storage_bindings >> b->binding & 1
+                                       ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
+                                       : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
         writes[i].pBufferInfo = &infos[i];
         ++i;
     }

@@ -61,25 +61,30 @@ struct BufferRange {
     BufferRange(const Buffer& b, VkDeviceSize off, VkDeviceSize len)
         : buffer(&b), offset(off), range(len) {}
 };
+struct Bind {
+    uint32_t binding;  // shaders/bindings.h
+    BufferRange buffer;
+};
 
+// A pipeline's descriptor set holds the bindings of two masks (bit b: binding b), nothing else.
 struct Pipeline {
     VkPipeline pipeline = VK_NULL_HANDLE;
     VkPipelineLayout layout = VK_NULL_HANDLE;
     VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
-    std::vector<VkDescriptorType> bindings;  // binding i has type bindings[i]
+    uint32_t storage_bindings = 0, uniform_bindings = 0;
     uint32_t push_constant_bytes = 0;
-    uint32_t local_size = 0;                 // invocations per workgroup (x only)
+    uint32_t local_size = 0;  // invocations per workgroup (x only)
 };
 
 constexpr uint32_t kFixedLocalSize = UINT32_MAX;
 
 struct PipelineDesc {
     const shaders::Spirv* spirv = nullptr;
-    std::vector<VkDescriptorType> bindings;
+    uint32_t storage_bindings = 0, uniform_bindings = 0;
     uint32_t push_constant_bytes = 0;
-    uint32_t local_size = 64;                // must match the shader's local_size_x
+    uint32_t local_size = 64;                  // must match the shader's local_size_x
     uint32_t local_size_id = kFixedLocalSize;  // constant_id of local_size_x, if specialized
-    std::vector<uint32_t> specialization;    // value of constant_id i (floats bit-cast)
+    std::vector<uint32_t> specialization;      // value of constant_id i (floats bit-cast)
 };
 
 class Context {
@@ -98,13 +103,22 @@ public:
     nfd_result create_pipeline(const PipelineDesc& desc, Pipeline* out);
     void destroy(Pipeline& pipeline);
 
-    // Recording. begin() starts a batch; dispatch() binds, pushes and launches `invocations`
-    // invocations (rounded up to workgroups, folded into 2D past maxComputeWorkGroupCount[0])
-    // and is followed by a compute->compute barrier so the next dispatch sees its writes;
-    // submit() runs the batch and waits. Zero invocations record nothing.
+    // Recording. begin() starts a batch; dispatch() binds (each of the pipeline's bindings
+    // exactly once, else NFD_ERROR_INTERNAL), pushes and launches `invocations` invocations
+    // (rounded up to workgroups, folded into 2D past maxComputeWorkGroupCount[0]) and is followed
+    // by a compute->compute barrier so the next dispatch sees its writes; submit() runs the batch
+    // and waits. Zero invocations record nothing.
     nfd_result begin();
-    nfd_result dispatch(const Pipeline& pipeline, std::initializer_list<BufferRange> buffers,
+    nfd_result dispatch(const Pipeline& pipeline, const Bind* buffers, size_t count,
                         const void* push, uint64_t invocations);
+    nfd_result dispatch(const Pipeline& pipeline, std::initializer_list<Bind> buffers,
+                        const void* push, uint64_t invocations) {
+        return dispatch(pipeline, buffers.begin(), buffers.size(), push, invocations);
+    }
+    nfd_result dispatch(const Pipeline& pipeline, const std::vector<Bind>& buffers,
+                        const void* push, uint64_t invocations) {
+        return dispatch(pipeline, buffers.data(), buffers.size(), push, invocations);
+    }
     void fill(const Buffer& buffer, uint32_t value);  // whole buffer, then a barrier
     nfd_result submit();
 

@@ -1,0 +1,208 @@
+// The device and its one kernel table: each compute kernel's SPIR-V, bindings, push-constant size
+// and local size, all from shaders/bindings.h, which the shaders include too. A new kernel is one
+// row here, one line in shaders/CMakeLists.txt and nfd_shaders.h, and its .comp file.
+#include "device.h"
+
+#include <cstring>
+#include <new>
+
+#include "../grid.h"
+#include "../mc_tables.h"
+#include "gpu_decode.h"
+#include "nfdecode/nfdecode.h"
+
+namespace nfd::gpu {
+
+// The shaders' caps are the format's: a file the parser accepts fits the kernels.
+static_assert(NFD_GPU_MAX_LAYERS == NFD_MAX_LAYERS, "one weight binding per layer");
+static_assert(NFD_GPU_MAX_FREQUENCIES == NFD_MAX_FREQUENCIES, "the Frequencies uniform block");
+static_assert(NFD_GPU_MAX_WIDTH >= NFD_MAX_WIDTH, "field_eval.comp's activation arrays");
+static_assert(NFD_GPU_MAX_FREQUENCIES % 4 == 0, "frequencies are read as vec4s");
+// Linear cell indices of the finest level (resolution^3) fit in 32 bits, level coordinates in
+// the 11 bits of grid.h's packing, and edge midpoints in quarter-cell units of level 1.
+static_assert(uint64_t(NFD_MAX_RESOLUTION) * NFD_MAX_RESOLUTION * NFD_MAX_RESOLUTION <= 1ull << 32,
+              "cell indices");
+static_assert(NFD_MAX_RESOLUTION <= 1024, "11-bit coordinates");
+static_assert(NFD_SCAN_BLOCK % NFD_SCAN_LOCAL_SIZE == 0, "scan.comp's per-invocation elements");
+
+namespace {
+
+constexpr uint32_t B(uint32_t binding) { return 1u << binding; }
+constexpr uint32_t kLevel = B(NFD_B_KEPT_BITS) | B(NFD_B_KEPT_PREFIX) | B(NFD_B_KEPT_CELLS);
+constexpr uint32_t kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
+constexpr uint32_t kGradients =
+    B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_GRADIENTS);
+constexpr uint32_t kFieldLayers = ((1u << NFD_GPU_MAX_LAYERS) - 1) << NFD_B_FIELD_LAYER0;
+constexpr uint32_t kNoSpecialization = UINT32_MAX;
+
+struct KernelDesc {
+    Kernel kernel;  // the row's own index, checked below
+    const shaders::Spirv& spirv;
+    uint32_t storage, uniform;  // binding masks
+    uint32_t push_bytes, local_size;
+    uint32_t constant0 = kNoSpecialization;  // value of constant_id 0, if the kernel has one
+};
+
+const KernelDesc kKernels[] = {
+    // Field: the network's sizes are specialization constants, its local size too.
+    {Kernel::FieldEval, shaders::field_eval, B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES),
+     B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    {Kernel::FieldEvalStorage, shaders::field_eval_storage,
+     B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES) | kFieldLayers, B(NFD_B_FIELD_FREQUENCIES),
+     NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    {Kernel::FieldGradient, shaders::field_gradient, B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES),
+     B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    {Kernel::FieldGradientStorage, shaders::field_gradient_storage,
+     B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES) | kFieldLayers, B(NFD_B_FIELD_FREQUENCIES),
+     NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    // Prefix scans and compaction.
+    {Kernel::Scan, shaders::scan, B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_SUMS), 0,
+     NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE, 0},
+    {Kernel::ScanPopcount, shaders::scan, B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_SUMS),
+     0, NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE, 1},
+    {Kernel::ScanAdd, shaders::scan_add, B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_SUMS), 0,
+     NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE},
+    {Kernel::BitmapCompact, shaders::bitmap_compact, kLevel, 0, NFD_COUNT_PUSH_BYTES,
+     NFD_LOCAL_SIZE},
+    // Refinement (extract.glsl). RefinePoints also lists the UDF's gradient points: the caller
+    // binds that list's masks and offsets at NFD_B_OWNED and NFD_B_OFFSETS.
+    {Kernel::RefineCount, shaders::refine_count, kLevel | B(NFD_B_OWNED) | B(NFD_B_COUNTS), 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::RefinePoints, shaders::refine_points,
+     B(NFD_B_KEPT_CELLS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) | B(NFD_B_POINTS), 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::RefineCells, shaders::refine_cells,
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS), 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::GatherCorners, shaders::gather_corners,
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_CELLS) | B(NFD_B_CHILD_CORNERS), 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    // Marching cubes over the level-1 parents (mc.glsl); McEmit serves SDF and UDF.
+    {Kernel::McClassify, shaders::mc_classify,
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_CHILD_GRIDS) | B(NFD_B_CASES) |
+         B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::McEmit, shaders::mc_emit,
+     kLevel | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |
+         B(NFD_B_VERTEX_OFFSETS) | B(NFD_B_TRIANGLE_OFFSETS) | B(NFD_B_VERTEX_EDGES) |
+         B(NFD_B_INDICES),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::McVertices, shaders::mc_vertices,
+     kLevel | B(NFD_B_CHILD_GRIDS) | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) | B(NFD_B_NORMALS),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    // UDF (udf.glsl).
+    {Kernel::UdfNear, shaders::udf_near,
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_GRIDS) | B(NFD_B_NEAR_MASKS), 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfGradientCount, shaders::udf_gradient_count,
+     kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADIENT_OWNED) | B(NFD_B_COUNTS), 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfClassify, shaders::udf_classify,
+     kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_CHILD_GRIDS) | B(NFD_B_NEAR_MASKS) |
+         B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfVertices, shaders::udf_vertices,
+     kLevel | kGradients | B(NFD_B_CHILD_GRIDS) | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) |
+         B(NFD_B_NORMALS),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+};
+static_assert(sizeof(kKernels) / sizeof(kKernels[0]) == kKernelCount, "one row per kernel");
+
+// The marching-cubes tables, exactly as the CPU reference uses them (mc.glsl's layout).
+nfd_result upload_mc_tables(Device& d) {
+    const mc::Tables& t = mc::tables();
+    std::vector<int32_t> table(256 * 16 + 256 + 24);
+    for (int c = 0; c < 256; ++c) {
+        for (int i = 0; i < 16; ++i) table[16 * c + i] = t.triangles[c][i];
+        table[4096 + c] = t.triangle_count[c];
+    }
+    for (int e = 0; e < 12; ++e)
+        for (int j = 0; j < 2; ++j) table[4096 + 256 + 2 * e + j] = mc::kEdgeCorners[e][j];
+    NFD_TRY(d.vk->create_buffer(table.size() * 4, &d.mc_tables));
+    std::memcpy(d.mc_tables.data, table.data(), table.size() * 4);
+    return NFD_SUCCESS;
+}
+
+}  // namespace
+
+bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientStorage; }
+
+PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization) {
+    const KernelDesc& k = kKernels[size_t(kernel)];
+    PipelineDesc desc;
+    desc.spirv = &k.spirv;
+    desc.storage_bindings = k.storage;
+    desc.uniform_bindings = k.uniform;
+    desc.push_constant_bytes = k.push_bytes;
+    desc.local_size = k.local_size;
+    if (is_field_kernel(kernel)) desc.local_size_id = NFD_FIELD_LOCAL_SIZE_ID;
+    desc.specialization = std::move(specialization);
+    if (k.constant0 != kNoSpecialization) desc.specialization = {k.constant0};
+    return desc;
+}
+
+Device::~Device() {
+    if (!vk) return;
+    for (FieldPipeline& f : field_pipelines) vk->destroy(f.pipeline);
+    for (Pipeline& p : kernels) vk->destroy(p);
+    vk->destroy(mc_tables);
+}
+
+Buffers& Buffers::operator=(Buffers&& other) noexcept {
+    release();
+    vk_ = other.vk_;
+    list_ = std::move(other.list_);
+    return *this;
+}
+
+nfd_result Buffers::make(VkDeviceSize bytes, Buffer** out) {
+    std::unique_ptr<Buffer> b(new (std::nothrow) Buffer());
+    if (!b) return NFD_ERROR_OUT_OF_MEMORY;
+    NFD_TRY(vk_->create_buffer(bytes, b.get()));
+    list_.push_back(std::move(b));
+    *out = list_.back().get();
+    return NFD_SUCCESS;
+}
+
+void Buffers::release() {
+    for (auto& b : list_) vk_->destroy(*b);
+    list_.clear();
+}
+
+nfd_result record_scan(Device& d, Buffers& scratch, const Buffer& in, const Buffer& out,
+                       uint32_t count, bool popcount) {
+    if (count == 0) return NFD_SUCCESS;
+    const uint32_t blocks = div_up(count, NFD_SCAN_BLOCK);
+    const uint64_t invocations = uint64_t(blocks) * NFD_SCAN_LOCAL_SIZE;
+    Buffer *sums, *scanned;
+    NFD_TRY(scratch.make(VkDeviceSize(blocks) * 4, &sums));
+    NFD_TRY(d.vk->dispatch(d[popcount ? Kernel::ScanPopcount : Kernel::Scan],
+                           {{NFD_B_SCAN_IN, in}, {NFD_B_SCAN_OUT, out}, {NFD_B_SCAN_SUMS, *sums}},
+                           &count, invocations));
+    if (blocks == 1) return NFD_SUCCESS;
+    NFD_TRY(scratch.make(VkDeviceSize(blocks) * 4, &scanned));
+    NFD_TRY(record_scan(d, scratch, *sums, *scanned, blocks, false));
+    return d.vk->dispatch(d[Kernel::ScanAdd], {{NFD_B_SCAN_OUT, out}, {NFD_B_SCAN_SUMS, *scanned}},
+                          &count, invocations);
+}
+
+nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
+                         std::unique_ptr<Device>* out) {
+    std::unique_ptr<Device> d(new (std::nothrow) Device());
+    if (!d) return NFD_ERROR_OUT_OF_MEMORY;
+    NFD_TRY(Context::create(adopt, enable_validation, &d->vk));
+    for (size_t i = 0; i < kKernelCount; ++i) {
+        const Kernel kernel = kKernels[i].kernel;
+        if (kernel != Kernel(i)) return NFD_ERROR_INTERNAL;  // the table is out of order
+        if (!is_field_kernel(kernel))
+            NFD_TRY(d->vk->create_pipeline(kernel_pipeline(kernel), &d->kernels[i]));
+    }
+    NFD_TRY(upload_mc_tables(*d));
+    *out = std::move(d);
+    return NFD_SUCCESS;
+}
+
+void destroy_device(Device* device) { delete device; }
+
+const char* device_name(const Device& device) { return device.vk->name().c_str(); }
+
+}  // namespace nfd::gpu

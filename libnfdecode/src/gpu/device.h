@@ -1,0 +1,110 @@
+// Internal to gpu/: the device (context, the kernel table's pipelines, the marching-cubes tables),
+// the buffers of one job, the network as the field kernels read it, and the prefix scan: what
+// every stage (field.cpp, levels.cpp, mesh_sdf.cpp, mesh_udf.cpp) builds on.
+#pragma once
+#include <chrono>
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <vector>
+
+#include "../network.h"
+#include "bindings.h"
+#include "vk_context.h"
+
+namespace nfd::gpu {
+
+#define NFD_TRY(expr)                                 \
+    do {                                              \
+        const nfd_result nfd_try_ = (expr);           \
+        if (nfd_try_ != NFD_SUCCESS) return nfd_try_; \
+    } while (0)
+
+using Clock = std::chrono::steady_clock;
+inline double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+inline uint32_t div_up(uint64_t a, uint64_t b) { return uint32_t((a + b - 1) / b); }
+
+// ---- the kernel table (kernels.cpp): every compute kernel, declared once -----------------------
+enum class Kernel : uint32_t {
+    FieldEval, FieldEvalStorage, FieldGradient, FieldGradientStorage,  // specialized per network
+    Scan, ScanPopcount, ScanAdd, BitmapCompact,
+    RefineCount, RefinePoints, RefineCells, GatherCorners,
+    McClassify, McEmit, McVertices,
+    UdfNear, UdfGradientCount, UdfClassify, UdfVertices,
+    Count
+};
+constexpr size_t kKernelCount = size_t(Kernel::Count);
+
+// The pipeline description of a kernel; `specialization` completes a field kernel's (its network
+// shape, FIELD_* constant ids 0-13), and must be empty for the others.
+PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization = {});
+bool is_field_kernel(Kernel kernel);
+
+class Device {
+public:
+    std::unique_ptr<Context> vk;
+    Pipeline kernels[kKernelCount];  // all but the field kernels, created with the device
+    // Field kernels, one per (variant, network shape); a list: DeviceNetwork keeps pointers.
+    struct FieldPipeline {
+        Kernel kernel;
+        std::vector<uint32_t> specialization;
+        Pipeline pipeline;
+    };
+    std::list<FieldPipeline> field_pipelines;
+    Buffer mc_tables;  // mc.glsl's layout of mc_tables.h
+
+    const Pipeline& operator[](Kernel k) const { return kernels[size_t(k)]; }
+    ~Device();
+};
+
+// Buffers that live as long as this object (one refinement level, one stage of work).
+class Buffers {
+public:
+    explicit Buffers(Context& vk) : vk_(&vk) {}
+    ~Buffers() { release(); }
+    Buffers(Buffers&& other) noexcept : vk_(other.vk_), list_(std::move(other.list_)) {}
+    Buffers& operator=(Buffers&& other) noexcept;
+    nfd_result make(VkDeviceSize bytes, Buffer** out);
+    void release();
+
+private:
+    Context* vk_;
+    std::vector<std::unique_ptr<Buffer>> list_;
+};
+
+inline uint32_t word(const Buffer& b, size_t i) { return b.as<uint32_t>()[i]; }
+
+// Records an exclusive prefix sum of `count` words of `in` (or of their popcounts) into `out`.
+nfd_result record_scan(Device& d, Buffers& scratch, const Buffer& in, const Buffer& out,
+                       uint32_t count, bool popcount);
+
+// ---- the network as field_eval.comp reads it (field.cpp) ---------------------------------------
+// Per layer, rows of in4 vec4s (the output padded to a multiple of 4 with zero rows, layer 0's
+// columns permuted to the shader's encoding order), then the bias, at offsets aligned for uniform
+// (or, for layers past a uniform block, storage) binding.
+struct DeviceNetwork {
+    Device* device = nullptr;
+    Buffer weights, frequencies;
+    VkDeviceSize offset[NFD_GPU_MAX_LAYERS] = {}, range[NFD_GPU_MAX_LAYERS] = {};
+    bool storage = false;
+    uint32_t max4 = 0;                     // widest layer input/output, in vec4s
+    std::vector<uint32_t> specialization;  // field_eval.comp's constants 0-12
+    struct Variant {
+        const Pipeline* pipeline = nullptr;  // created on first use
+        uint32_t points_per_invocation = 1;
+    } values, gradients;
+    DeviceNetwork() = default;
+    DeviceNetwork(const DeviceNetwork&) = delete;
+    ~DeviceNetwork();
+};
+
+// NFD_ERROR_UNSUPPORTED_FEATURE for a network beyond the shader's caps.
+nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out);
+// Records the evaluation of `count` points (xyz) into `values`: one float each, or with
+// `gradient` one vec4 each (value, d/dx, d/dy, d/dz).
+nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& values,
+                        uint32_t count, bool gradient);
+
+}  // namespace nfd::gpu

@@ -1,0 +1,190 @@
+// The field stage: the network uploaded for field_eval.comp, its evaluation (values, or values
+// and gradients) recorded into a batch, and the plain evaluate calls of gpu_decode.h. The CPU
+// twin is network.cpp.
+#include <algorithm>
+#include <cstring>
+
+#include "device.h"
+#include "gpu_decode.h"
+
+namespace nfd::gpu {
+namespace {
+
+constexpr uint32_t kPointsPerInvocation = 8;          // field_eval.comp's POINTS (rows: below)
+constexpr uint32_t kMaxVec4PerLayer = NFD_GPU_MAX_WIDTH / 4;
+constexpr VkDeviceSize kUniformBlockBytes = NFD_GPU_UNIFORM_VEC4S * 16;
+constexpr VkDeviceSize kFrequencyBytes = NFD_GPU_MAX_FREQUENCIES * 4;
+constexpr size_t kEvaluateChunk = size_t(1) << 22;    // points per dispatch in evaluate()
+
+// Column of layer 0's input element e (FORMAT.md order: u, then per frequency sin xyz, cos xyz)
+// in field_eval.comp's order: vec4 0 = (u, 0), then per block of 4 frequencies the vec4s
+// sin(f u_x), sin(f u_y), sin(f u_z), cos(f u_x), cos(f u_y), cos(f u_z), one frequency per lane.
+uint32_t encoded_column(uint32_t e) {
+    if (e < 3) return e;
+    const uint32_t k = (e - 3) / 6, j = (e - 3) % 6;
+    return 4 * (1 + 6 * (k / 4) + j) + k % 4;
+}
+
+// The pipeline of `kernel` for a network shape, created on first use and kept by the device.
+nfd_result field_pipeline(Device& d, Kernel kernel, const std::vector<uint32_t>& specialization,
+                          const Pipeline** out) {
+    for (const Device::FieldPipeline& f : d.field_pipelines) {
+        if (f.kernel == kernel && f.specialization == specialization) {
+            *out = &f.pipeline;
+            return NFD_SUCCESS;
+        }
+    }
+    Device::FieldPipeline f{kernel, specialization, {}};
+    NFD_TRY(d.vk->create_pipeline(kernel_pipeline(kernel, specialization), &f.pipeline));
+    d.field_pipelines.push_back(std::move(f));
+    *out = &d.field_pipelines.back().pipeline;
+    return NFD_SUCCESS;
+}
+
+// Evaluates n points kEvaluateChunk at a time, handing each chunk's results (a float per point,
+// or a vec4 with `gradient`) to take(first point, count, results).
+template <class Take>
+nfd_result evaluate_in_chunks(Device& device, const Network& network, const float* unit_xyz,
+                              size_t n, bool gradient, Take&& take) {
+    if (n == 0) return NFD_SUCCESS;
+    DeviceNetwork net;
+    NFD_TRY(upload_network(device, network, &net));
+    Buffers buffers(*device.vk);
+    const size_t chunk = std::min(n, kEvaluateChunk);
+    Buffer *points, *results;
+    NFD_TRY(buffers.make(chunk * 12, &points));
+    NFD_TRY(buffers.make(chunk * (gradient ? 16 : 4), &results));
+    for (size_t begin = 0; begin < n; begin += chunk) {
+        const uint32_t count = uint32_t(std::min(chunk, n - begin));
+        std::memcpy(points->data, unit_xyz + 3 * begin, size_t(count) * 12);
+        NFD_TRY(device.vk->begin());
+        NFD_TRY(record_field(device, net, *points, *results, count, gradient));
+        NFD_TRY(device.vk->submit());
+        take(begin, count, results->as<float>());
+    }
+    return NFD_SUCCESS;
+}
+
+}  // namespace
+
+DeviceNetwork::~DeviceNetwork() {
+    if (!device) return;
+    device->vk->destroy(weights);
+    device->vk->destroy(frequencies);
+}
+
+nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
+    const uint32_t layers = uint32_t(net.layers.size());
+    if (layers < 1 || layers > NFD_GPU_MAX_LAYERS ||
+        net.frequencies.size() > NFD_GPU_MAX_FREQUENCIES || net.output_width() != 1)
+        return NFD_ERROR_UNSUPPORTED_FEATURE;
+    const uint32_t freq4 = div_up(net.frequencies.size(), 4);
+    std::vector<uint32_t> in4(layers), out4(NFD_GPU_MAX_LAYERS, 1);
+    uint32_t in = net.input_width();
+    for (uint32_t l = 0; l < layers; ++l) {
+        const Layer& layer = net.layers[l];
+        if (layer.in != in || layer.out == 0 ||
+            layer.weights.size() != size_t(layer.in) * layer.out || layer.bias.size() != layer.out)
+            return NFD_ERROR_UNSUPPORTED_FEATURE;  // not a network the parser produces
+        in4[l] = l == 0 ? 1 + 6 * freq4 : out4[l - 1];
+        out4[l] = div_up(layer.out, 4);
+        if (out4[l] > kMaxVec4PerLayer) return NFD_ERROR_UNSUPPORTED_FEATURE;
+        in = layer.out;
+    }
+
+    // Uniform blocks are what makes field_eval.comp fast on CPU implementations; a layer too
+    // large for one (64 KiB: 128 rows of 99 inputs) takes the storage-buffer variant, slower
+    // there but exact.
+    const VkPhysicalDeviceLimits& limits = d.vk->limits();
+    const VkDeviceSize block =
+        std::min<VkDeviceSize>(kUniformBlockBytes, limits.maxUniformBufferRange);
+    VkDeviceSize total = 0;
+    for (uint32_t l = 0; l < layers; ++l) {
+        out->range[l] = VkDeviceSize(out4[l]) * (4 * in4[l] + 1) * 16;
+        out->storage |= out->range[l] > block;
+    }
+    const VkDeviceSize align = std::max<VkDeviceSize>(
+        256, out->storage ? limits.minStorageBufferOffsetAlignment
+                          : limits.minUniformBufferOffsetAlignment);
+    for (uint32_t l = 0; l < layers; ++l) {
+        out->offset[l] = total;
+        total += (out->range[l] + align - 1) / align * align;
+    }
+    for (uint32_t l = layers; l < NFD_GPU_MAX_LAYERS; ++l) out->range[l] = out->range[0];  // unused
+    out->device = &d;
+    NFD_TRY(d.vk->create_buffer(total, &out->weights));
+    NFD_TRY(d.vk->create_buffer(kFrequencyBytes, &out->frequencies));
+    std::memset(out->weights.data, 0, total);
+    std::memset(out->frequencies.data, 0, kFrequencyBytes);
+    std::memcpy(out->frequencies.data, net.frequencies.data(), net.frequencies.size() * 4);
+    for (uint32_t l = 0; l < layers; ++l) {
+        const Layer& layer = net.layers[l];
+        float* w = reinterpret_cast<float*>(static_cast<char*>(out->weights.data) + out->offset[l]);
+        for (uint32_t o = 0; o < layer.out; ++o) {
+            float* row = w + size_t(o) * 4 * in4[l];
+            for (uint32_t i = 0; i < layer.in; ++i)
+                row[l == 0 ? encoded_column(i) : i] = layer.weights[size_t(o) * layer.in + i];
+        }
+        float* bias = w + size_t(out4[l]) * 4 * 4 * in4[l];
+        for (uint32_t o = 0; o < layer.out; ++o) bias[o] = layer.bias[o];
+    }
+
+    float omega0 = net.omega0;
+    uint32_t omega0_bits;
+    std::memcpy(&omega0_bits, &omega0, 4);
+    out->max4 = in4[0];
+    for (uint32_t l = 0; l < layers; ++l) out->max4 = std::max(out->max4, out4[l]);
+    std::vector<uint32_t>& spec = out->specialization;
+    spec = {freq4, layers};
+    spec.insert(spec.end(), out4.begin(), out4.end());
+    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), out->max4});
+    return NFD_SUCCESS;
+}
+
+nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& values,
+                        uint32_t count, bool gradient) {
+    DeviceNetwork::Variant& variant = gradient ? net.gradients : net.values;
+    if (!variant.pipeline) {
+        // Fewer points per invocation for wide networks bounds the per-invocation activations;
+        // a gradient carries four rows per point.
+        const uint32_t rows = net.max4 <= 32 ? kPointsPerInvocation : 2;
+        variant.points_per_invocation = gradient ? std::max(rows / 4, 1u) : rows;
+        std::vector<uint32_t> spec = net.specialization;
+        spec.push_back(variant.points_per_invocation);
+        const Kernel kernel = gradient ? (net.storage ? Kernel::FieldGradientStorage
+                                                      : Kernel::FieldGradient)
+                                       : (net.storage ? Kernel::FieldEvalStorage
+                                                      : Kernel::FieldEval);
+        NFD_TRY(field_pipeline(d, kernel, spec, &variant.pipeline));
+    }
+    const Buffer& w = net.weights;
+    auto layer = [&](uint32_t l) -> Bind {
+        return {NFD_B_FIELD_LAYER0 + l, BufferRange(w, net.offset[l], net.range[l])};
+    };
+    return d.vk->dispatch(*variant.pipeline,
+                          {{NFD_B_FIELD_POINTS, points}, {NFD_B_FIELD_VALUES, values},
+                           {NFD_B_FIELD_FREQUENCIES, net.frequencies}, layer(0), layer(1),
+                           layer(2), layer(3), layer(4), layer(5), layer(6), layer(7)},
+                          &count, div_up(count, variant.points_per_invocation));
+}
+
+nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,
+                    float* out) {
+    return evaluate_in_chunks(device, network, unit_xyz, n, false,
+                              [&](size_t begin, uint32_t count, const float* r) {
+                                  std::memcpy(out + begin, r, size_t(count) * 4);
+                              });
+}
+
+nfd_result evaluate_gradient(Device& device, const Network& network, const float* unit_xyz,
+                             size_t n, float* values, float* gradients) {
+    return evaluate_in_chunks(device, network, unit_xyz, n, true,
+                              [&](size_t begin, uint32_t count, const float* r) {
+                                  for (size_t i = 0; i < count; ++i, r += 4) {
+                                      values[begin + i] = r[0];
+                                      std::copy(r + 1, r + 4, gradients + 3 * (begin + i));
+                                  }
+                              });
+}
+
+}  // namespace nfd::gpu

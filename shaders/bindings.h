@@ -1,0 +1,69 @@
+// Binding numbers, local sizes, push-constant sizes and caps shared by the compute kernels
+// (shaders/*.comp, *.glsl) and the host (libnfdecode/src/gpu/kernels.cpp, which declares each
+// kernel once from these). Plain #defines, so that the GLSL and the C++ preprocessors both read
+// this file; nothing else may be declared here.
+#ifndef NFD_SHADERS_BINDINGS_H
+#define NFD_SHADERS_BINDINGS_H
+
+// ---- field_eval.comp (all four variants) --------------------------------------------------------
+#define NFD_B_FIELD_POINTS 0       // xyz per point
+#define NFD_B_FIELD_VALUES 1       // a float per point, or (value, gradient) as a vec4
+#define NFD_B_FIELD_FREQUENCIES 2  // uniform: NFD_GPU_MAX_FREQUENCIES / 4 vec4s
+#define NFD_B_FIELD_LAYER0 3       // layer l's weights at binding NFD_B_FIELD_LAYER0 + l
+#define NFD_GPU_MAX_LAYERS 8       // = NFD_MAX_LAYERS: one weight block per layer
+#define NFD_GPU_MAX_FREQUENCIES 24 // = NFD_MAX_FREQUENCIES
+#define NFD_GPU_MAX_WIDTH 512      // >= NFD_MAX_WIDTH: activations are sized for it
+#define NFD_GPU_UNIFORM_VEC4S 4096 // a uniform weight block: 64 KiB
+#define NFD_FIELD_LOCAL_SIZE 32
+#define NFD_FIELD_LOCAL_SIZE_ID 14 // constant_id of local_size_x (after the network's sizes)
+#define NFD_FIELD_PUSH_BYTES 4     // the point count
+
+// ---- scan.comp ----------------------------------------------------------------------------------
+#define NFD_B_SCAN_IN 0
+#define NFD_B_SCAN_OUT 1
+#define NFD_B_SCAN_SUMS 2
+#define NFD_SCAN_LOCAL_SIZE 256
+#define NFD_SCAN_BLOCK 1024        // elements per workgroup: 4 per invocation
+#define NFD_COUNT_PUSH_BYTES 4     // scan and bitmap_compact: the element count
+
+// ---- the sparse levels and meshers (extract.glsl, mc.glsl, udf.glsl) ------------------------------
+// One number per buffer role across all of them, so that any kernel can bind any role.
+// A level: its kept cells (extract.glsl).
+#define NFD_B_KEPT_BITS 0          // bitmap over the level's cells
+#define NFD_B_KEPT_PREFIX 1        // exclusive prefix of the bitmap words' popcounts
+#define NFD_B_KEPT_CELLS 2         // sorted linear indices of the kept cells
+#define NFD_B_CORNERS 3            // 8 values per kept cell
+// A list of child-grid points, owned by kept parents (extract.glsl): the new points of a
+// refinement (values), or the points that need a gradient (UDF).
+#define NFD_B_OWNED 4              // per parent, 27-bit mask of its local points in the list
+#define NFD_B_OFFSETS 5            // per parent, its first point's index in the list
+#define NFD_B_VALUES 6             // field values of the new points
+#define NFD_B_COUNTS 7             // per parent, the number of points it owns
+#define NFD_B_POINTS 8             // unit-frame xyz of the listed points
+#define NFD_B_CHILD_BITS 9         // the child level's kept bitmap
+#define NFD_B_CHILD_CELLS 10       // the child level's sorted kept cells
+#define NFD_B_CHILD_CORNERS 11     // their corner values
+// Marching cubes over the children of the level-1 parents (mc.glsl).
+#define NFD_B_MC_TABLES 12         // mc_tables.h: triangles, triangle counts, edge corners
+#define NFD_B_CHILD_GRIDS 13       // per parent, the 27 values of its child grid
+#define NFD_B_CASES 14             // per parent, uvec4: cube case and emitted-triangle mask
+                                   // of each child (8 bits each)
+#define NFD_B_EDGE_MASKS 15        // per parent, uvec2: the owned edges (of 54) with a vertex
+#define NFD_B_TRIANGLE_COUNTS 16
+#define NFD_B_ACTIVE 17            // one counter: cells that emitted a triangle
+#define NFD_B_VERTEX_OFFSETS 18    // per edge-mask word, exclusive prefix of popcounts
+#define NFD_B_TRIANGLE_OFFSETS 19
+#define NFD_B_VERTEX_EDGES 20      // per vertex, parent rank << 6 | edge id
+#define NFD_B_INDICES 21
+#define NFD_B_POSITIONS 22
+#define NFD_B_NORMALS 23
+// UDF (udf.glsl).
+#define NFD_B_NEAR_MASKS 24        // per parent, which of its 8 children are near cells
+#define NFD_B_GRADIENT_OWNED 25    // the gradient point list (NFD_B_OWNED's layout)
+#define NFD_B_GRADIENT_OFFSETS 26
+#define NFD_B_GRADIENTS 27         // (value, gradient) per listed point, field_eval's output
+
+#define NFD_LOCAL_SIZE 64          // every level and mesher kernel
+#define NFD_LEVEL_PUSH_BYTES 48    // extract.glsl's LevelPush
+
+#endif

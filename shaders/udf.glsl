@@ -1,0 +1,53 @@
+// The UDF mesher of extract.h (steps 1-7) on the GPU, shared by udf_*.comp; the CPU twin is
+// mesh_udf_cpu.cpp. The parents and child grids are mc.glsl's. Per parent, `near_masks` says
+// which of its children are near cells (step 1). The gradients are evaluated once per child-grid
+// point that is a corner of a near cell, by the point's owner (the kept parent with the smallest
+// index whose closed box contains it, extract.glsl's find_owner, now over all 27 points of a child
+// grid, corners included); the list has the layout of extract.glsl's new values (a 27-bit mask and
+// an offset per parent), and field_eval.comp's WITH_GRADIENT output (value, gradient) per point.
+#ifndef NFD_UDF_GLSL
+#define NFD_UDF_GLSL
+
+layout(std430, binding = NFD_B_NEAR_MASKS) buffer NearMasks { uint near_masks[]; };
+layout(std430, binding = NFD_B_GRADIENT_OWNED) buffer GradientOwned { uint gradient_owned[]; };
+layout(std430, binding = NFD_B_GRADIENT_OFFSETS) readonly buffer GradientOffsets {
+    uint gradient_offsets[];
+};
+layout(std430, binding = NFD_B_GRADIENTS) readonly buffer Gradients { vec4 gradients[]; };
+
+// Whether finest cell c (which may lie outside the grid) is a near child of a kept parent.
+bool is_near_cell(ivec3 c, uint r) {
+    if (any(lessThan(c, ivec3(0))) || !child_cell_exists(uvec3(c))) return false;
+    uvec3 q = uvec3(c) / 2u;
+    uint parent = cell_index(q, r);
+    if (!is_kept(parent)) return false;
+    uvec3 d = uvec3(c) - 2u * q;
+    return (near_masks[kept_rank(parent)] & (1u << (d.x | d.y << 1 | d.z << 2))) != 0u;
+}
+
+// The gradient at child-grid point w, a corner of a near cell (so its owner listed it).
+vec3 gradient_at(uvec3 w, uint r) {
+    uvec3 o = owner_cell(w, 2u, r);
+    uint ko = kept_rank(cell_index(o, r));
+    uint below = (1u << local_index(w - 2u * o)) - 1u;
+    return gradients[gradient_offsets[ko] + bitCount(gradient_owned[ko] & below)].yzw;
+}
+
+// As mesh_udf_cpu.cpp: left to right, no fused multiply-add, so that equal gradients give equal
+// pseudo-signs on both paths.
+float dot3(vec3 a, vec3 b) {
+    precise float d = a.x * b.x + a.y * b.y + a.z * b.z;
+    return d;
+}
+
+// Step 2's canonical direction: the largest-magnitude component (lowest axis on ties) positive.
+// False when the vector is zero or not finite.
+bool canonical_direction(vec3 v, out vec3 n) {
+    uint major = 0u;
+    if (abs(v.y) > abs(v[major])) major = 1u;
+    if (abs(v.z) > abs(v[major])) major = 2u;
+    n = v[major] > 0.0 ? v : -v;
+    return !any(isnan(v)) && !any(isinf(v)) && v[major] != 0.0;
+}
+
+#endif

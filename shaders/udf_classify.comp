@@ -1,0 +1,70 @@
+// UDF, steps 2, 3 and 5 (extract.h; udf.glsl): per near child of each parent, the orientation n
+// from the gradient at its lowest corner, the pseudo-signed cube case, and which of its table
+// triangles have three valid edges. The edges of the emitted triangles are marked in their
+// owners' edge masks (atomically: several cells share an edge, and unlike an SDF's, whether a
+// UDF's edge carries a vertex depends on its cells), which mc_emit.comp then numbers.
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+#include "extract.glsl"
+#include "mc.glsl"
+#include "udf.glsl"
+layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts { uint triangle_counts[]; };
+layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; };
+
+void main() {
+    uint k = global_invocation_index(gl_WorkGroupSize.x);
+    if (k >= push.count) return;
+    uint r = push.parent_cells;
+    uvec3 p = cell_coords(kept_cells[k], r);
+    reload_grid(k);
+    uint near = near_masks[k];
+    uint triangles = 0u, busy = 0u;
+    uvec4 c = uvec4(0u);
+    for (uint child = 0u; child < 8u; ++child) {
+        if ((near & (1u << child)) == 0u) continue;
+        uvec3 d = corner_offset(child);
+        float f[8];
+        vec3 g[8];
+        uint nearest = 0u;
+        for (uint i = 0u; i < 8u; ++i) {
+            f[i] = grid[local_index(d + corner_offset(i))];
+            g[i] = gradient_at(2u * p + d + corner_offset(i), r);
+            if (f[i] < f[nearest]) nearest = i;
+        }
+        vec3 n;
+        if (!canonical_direction(g[nearest], n)) continue;  // step 2
+        uint cc = 0u;
+        for (uint i = 0u; i < 8u; ++i)  // step 3
+            if (dot3(g[i], n) < 0.0) cc |= 1u << i;
+        uint emitted = 0u;
+        for (uint t = 0u; t < mc_triangle_count(cc); ++t) {
+            bool valid = true;  // step 5
+            for (uint j = 0u; j < 3u; ++j) {
+                uint e = uint(mc_triangle_edge(cc, 3u * t + j));
+                uint a = mc_edge_start_corner(e), b = a + (1u << (e / 4u));
+                precise float sum = f[a] + f[b];
+                valid = valid && sum <= push.edge_limit && dot3(g[a], g[b]) < 0.0;
+            }
+            if (!valid) continue;
+            emitted |= 1u << t;
+            for (uint j = 0u; j < 3u; ++j) {
+                uint e = uint(mc_triangle_edge(cc, 3u * t + j));
+                uint a = e / 4u;
+                uvec3 v = 2u * p + d + corner_offset(mc_edge_start_corner(e));
+                uvec3 o = edge_owner(v, a, r);
+                uint ko = kept_rank(cell_index(o, r));
+                uint id = edge_id(a, v - 2u * o);
+                if (id < 32u) atomicOr(edge_masks[ko].x, 1u << id);
+                else atomicOr(edge_masks[ko].y, 1u << (id - 32u));
+            }
+        }
+        set_case_byte(c, child, cc);
+        set_case_byte(c, 8u + child, emitted);
+        triangles += bitCount(emitted);
+        busy += emitted != 0u ? 1u : 0u;
+    }
+    cases[k] = c;
+    triangle_counts[k] = triangles;
+    if (busy > 0u) atomicAdd(active_cells, busy);
+}
