@@ -86,6 +86,41 @@ nfd_result evaluate_in_blocks(const nfd_asset& asset, const float* points, size_
     });
 }
 
+// nfd_grid_voxels of a grid's finest level: indices, distances in original units, transform.
+// The other levels and the cell lists are freed before the copy (the bunny at 1024: peak RSS
+// 435 MB instead of 511 MB).
+std::unique_ptr<nfd_grid> finest_voxels(nfd::SparseGrid&& sparse, const nfd::ParsedFile& file) {
+    const nfd::Geometry& g = file.geometry;
+    const float step = sparse.step;
+    const uint32_t resolution = sparse.resolution;
+    nfd::GridLevel finest = std::move(sparse.levels.front());
+    sparse = nfd::SparseGrid();
+    finest.cells = std::vector<uint32_t>();
+
+    auto grid = std::make_unique<nfd_grid>();
+    grid->ijk.resize(3 * size_t(finest.vertices.size()));
+    grid->values.resize(finest.vertices.size());
+    finest.vertices.for_each([&](uint32_t rank, uint32_t x, uint32_t y, uint32_t z) {
+        int32_t* ijk = &grid->ijk[3 * size_t(rank)];
+        ijk[0] = int32_t(x);
+        ijk[1] = int32_t(y);
+        ijk[2] = int32_t(z);
+        grid->values[rank] = finest.values[rank] * g.scale;
+    });
+    nfd_grid_voxels& v = grid->voxels;
+    v.ijk = grid->ijk.data();
+    v.values = grid->values.data();
+    v.count = grid->values.size();
+    v.voxel_size = step * g.scale;  // unit vertex i is -1 + i * step
+    for (int a = 0; a < 3; ++a) v.origin[a] = g.center[a] - g.scale;
+    v.background = g.truncation * g.scale;
+    v.resolution = resolution;
+    v.field_type = g.field == nfd::FieldType::Sdf ? NFD_FIELD_SDF : NFD_FIELD_UDF;
+    grid->format_major = file.major;
+    grid->format_minor = file.minor;
+    return grid;
+}
+
 // A C caller may store any int in an enum field, which C++ may not even load as the enum type:
 // read the bytes as an int so that the range check itself is defined.
 bool is_device_kind(const nfd_device_kind& k) {
@@ -325,29 +360,7 @@ nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
         const nfd_result r =
             nfd::build_grid_cpu(g, resolution, nfd::GridOptions{}, &sparse, context->cpu_threads);
         if (r != NFD_SUCCESS) return r;
-        const nfd::GridLevel& finest = sparse.finest();
-        auto grid = std::make_unique<nfd_grid>();
-        grid->ijk.resize(3 * size_t(finest.vertices.size()));
-        grid->values.resize(finest.vertices.size());
-        finest.vertices.for_each([&](uint32_t rank, uint32_t x, uint32_t y, uint32_t z) {
-            int32_t* ijk = &grid->ijk[3 * size_t(rank)];
-            ijk[0] = int32_t(x);
-            ijk[1] = int32_t(y);
-            ijk[2] = int32_t(z);
-            grid->values[rank] = finest.values[rank] * g.scale;
-        });
-        nfd_grid_voxels& v = grid->voxels;
-        v.ijk = grid->ijk.data();
-        v.values = grid->values.data();
-        v.count = grid->values.size();
-        v.voxel_size = sparse.step * g.scale;  // unit vertex i is -1 + i * step
-        for (int a = 0; a < 3; ++a) v.origin[a] = g.center[a] - g.scale;
-        v.background = g.truncation * g.scale;
-        v.resolution = resolution;
-        v.field_type = g.field == nfd::FieldType::Sdf ? NFD_FIELD_SDF : NFD_FIELD_UDF;
-        grid->format_major = asset->file.major;
-        grid->format_minor = asset->file.minor;
-        *out_grid = grid.release();
+        *out_grid = finest_voxels(std::move(sparse), asset->file).release();
         return NFD_SUCCESS;
     });
 }

@@ -80,12 +80,20 @@ TEST(Cli, ErrorsAreOneLineWithNonZeroStatus) {
     expect_one_line_error(run_cli(good + " -o x.glb --resolution 12abc"), 2, "--resolution");
     expect_one_line_error(run_cli(good + " -o x.glb --device gpu"), 2, "--device");
     expect_one_line_error(run_cli(good + " -o x.glb --points 5"), 2, "point cloud");
+    expect_one_line_error(run_cli(good + " -o x.vdb --points 5"), 2, "point cloud");
     expect_one_line_error(run_cli(good + " -o x.glb --frobnicate"), 2, "unknown option");
     expect_one_line_error(run_cli(good + " " + good + " -o x.glb"), 2, "more than one input");
     expect_one_line_error(run_cli("/nonexistent.nfc -o x.glb"), 1, "cannot open");
     expect_one_line_error(run_cli(truncated + " -o x.glb"), 1, "truncated");
     expect_one_line_error(run_cli(good + " -o /nonexistent-dir/x.glb --device cpu --resolution 8"), 1,
                           "could not be written");
+#if NFD_WITH_OPENVDB
+    expect_one_line_error(run_cli(good + " -o /nonexistent-dir/x.vdb --device cpu --resolution 8"), 1,
+                          "could not be written");
+#else
+    expect_one_line_error(run_cli(good + " -o x.vdb --device cpu --resolution 8"), 1,
+                          "built without OpenVDB");
+#endif
     for (const std::string& p : {good, truncated}) std::remove(p.c_str());
 }
 
