@@ -44,7 +44,7 @@ void main() {
                 uint e = uint(mc_triangle_edge(cc, 3u * t + j));
                 uint a = mc_edge_start_corner(e), b = a + (1u << (e / 4u));
                 precise float sum = f[a] + f[b];
-                valid = valid && sum <= push.edge_limit && dot3(g[a], g[b]) < 0.0;
+                valid = valid && sum <= push.edge_limit;
             }
             if (!valid) continue;
             emitted |= 1u << t;

@@ -8,8 +8,7 @@ since corners on opposite sides of the surface have opposite gradient directions
      or not finite;
   3. corner c is inside when dot(g_c, n) < 0;
   4. a crossed edge a-b gets its vertex at t = f_a / (f_a + f_b) (0.5 when the sum is 0);
-  5. a triangle is emitted only when its three edges are valid: f_a + f_b <= UDF_EDGE_FACTOR * h
-     and dot(g_a, g_b) < 0;
+  5. a triangle is emitted only when its three edges are valid: f_a + f_b <= UDF_EDGE_FACTOR * h;
   6. the vertex normal is canonical(g_a - g_b) normalised, else the edge axis;
   7. order as for the SDF mesher.
 All arithmetic in f32, in the order of mesh_udf_cpu.cpp.
@@ -58,8 +57,7 @@ def mesh_udf(grid: SparseGrid) -> UnitMesh:
         return meshed, cases
 
     def edge_valid(edges: CrossedEdges) -> np.ndarray:
-        opposed = _dot(gradients[edges.index_a], gradients[edges.index_b]) < 0
-        return (edges.fa + edges.fb <= max_edge_sum) & opposed
+        return edges.fa + edges.fb <= max_edge_sum
 
     def place(edges: CrossedEdges) -> tuple[np.ndarray, np.ndarray]:
         total = edges.fa + edges.fb

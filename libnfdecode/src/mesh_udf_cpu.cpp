@@ -56,11 +56,7 @@ nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active
             }
             return true;
         },
-        [&](const CrossedEdge& e) {  // step 5
-            const float *ga, *gb;
-            edge_gradients(e, &ga, &gb);
-            return e.fa + e.fb <= max_edge_sum && dot3(ga, gb) < 0.0f;
-        },
+        [&](const CrossedEdge& e) { return e.fa + e.fb <= max_edge_sum; },  // step 5
         [&](const CrossedEdge& e, float u[3], float n[3]) {
             const float sum = e.fa + e.fb;
             edge_point(grid, e, sum > 0.0f ? e.fa / sum : 0.5f, u);  // step 4

@@ -291,16 +291,27 @@ TEST_F(Api, MeshOptionsDefaultsAndLimits) {
     EXPECT_EQ(nfd_mesh_get_stats(nullptr, &stats), NFD_ERROR_INVALID_ARGUMENT);
 }
 
-TEST_F(Api, UdfIsNotMeshedYet) {
-    const Bytes b = geom_file(random_siren(8, 8, 1, /*field_type=*/1));
+// A UDF golden vector meshes through the API and samples points like an SDF.
+TEST_F(Api, UdfIsMeshedAndSampled) {
+    const Bytes b = read_bytes(golden_path("tshirt_udf_w16", ".nfc"));
     nfd_asset* udf = nullptr;
     ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &udf), NFD_SUCCESS);
+    nfd_mesh_options mo = {};
+    mo.resolution = 64;
     nfd_mesh* m = nullptr;
-    EXPECT_EQ(nfd_mesh_extract(ctx, udf, nullptr, &m), NFD_ERROR_UNSUPPORTED_FEATURE);
+    ASSERT_EQ(nfd_mesh_extract(ctx, udf, &mo, &m), NFD_SUCCESS);
+    nfd_mesh_data d;
+    ASSERT_EQ(nfd_mesh_get_data(m, &d), NFD_SUCCESS);
+    EXPECT_GT(d.triangle_count, 1000u);
+    std::vector<float> p1(300), p2(300);
+    EXPECT_EQ(nfd_mesh_sample_points(m, 100, 5, p1.data(), nullptr), NFD_SUCCESS);
+    EXPECT_EQ(nfd_mesh_sample_points(m, 100, 5, p2.data(), nullptr), NFD_SUCCESS);
+    EXPECT_EQ(p1, p2);  // deterministic for a seed
     float v;
     const float p[3] = {0, 0, 0};
-    EXPECT_EQ(nfd_asset_evaluate(ctx, udf, p, 1, &v), NFD_SUCCESS);  // but evaluates
+    EXPECT_EQ(nfd_asset_evaluate(ctx, udf, p, 1, &v), NFD_SUCCESS);
     EXPECT_GE(v, 0.0f);
+    nfd_mesh_destroy(m);
     nfd_asset_destroy(udf);
 }
 
