@@ -24,7 +24,7 @@ import numpy as np
 
 from nfencode.bitstream import read_nfc
 from nfencode.encoder import EncodeConfig, compress
-from nfencode.io import Shape, load_shape, save_mesh
+from nfencode.io import Shape, load_shape, save_mesh, save_points
 from nfencode.metrics import chamfer_distance, sampling_floor
 
 REPO = Path(__file__).resolve().parents[1]
@@ -45,7 +45,10 @@ SHAPES: dict[str, tuple[str, str, str]] = {
     "bunny-udf": ("stanford/bun_zipper.ply.gz", "udf", "bunny"),
     "dragon-udf": ("stanford/dragon_vrip_res3.ply.gz", "udf", "dragon_res3"),
     "happy-udf": ("stanford/happy_vrip_res3.ply.gz", "udf", "happy_res3"),
+    # The ten raw range scans, aligned by bun.conf and merged: a 362k-point cloud with no faces.
+    "bunny-scans": ("stanford/bunny_scans/bun.conf", "udf", "bunny_scans"),
 }
+DRACO_CLOUD_POINTS = (500, 1000, 2000, 5000, 10000, 20000)
 DRACO_FACES = (500, 1000, 2000, 5000, 10000)
 DRACO_QP = range(6, 15)
 SEED = 0
@@ -93,12 +96,17 @@ def run_nfc(gt: Shape, field: str, width: int, preset: str, resolution: int,
     keep.mkdir(parents=True, exist_ok=True)
     path = keep / f"{gt.name}_{preset}_w{width}.nfc"
     path.write_bytes(result.data)
+    return measure_nfc(gt, path, f"{preset} w{width}", resolution, seconds)
+
+
+def measure_nfc(gt: Shape, path: Path, setting: str, resolution: int, seconds: float) -> Point:
+    """Decodes a kept .nfc with nfc-decode (CPU path) and measures CD and the decoded surface."""
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([str(NFC_DECODE), str(path), "-o", f"{tmp}/mesh.ply", "--resolution",
                         str(resolution), "--device", "cpu"], check=True, capture_output=True)
         mesh = load_shape(f"{tmp}/mesh.ply")
         cd = chamfer_distance(gt, mesh, seed=SEED)
-    return Point("nfc", f"{preset} w{width}", len(result.data), cd, seconds, surface_report(mesh))
+    return Point("nfc", setting, path.stat().st_size, cd, seconds, surface_report(mesh))
 
 
 def run_draco(gt: Shape) -> list[Point]:
@@ -123,6 +131,28 @@ def run_draco(gt: Shape) -> list[Point]:
                 rec = load_shape(str(dec))
                 points.append(Point("draco", f"dec{target} qp{qp}", drc.stat().st_size,
                                     chamfer_distance(gt, rec, seed=SEED)))
+    return points
+
+
+def run_draco_cloud(gt: Shape) -> list[Point]:
+    """Draco's point-cloud mode on random subsets of the cloud (the way it reaches a few KB) at
+    every quantization: the point-cloud counterpart of the decimation envelope."""
+    rng = np.random.default_rng(SEED)
+    points: list[Point] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for count in DRACO_CLOUD_POINTS:
+            src = Path(tmp) / "in.ply"
+            subset = gt.vertices[rng.choice(len(gt.vertices), size=min(count, len(gt.vertices)),
+                                            replace=False)]
+            save_points(str(src), subset)
+            for qp in DRACO_QP:
+                drc, dec = Path(tmp) / "out.drc", Path(tmp) / "out.ply"
+                subprocess.run(["draco_encoder", "-point_cloud", "-i", src, "-o", drc, "-qp",
+                                str(qp), "-cl", "10"], check=True, capture_output=True)
+                subprocess.run(["draco_decoder", "-i", drc, "-o", dec], check=True,
+                               capture_output=True)
+                points.append(Point("draco", f"pc{count} qp{qp}", drc.stat().st_size,
+                                    chamfer_distance(gt, load_shape(str(dec)), seed=SEED)))
     return points
 
 
@@ -221,6 +251,9 @@ def main() -> None:
                         help="add to the nfc/Draco points of bench/out/rd_<shape>.csv")
     parser.add_argument("--from-csv", action="store_true",
                         help="no encoding: re-render tables and plots from bench/out/rd_<shape>.csv")
+    parser.add_argument("--decode-only", action="store_true",
+                        help="no encoding: decode the kept bench/out/nfc files again (after a "
+                             "decoder change); encode seconds come from bench/out/rd_<shape>.csv")
     args = parser.parse_args()
 
     out_dir = REPO / "bench" / "out"
@@ -231,12 +264,19 @@ def main() -> None:
         gt.name = shape
         floor = sampling_floor(gt, seed=SEED)
         csv_path = out_dir / f"rd_{shape}.csv"
-        ours, draco = load_csv(csv_path) if args.from_csv or args.append else ([], [])
-        if not args.from_csv:
+        reuse = (args.from_csv or args.append or args.decode_only) and csv_path.exists()
+        ours, draco = load_csv(csv_path) if reuse else ([], [])
+        if args.decode_only:
+            encode_seconds = {p.setting: p.seconds for p in ours}
+            ours = [measure_nfc(gt, out_dir / "nfc" / f"{shape}_{p}_w{w}.nfc", f"{p} w{w}",
+                                args.resolution, encode_seconds.get(f"{p} w{w}", float("nan")))
+                    for p in args.presets for w in args.widths
+                    if (out_dir / "nfc" / f"{shape}_{p}_w{w}.nfc").exists()]
+        elif not args.from_csv:
             ours += [run_nfc(gt, field, w, p, args.resolution, out_dir / "nfc")
                      for p in args.presets for w in args.widths]
-            if not args.no_draco and not draco:
-                draco = run_draco(gt)
+        if not args.from_csv and not args.no_draco and not draco:
+            draco = run_draco(gt) if gt.faces is not None else run_draco_cloud(gt)
         # The Draco envelope takes our own decimation runs and the shared measurements together:
         # the stronger baseline at every size.
         draco_all = draco + shared_baseline(baseline_name, "draco")
