@@ -279,7 +279,6 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
         return NFD_ERROR_LIMIT_EXCEEDED;
     const nfd::Geometry& g = asset->file.geometry;
-    if (g.field != nfd::FieldType::Sdf) return NFD_ERROR_UNSUPPORTED_FEATURE;
     return guarded([&] {
         auto mesh = std::make_unique<nfd_mesh>();
         nfd_result r;

@@ -202,7 +202,7 @@ typedef struct nfd_mesh_options {
 
 typedef struct nfd_mesh_data {
     const float* positions;   /* 3 * vertex_count floats, original frame */
-    const float* normals;     /* 3 * vertex_count floats, unit length, outward */
+    const float* normals;     /* 3 * vertex_count floats, unit length, outward (UDF: see below) */
     const uint32_t* indices;  /* 3 * triangle_count, counter-clockwise seen from outside */
     size_t vertex_count;
     size_t triangle_count;
@@ -215,9 +215,12 @@ typedef struct nfd_decode_stats {
     uint64_t active_cells;     /* finest-level cells that produced triangles */
 } nfd_decode_stats;
 
-/* Extracts the zero level set of an SDF asset (UDF: NFD_ERROR_UNSUPPORTED_FEATURE in this version)
- * with sparse coarse-to-fine evaluation and marching cubes: an indexed, welded mesh in original
- * coordinates. options may be NULL. An empty mesh (field without a surface) is a success. */
+/* Extracts the surface of an asset with sparse coarse-to-fine evaluation: an indexed, welded mesh
+ * in original coordinates. SDF: marching cubes of the zero level set; closed where the field is,
+ * consistently wound, normals outward. UDF (open surfaces, point clouds): MeshUDF-style pseudo-
+ * signed marching cubes from the field's gradients; the surface may be open, and as an unsigned
+ * field has no inside, winding and normals agree with each other but are not globally oriented.
+ * options may be NULL. An empty mesh (field without a surface) is a success. */
 nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
                             const nfd_mesh_options* options, nfd_mesh** out_mesh);
 void nfd_mesh_destroy(nfd_mesh* mesh);
