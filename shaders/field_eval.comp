@@ -29,6 +29,7 @@
 // is (value, gradient) as one vec4 per point.
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 #include "common.glsl"
 #include "bindings.h"
 
@@ -106,13 +107,14 @@ float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign
 #define ACTIVATE(DST, p, o4, acc)                                                           \
     {                                                                                       \
         vec4 s, slope;                                                                      \
-        for (uint j = 0; j < 4; ++j) {                                                      \
+        [[unroll]] for (uint j = 0; j < 4; ++j) {                                           \
             vec2 sc = sincos_reduced(OMEGA0 * acc[p * COMP][j]);                            \
             s[j] = sc.x;                                                                    \
             slope[j] = OMEGA0 * sc.y;                                                       \
         }                                                                                   \
         DST[p * COMP * MAX4 + o4] = s;                                                      \
-        for (uint c = 1; c < COMP; ++c) DST[(p * COMP + c) * MAX4 + o4] = slope * acc[p * COMP + c]; \
+        [[unroll]] for (uint c = 1; c < COMP; ++c)                                          \
+            DST[(p * COMP + c) * MAX4 + o4] = slope * acc[p * COMP + c];                    \
     }
 #else
 #define ACTIVATE(DST, p, o4, acc) DST[p * MAX4 + o4] = sin_reduced(OMEGA0 * acc[p]);
@@ -120,24 +122,42 @@ float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign
 
 // One linear layer over all ROWS rows, four outputs at a time so that each weight vec4 feeds
 // ROWS dot products. Hidden layers apply sin(omega0 * .) (ACTIVATE), the last none. The bias
-// goes to value rows only.
+// goes to value rows only. Layer 0's inputs each depend on one coordinate (vec4 0 = (u, 0) on all
+// three), so of its derivative rows, row 1 + a needs only the 1 + 2 FREQ4 vec4s of axis a: vec4 0
+// and per block b the sin and cos vec4s (1 + 6 b + a, 4 + 6 b + a); the others are zero and are
+// neither written nor read, which cuts the gradient variant's work on the widest layer by 3x.
 #define LAYER(K, IN4, OUT4, W, SRC, DST)                                                    \
     if (K < NUM_LAYERS) {                                                                   \
+        const uint dense_stride = K == 0 ? COMP : 1;                                        \
         for (uint o4 = 0; o4 < OUT4; ++o4) {                                                \
             vec4 acc[ROWS];                                                                 \
             vec4 bias = W.w[OUT4 * 4 * IN4 + o4];                                           \
             for (uint r = 0; r < ROWS; ++r) acc[r] = r % COMP == 0 ? bias : vec4(0.0);      \
             uint row = o4 * 4 * IN4;                                                        \
-            for (uint i = 0; i < IN4; ++i, ++row) {                                         \
-                vec4 w0 = W.w[row], w1 = W.w[row + IN4];                                    \
-                vec4 w2 = W.w[row + 2 * IN4], w3 = W.w[row + 3 * IN4];                      \
-                for (uint r = 0; r < ROWS; ++r) {                                           \
+            for (uint i = 0; i < IN4; ++i) {                                                \
+                vec4 w0 = W.w[row + i], w1 = W.w[row + i + IN4];                            \
+                vec4 w2 = W.w[row + i + 2 * IN4], w3 = W.w[row + i + 3 * IN4];              \
+                [[unroll]] for (uint r = 0; r < ROWS; r += dense_stride) {                  \
                     vec4 x = SRC[r * MAX4 + i];                                             \
                     acc[r] += vec4(dot(w0, x), dot(w1, x), dot(w2, x), dot(w3, x));         \
                 }                                                                           \
             }                                                                               \
+            if (K == 0 && COMP > 1) {                                                       \
+                [[unroll]] for (uint a = 0; a < 3; ++a) {                                   \
+                    for (uint j = 0; j <= 2 * FREQ4; ++j) {                                 \
+                        uint i = j == 0 ? 0 : 1 + 6 * ((j - 1) / 2) + 3 * ((j - 1) % 2) + a;\
+                        vec4 w0 = W.w[row + i], w1 = W.w[row + i + IN4];                    \
+                        vec4 w2 = W.w[row + i + 2 * IN4], w3 = W.w[row + i + 3 * IN4];      \
+                        [[unroll]] for (uint p = 0; p < POINTS; ++p) {                      \
+                            uint r = p * COMP + 1 + a;                                      \
+                            vec4 x = SRC[r * MAX4 + i];                                     \
+                            acc[r] += vec4(dot(w0, x), dot(w1, x), dot(w2, x), dot(w3, x)); \
+                        }                                                                   \
+                    }                                                                       \
+                }                                                                           \
+            }                                                                               \
             if (K + 1 < NUM_LAYERS) {                                                       \
-                for (uint p = 0; p < POINTS; ++p) ACTIVATE(DST, p, o4, acc)                 \
+                [[unroll]] for (uint p = 0; p < POINTS; ++p) ACTIVATE(DST, p, o4, acc)      \
             } else {                                                                        \
                 for (uint r = 0; r < ROWS; ++r) DST[r * MAX4 + o4] = acc[r];                \
             }                                                                               \
@@ -155,7 +175,6 @@ void main() {
         uint v = p * COMP * MAX4;  // the value row of point p
         ping[v] = vec4(u, 0.0);
 #ifdef WITH_GRADIENT
-        for (uint k = 0; k < 3 * MAX4; ++k) ping[v + MAX4 + k] = vec4(0.0);
         ping[v + MAX4] = vec4(1.0, 0.0, 0.0, 0.0);  // du / du_x
         ping[v + 2 * MAX4] = vec4(0.0, 1.0, 0.0, 0.0);
         ping[v + 3 * MAX4] = vec4(0.0, 0.0, 1.0, 0.0);
@@ -181,8 +200,8 @@ void main() {
             ping[v + base + 4] = cos_y;
             ping[v + base + 5] = cos_z;
 #ifdef WITH_GRADIENT
-            // d sin(f u_a) = f cos(f u_a) du_a, d cos(f u_a) = -f sin(f u_a) du_a (the other two
-            // derivative rows of these inputs stay zero).
+            // d sin(f u_a) = f cos(f u_a) du_a, d cos(f u_a) = -f sin(f u_a) du_a, in row 1 + a
+            // only (LAYER skips the other two).
             uint dx = v + MAX4 + base, dy = dx + MAX4, dz = dy + MAX4;
             ping[dx + 0] = f * cos_x;
             ping[dx + 3] = -f * sin_x;
