@@ -79,10 +79,11 @@ def surface_report(mesh: Shape) -> str:
     n, label = connected_components(coo_matrix((np.ones(len(unique)), tuple(unique.T)),
                                                shape=(len(v), len(v))))
     area = 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
-    shares = np.sort(np.bincount(label[f[:, 0]], weights=area, minlength=n))[::-1] / area.sum()
-    floating = shares[1] if n > 1 else 0.0
-    return (f"{int((uses == 1).sum())} bnd, {int((uses > 2).sum())} non-manifold, {n} comp., "
-            f"largest floating {100 * floating:.2f}%")
+    shares = np.bincount(label[f[:, 0]], weights=area, minlength=n)
+    shares = np.sort(shares[np.unique(label[f[:, 0]])])[::-1] / area.sum()  # unused vertices: none
+    floating = shares[1] if len(shares) > 1 else 0.0
+    return (f"{int((uses == 1).sum())} bnd, {int((uses > 2).sum())} non-manifold, "
+            f"{len(shares)} comp., largest floating {100 * floating:.2f}%")
 
 
 def run_nfc(gt: Shape, field: str, width: int, preset: str, resolution: int,
