@@ -16,7 +16,7 @@
 #define NFD_GPU_UNIFORM_VEC4S 4096 // a uniform weight block: 64 KiB
 #define NFD_FIELD_LOCAL_SIZE 32
 #define NFD_FIELD_LOCAL_SIZE_ID 14 // constant_id of local_size_x (after the network's sizes)
-#define NFD_FIELD_PUSH_BYTES 4     // the point count
+#define NFD_FIELD_PUSH_BYTES 8     // the point count, the first result's index
 
 // ---- scan.comp ----------------------------------------------------------------------------------
 #define NFD_B_SCAN_IN 0
@@ -45,25 +45,24 @@
 #define NFD_B_CHILD_CORNERS 11     // their corner values
 // Marching cubes over the children of the level-1 parents (mc.glsl).
 #define NFD_B_MC_TABLES 12         // mc_tables.h: triangles, triangle counts, edge corners
-#define NFD_B_CHILD_GRIDS 13       // per parent, the 27 values of its child grid
-#define NFD_B_CASES 14             // per parent, uvec4: cube case and emitted-triangle mask
+#define NFD_B_CASES 13             // per parent, uvec4: cube case and emitted-triangle mask
                                    // of each child (8 bits each)
-#define NFD_B_EDGE_MASKS 15        // per parent, uvec2: the owned edges (of 54) with a vertex
-#define NFD_B_TRIANGLE_COUNTS 16
-#define NFD_B_ACTIVE 17            // one counter: cells that emitted a triangle
-#define NFD_B_VERTEX_OFFSETS 18    // per edge-mask word, exclusive prefix of popcounts
-#define NFD_B_TRIANGLE_OFFSETS 19
-#define NFD_B_VERTEX_EDGES 20      // per vertex, parent rank << 6 | edge id
-#define NFD_B_INDICES 21
-#define NFD_B_POSITIONS 22
-#define NFD_B_NORMALS 23
+#define NFD_B_EDGE_MASKS 14        // per parent, uvec2: the owned edges (of 54) with a vertex
+#define NFD_B_TRIANGLE_COUNTS 15
+#define NFD_B_ACTIVE 16            // one counter: cells that emitted a triangle
+#define NFD_B_VERTEX_OFFSETS 17    // per edge-mask word, exclusive prefix of popcounts
+#define NFD_B_TRIANGLE_OFFSETS 18
+#define NFD_B_VERTEX_EDGES 19      // per vertex, parent rank << 6 | edge id
+#define NFD_B_INDICES 20
+#define NFD_B_POSITIONS 21
+#define NFD_B_NORMALS 22
 // UDF (udf.glsl).
-#define NFD_B_NEAR_MASKS 24        // per parent, which of its 8 children are near cells
-#define NFD_B_GRADIENT_OWNED 25    // the gradient point list (NFD_B_OWNED's layout)
-#define NFD_B_GRADIENT_OFFSETS 26
-#define NFD_B_GRADIENTS 27         // (value, gradient) per listed point, field_eval's output
+#define NFD_B_NEAR_MASKS 23        // per parent, which of its 8 children are near cells
+#define NFD_B_GRADIENT_OWNED 24    // the gradient point list (NFD_B_OWNED's layout)
+#define NFD_B_GRADIENT_OFFSETS 25
+#define NFD_B_GRADIENTS 26         // (value, gradient) per listed point, field_eval's output
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel
-#define NFD_LEVEL_PUSH_BYTES 48    // extract.glsl's LevelPush
+#define NFD_LEVEL_PUSH_BYTES 52    // extract.glsl's LevelPush
 
 #endif

@@ -39,6 +39,7 @@ layout(push_constant) uniform LevelPush {
                         // cell (grid.h, udf_near_threshold)
     float scale;        // mc_vertices, udf_vertices
     float edge_limit;   // UDF: the largest f_a + f_b of a valid edge (extract.h, step 5)
+    uint first_parent;  // refine_points: the first parent of its chunk
 } push;
 
 vec3 child_point(uvec3 v) {

@@ -82,7 +82,8 @@ WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 5, layer5)
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 6, layer6)
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 7, layer7)
 
-layout(push_constant) uniform Push { uint count; } push;
+// Point i of the input is result first + i: a long list is evaluated in chunks of points.
+layout(push_constant) uniform Push { uint count; uint first; } push;
 
 vec4 ping[ROWS * MAX4];
 vec4 pong[ROWS * MAX4];
@@ -230,9 +231,9 @@ void main() {
         vec3 dy = (NUM_LAYERS & 1) == 1
                       ? vec3(pong[v + MAX4].x, pong[v + 2 * MAX4].x, pong[v + 3 * MAX4].x)
                       : vec3(ping[v + MAX4].x, ping[v + 2 * MAX4].x, ping[v + 3 * MAX4].x);
-        values[first + p] = vec4(activate_output(y), output_slope(y) * dy);
+        values[push.first + first + p] = vec4(activate_output(y), output_slope(y) * dy);
 #else
-        values[first + p] = activate_output(y);
+        values[push.first + first + p] = activate_output(y);
 #endif
     }
 }

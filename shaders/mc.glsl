@@ -19,10 +19,6 @@
 // mc_tables.h as uploaded by device.cpp: triangles[256][16] (edge ids, -1 padded), then
 // triangle_count[256], then kEdgeCorners[12][2].
 layout(std430, binding = NFD_B_MC_TABLES) readonly buffer Tables { int mc_tables[]; };
-// Each parent's child grid (27 values, 0 where a point does not exist), written once from the
-// level's sparse storage (load_grid), so that later kernels read any parent's values with one
-// load.
-layout(std430, binding = NFD_B_CHILD_GRIDS) buffer ChildGrids { float child_grids[]; };
 // Byte i of cases[k] (i = 0..7 in .xy) is child i's cube case, byte 8 + i (.zw) the mask of its
 // table triangles that are emitted.
 layout(std430, binding = NFD_B_CASES) buffer Cases { uvec4 cases[]; };
@@ -57,16 +53,15 @@ uint mask_rank(uvec2 mask, uint id) {  // set bits below id
     return bitCount(mask.x) + bitCount(mask.y & ((1u << (id - 32u)) - 1u));
 }
 
-float grid[27];  // the current parent's child grid (0 where a point does not exist)
-void load_grid(uvec3 p, uint k, uint r) {  // from the sparse storage (extract.glsl)
+// The current parent's child grid (0 where a point does not exist), from the level's sparse
+// storage (extract.glsl). A dense copy per parent would make later lookups one load, but at
+// resolution 1024 it is 108 bytes for each of ~1.8M parents, more than the sparse storage itself.
+float grid[27];
+void load_grid(uvec3 p, uint k, uint r) {
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, lv, r) : 0.0;
-        child_grids[27u * k + l] = grid[l];
     }
-}
-void reload_grid(uint k) {  // from child_grids
-    for (uint l = 0u; l < 27u; ++l) grid[l] = child_grids[27u * k + l];
 }
 bool inside(uvec3 l) { return grid[local_index(l)] < 0.0; }
 
@@ -76,12 +71,12 @@ bool grid_value(ivec3 w, uvec3 p, uint k, uint r, out float f) {
     if (any(lessThan(w, ivec3(0))) || !child_point_exists(uvec3(w))) return false;
     ivec3 l = w - 2 * ivec3(p);
     if (all(greaterThanEqual(l, ivec3(0))) && all(lessThanEqual(l, ivec3(2)))) {
-        f = child_grids[27u * k + local_index(uvec3(l))];
+        f = child_grid_value(p, k, uvec3(l), r);
         return true;
     }
     uvec3 o;  // any kept parent whose box contains w holds its value
     if (!find_owner(uvec3(w), 2u, r, o)) return false;
-    f = child_grids[27u * kept_rank(cell_index(o, r)) + local_index(uvec3(w) - 2u * o)];
+    f = child_grid_value(o, kept_rank(cell_index(o, r)), uvec3(w) - 2u * o, r);
     return true;
 }
 

@@ -1,6 +1,6 @@
-// SDF marching cubes, step 1 (mc.glsl): per parent, its child grid (stored for the later kernels),
-// each child's cube case (all its table triangles are emitted), the crossed edges it owns (its
-// vertices) and its triangle count; the host prefix-sums the counts.
+// SDF marching cubes, step 1 (mc.glsl): per parent, each child's cube case (all its table
+// triangles are emitted), the crossed edges it owns (its vertices) and its triangle count; the
+// host prefix-sums the counts.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"

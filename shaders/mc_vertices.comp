@@ -22,8 +22,8 @@ void main() {
     uvec3 s;
     edge_from_id(vertex_edges[vertex] & 63u, a, s);
     uvec3 v = 2u * p + s;
-    float fa = child_grids[27u * k + local_index(s)];
-    float fb = child_grids[27u * k + local_index(s + unit_axis(a))];
+    float fa = child_grid_value(p, k, s, r);
+    float fb = child_grid_value(p, k, s + unit_axis(a), r);
     vec3 u = child_point(v);
     precise float t = fa / (fa - fb);
     if (!(t >= 0.0 && t <= 1.0)) t = 0.5;  // an infinite corner

@@ -4,7 +4,9 @@
 // point that is a corner of a near cell, by the point's owner (the kept parent with the smallest
 // index whose closed box contains it, extract.glsl's find_owner, now over all 27 points of a child
 // grid, corners included); the list has the layout of extract.glsl's new values (a 27-bit mask and
-// an offset per parent), and field_eval.comp's WITH_GRADIENT output (value, gradient) per point.
+// an offset per parent), and field_eval.comp's WITH_GRADIENT output per point: (value, gradient),
+// the value bit-identical to field_eval's. Everything after udf_gradient_count reads the values
+// from there too, so the level's sparse storage is released once the list is made.
 #ifndef NFD_UDF_GLSL
 #define NFD_UDF_GLSL
 
@@ -25,12 +27,12 @@ bool is_near_cell(ivec3 c, uint r) {
     return (near_masks[kept_rank(parent)] & (1u << (d.x | d.y << 1 | d.z << 2))) != 0u;
 }
 
-// The gradient at child-grid point w, a corner of a near cell (so its owner listed it).
-vec3 gradient_at(uvec3 w, uint r) {
+// (value, gradient) at child-grid point w, a corner of a near cell (so its owner listed it).
+vec4 field_at(uvec3 w, uint r) {
     uvec3 o = owner_cell(w, 2u, r);
     uint ko = kept_rank(cell_index(o, r));
     uint below = (1u << local_index(w - 2u * o)) - 1u;
-    return gradients[gradient_offsets[ko] + bitCount(gradient_owned[ko] & below)].yzw;
+    return gradients[gradient_offsets[ko] + bitCount(gradient_owned[ko] & below)];
 }
 
 // As mesh_udf_cpu.cpp: left to right, no fused multiply-add, so that equal gradients give equal

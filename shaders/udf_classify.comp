@@ -17,7 +17,6 @@ void main() {
     if (k >= push.count) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
-    reload_grid(k);
     uint near = near_masks[k];
     uint triangles = 0u, busy = 0u;
     uvec4 c = uvec4(0u);
@@ -28,8 +27,9 @@ void main() {
         vec3 g[8];
         uint nearest = 0u;
         for (uint i = 0u; i < 8u; ++i) {
-            f[i] = grid[local_index(d + corner_offset(i))];
-            g[i] = gradient_at(2u * p + d + corner_offset(i), r);
+            vec4 fg = field_at(2u * p + d + corner_offset(i), r);
+            f[i] = fg.x;
+            g[i] = fg.yzw;
             if (f[i] < f[nearest]) nearest = i;
         }
         vec3 n;

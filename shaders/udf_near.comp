@@ -1,6 +1,5 @@
-// UDF, step 1 (udf.glsl): per parent, its child grid (stored for the later kernels, as
-// mc_classify does) and which of its existing children are near cells: all corners finite and the
-// smallest at most push.threshold (grid.h, udf_cell_is_near).
+// UDF, step 1 (udf.glsl): per parent, which of its existing children are near cells: all corners
+// finite and the smallest at most push.threshold (grid.h, udf_cell_is_near).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"

@@ -22,8 +22,8 @@ void main() {
     uvec3 s;
     edge_from_id(vertex_edges[vertex] & 63u, a, s);
     uvec3 v = 2u * p + s, e = unit_axis(a);
-    float fa = child_grids[27u * k + local_index(s)];
-    float fb = child_grids[27u * k + local_index(s + e)];
+    vec4 a_end = field_at(v, r), b_end = field_at(v + e, r);
+    float fa = a_end.x, fb = b_end.x;
     precise float sum = fa + fb;
     precise float t = sum > 0.0 ? fa / sum : 0.5;
     vec3 u = child_point(v);
@@ -35,7 +35,7 @@ void main() {
     positions[3u * vertex + 1u] = x.y;
     positions[3u * vertex + 2u] = x.z;
 
-    precise vec3 d = gradient_at(v, r) - gradient_at(v + e, r);
+    precise vec3 d = a_end.yzw - b_end.yzw;
     vec3 m;
     float len = sqrt(dot3(d, d));
     vec3 n = vec3(e);

@@ -78,8 +78,8 @@ const KernelDesc kKernels[] = {
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // Marching cubes over the level-1 parents (mc.glsl); McEmit serves SDF and UDF.
     {Kernel::McClassify, shaders::mc_classify,
-     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_CHILD_GRIDS) | B(NFD_B_CASES) |
-         B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |
+         B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::McEmit, shaders::mc_emit,
      kLevel | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |
@@ -87,23 +87,21 @@ const KernelDesc kKernels[] = {
          B(NFD_B_INDICES),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::McVertices, shaders::mc_vertices,
-     kLevel | B(NFD_B_CHILD_GRIDS) | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) | B(NFD_B_NORMALS),
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) | B(NFD_B_NORMALS),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // UDF (udf.glsl).
-    {Kernel::UdfNear, shaders::udf_near,
-     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_GRIDS) | B(NFD_B_NEAR_MASKS), 0,
+    {Kernel::UdfNear, shaders::udf_near, kChildGrid | B(NFD_B_VALUES) | B(NFD_B_NEAR_MASKS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfGradientCount, shaders::udf_gradient_count,
      kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADIENT_OWNED) | B(NFD_B_COUNTS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfClassify, shaders::udf_classify,
-     kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_CHILD_GRIDS) | B(NFD_B_NEAR_MASKS) |
-         B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
+     kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS) | B(NFD_B_CASES) |
+         B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfVertices, shaders::udf_vertices,
-     kLevel | kGradients | B(NFD_B_CHILD_GRIDS) | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) |
-         B(NFD_B_NORMALS),
-     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+     kLevel | kGradients | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) | B(NFD_B_NORMALS), 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
 };
 static_assert(sizeof(kKernels) / sizeof(kKernels[0]) == kKernelCount, "one row per kernel");
 

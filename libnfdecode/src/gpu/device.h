@@ -102,9 +102,12 @@ struct DeviceNetwork {
 
 // NFD_ERROR_UNSUPPORTED_FEATURE for a network beyond the shader's caps.
 nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out);
-// Records the evaluation of `count` points (xyz) into `values`: one float each, or with
-// `gradient` one vec4 each (value, d/dx, d/dy, d/dz).
-nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& values,
-                        uint32_t count, bool gradient);
+// Records the evaluation of `count` points (xyz) into `results` from point `first` on: one float
+// each, or with `gradient` one vec4 each (value, d/dx, d/dy, d/dz).
+nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& results,
+                        uint32_t count, bool gradient, uint32_t first = 0);
+// Creates the pipeline record_field will use (it does so itself on first use): compiling on a
+// CPU implementation takes tens of MB for a while, better spent before the big buffers exist.
+nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient);
 
 }  // namespace nfd::gpu

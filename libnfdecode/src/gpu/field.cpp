@@ -141,31 +141,35 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     return NFD_SUCCESS;
 }
 
-nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& values,
-                        uint32_t count, bool gradient) {
+nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient) {
     DeviceNetwork::Variant& variant = gradient ? net.gradients : net.values;
-    if (!variant.pipeline) {
-        // Fewer points per invocation for wide networks bounds the per-invocation activations;
-        // a gradient carries four rows per point.
-        const uint32_t rows = net.max4 <= 32 ? kPointsPerInvocation : 2;
-        variant.points_per_invocation = gradient ? std::max(rows / 4, 1u) : rows;
-        std::vector<uint32_t> spec = net.specialization;
-        spec.push_back(variant.points_per_invocation);
-        const Kernel kernel = gradient ? (net.storage ? Kernel::FieldGradientStorage
-                                                      : Kernel::FieldGradient)
-                                       : (net.storage ? Kernel::FieldEvalStorage
-                                                      : Kernel::FieldEval);
-        NFD_TRY(field_pipeline(d, kernel, spec, &variant.pipeline));
-    }
+    if (variant.pipeline) return NFD_SUCCESS;
+    // Fewer points per invocation for wide networks bounds the per-invocation activations; a
+    // gradient carries four rows per point.
+    const uint32_t rows = net.max4 <= 32 ? kPointsPerInvocation : 2;
+    variant.points_per_invocation = gradient ? std::max(rows / 4, 1u) : rows;
+    std::vector<uint32_t> spec = net.specialization;
+    spec.push_back(variant.points_per_invocation);
+    const Kernel kernel = gradient ? (net.storage ? Kernel::FieldGradientStorage
+                                                  : Kernel::FieldGradient)
+                                   : (net.storage ? Kernel::FieldEvalStorage : Kernel::FieldEval);
+    return field_pipeline(d, kernel, spec, &variant.pipeline);
+}
+
+nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& results,
+                        uint32_t count, bool gradient, uint32_t first) {
+    NFD_TRY(prepare_field(d, net, gradient));
+    const DeviceNetwork::Variant& variant = gradient ? net.gradients : net.values;
     const Buffer& w = net.weights;
     auto layer = [&](uint32_t l) -> Bind {
         return {NFD_B_FIELD_LAYER0 + l, BufferRange(w, net.offset[l], net.range[l])};
     };
+    const uint32_t push[2] = {count, first};
     return d.vk->dispatch(*variant.pipeline,
-                          {{NFD_B_FIELD_POINTS, points}, {NFD_B_FIELD_VALUES, values},
+                          {{NFD_B_FIELD_POINTS, points}, {NFD_B_FIELD_VALUES, results},
                            {NFD_B_FIELD_FREQUENCIES, net.frequencies}, layer(0), layer(1),
                            layer(2), layer(3), layer(4), layer(5), layer(6), layer(7)},
-                          &count, div_up(count, variant.points_per_invocation));
+                          push, div_up(count, variant.points_per_invocation));
 }
 
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,

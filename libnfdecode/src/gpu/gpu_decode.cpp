@@ -14,6 +14,7 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
     const auto t_field = Clock::now();
     DeviceNetwork net;
     NFD_TRY(upload_network(device, geometry.network, &net));
+    if (geometry.field == FieldType::Udf) NFD_TRY(prepare_field(device, net, true));
     FinestLevel finest(*device.vk);
     NFD_TRY(build_levels(device, net, geometry, resolution, &finest));
     st.points_evaluated = finest.points_evaluated;

@@ -72,31 +72,21 @@ nfd_result top_level(Device& d, DeviceNetwork& net, uint32_t resolution, uint32_
     return NFD_SUCCESS;
 }
 
-// extract.glsl's level and child-grid bindings (the parent's corners and the list's masks and
-// offsets), plus the new points' values.
-std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
-    std::vector<Bind> b = level_bindings(parent);
-    b.insert(b.end(), {{NFD_B_CORNERS, *parent.corners},
-                       {NFD_B_OWNED, *g.owned},
-                       {NFD_B_OFFSETS, *g.offsets},
-                       {NFD_B_VALUES, *g.values}});
-    return b;
-}
-
 std::vector<Bind> with(std::vector<Bind> b, std::initializer_list<Bind> more) {
     b.insert(b.end(), more);
     return b;
 }
 
-// Evaluates the new points of the child grids of all kept cells of `parent` into `g` (buffers
-// from `buffers`). Leaves the batch recording: the caller may add work, then submits.
+// Evaluates the new points of the child grids of all kept cells of `parent` into `g` (its
+// buffers from `buffers`, temporaries from `scratch`). Leaves the batch recording: the caller may
+// add work, then submits.
 nfd_result evaluate_child_grids(Device& d, DeviceNetwork& net, const Level& parent,
-                                const LevelPush& push, Buffers& buffers, PointList* g) {
+                                const LevelPush& push, Buffers& buffers, Buffers& scratch,
+                                PointList* g) {
     Buffer* counts;
     NFD_TRY(buffers.make(VkDeviceSize(parent.kept) * 4, &g->owned));
     NFD_TRY(buffers.make(VkDeviceSize(parent.kept) * 4, &g->offsets));
-    NFD_TRY(buffers.make(VkDeviceSize(parent.kept) * 4, &counts));
-    Buffers scratch(*d.vk);
+    NFD_TRY(scratch.make(VkDeviceSize(parent.kept) * 4, &counts));
     NFD_TRY(d.vk->begin());
     NFD_TRY(d.vk->dispatch(d[Kernel::RefineCount],
                            with(level_bindings(parent), {{NFD_B_OWNED, *g->owned},
@@ -105,29 +95,21 @@ nfd_result evaluate_child_grids(Device& d, DeviceNetwork& net, const Level& pare
     NFD_TRY(record_scan(d, scratch, *counts, *g->offsets, parent.kept, false));
     NFD_TRY(d.vk->submit());
     g->count = word(*g->offsets, parent.kept - 1) + word(*counts, parent.kept - 1);
-    NFD_TRY(buffers.make(VkDeviceSize(g->count) * 12, &g->points));
     NFD_TRY(buffers.make(VkDeviceSize(g->count) * 4, &g->values));
     NFD_TRY(d.vk->begin());
-    NFD_TRY(d.vk->dispatch(d[Kernel::RefinePoints],
-                           {{NFD_B_KEPT_CELLS, *parent.list},
-                            {NFD_B_OWNED, *g->owned},
-                            {NFD_B_OFFSETS, *g->offsets},
-                            {NFD_B_POINTS, *g->points}},
-                           &push, parent.kept));
-    return record_field(d, net, *g->points, *g->values, g->count, false);
+    return record_list(d, net, parent, *g, *g->values, false, push, scratch);
 }
 
 nfd_result refine_level(Device& d, DeviceNetwork& net, const Level& parent, const LevelPush& push,
                         Level* child, uint64_t* evaluated) {
-    Buffers step_buffers(*d.vk);
+    Buffers step_buffers(*d.vk), scratch(*d.vk);
     PointList g;
-    NFD_TRY(evaluate_child_grids(d, net, parent, push, step_buffers, &g));
+    NFD_TRY(evaluate_child_grids(d, net, parent, push, step_buffers, scratch, &g));
     *evaluated += g.count;
     child->cells = push.child_cells;
     const uint32_t words = child->words();
     NFD_TRY(child->buffers.make(VkDeviceSize(words) * 4, &child->bits));
     NFD_TRY(child->buffers.make(VkDeviceSize(words) * 4, &child->prefix));
-    Buffers scratch(*d.vk);
     d.vk->fill(*child->bits, 0);
     NFD_TRY(d.vk->dispatch(d[Kernel::RefineCells],
                            with(child_grid_bindings(parent, g), {{NFD_B_CHILD_BITS, *child->bits}}),
@@ -163,6 +145,51 @@ std::vector<Bind> level_bindings(const Level& level) {
             {NFD_B_KEPT_CELLS, *level.list}};
 }
 
+nfd_result record_list(Device& device, DeviceNetwork& net, const Level& parents,
+                       const PointList& list, const Buffer& results, bool gradient,
+                       const LevelPush& push, Buffers& scratch) {
+    // Chunks of parents whose points fill at most kListChunk: the points buffer (12 bytes a
+    // point, 167 MB for the 14M new points of resolution 1024) stays at 12 MB.
+    constexpr uint32_t kListChunk = 1u << 20, kChunksPerBatch = 64;
+    if (list.count == 0) return NFD_SUCCESS;
+    Buffer* points;
+    NFD_TRY(scratch.make(VkDeviceSize(std::min(list.count, kListChunk)) * 12, &points));
+    const uint32_t* offsets = list.offsets->as<uint32_t>();
+    LevelPush chunk = push;
+    uint32_t chunks = 0;
+    for (uint32_t first = 0, end; first < parents.kept; first = end) {
+        // A parent owns at most 27 points, so every chunk takes at least one.
+        end = first + 1;
+        while (end < parents.kept && offsets[end] - offsets[first] <= kListChunk - 27) ++end;
+        const uint32_t last = end < parents.kept ? offsets[end] : list.count;
+        chunk.first_parent = first;
+        chunk.count = end - first;
+        NFD_TRY(device.vk->dispatch(device[Kernel::RefinePoints],
+                                    {{NFD_B_KEPT_CELLS, *parents.list},
+                                     {NFD_B_OWNED, *list.owned},
+                                     {NFD_B_OFFSETS, *list.offsets},
+                                     {NFD_B_POINTS, *points}},
+                                    &chunk, chunk.count));
+        NFD_TRY(record_field(device, net, *points, results, last - offsets[first], gradient,
+                             offsets[first]));
+        // A batch holds a bounded number of dispatches (vk_context.cpp): run it, go on.
+        if (++chunks % kChunksPerBatch == 0) {
+            NFD_TRY(device.vk->submit());
+            NFD_TRY(device.vk->begin());
+        }
+    }
+    return NFD_SUCCESS;
+}
+
+std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
+    std::vector<Bind> b = level_bindings(parent);
+    b.insert(b.end(), {{NFD_B_CORNERS, *parent.corners},
+                       {NFD_B_OWNED, *g.owned},
+                       {NFD_B_OFFSETS, *g.offsets},
+                       {NFD_B_VALUES, *g.values}});
+    return b;
+}
+
 nfd_result build_levels(Device& device, DeviceNetwork& net, const Geometry& geometry,
                         uint32_t resolution, FinestLevel* out) {
     const uint32_t levels = refinement_levels(resolution);
@@ -192,9 +219,9 @@ nfd_result build_levels(Device& device, DeviceNetwork& net, const Geometry& geom
     push.count = level.kept;
     push.threshold = 0;
     if (level.kept == 0) return NFD_SUCCESS;
-    NFD_TRY(evaluate_child_grids(device, net, level, push, out->buffers, &out->grid));
+    Buffers scratch(*device.vk);
+    NFD_TRY(evaluate_child_grids(device, net, level, push, out->buffers, scratch, &out->grid));
     NFD_TRY(device.vk->submit());
-    device.vk->destroy(*out->grid.points);  // the meshers' buffers take its place
     out->points_evaluated += out->grid.count;
     return NFD_SUCCESS;
 }

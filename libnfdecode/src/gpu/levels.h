@@ -14,6 +14,7 @@ struct LevelPush {
     float center[4] = {0, 0, 0, 0};
     uint32_t parent_cells = 0, child_cells = 0, count = 0, child_level = 0;
     float step = 0, threshold = 0, scale = 1, edge_limit = 0;
+    uint32_t first_parent = 0;
 };
 static_assert(sizeof(LevelPush) == NFD_LEVEL_PUSH_BYTES, "extract.glsl's LevelPush");
 
@@ -31,7 +32,7 @@ struct Level {
 // A list of child-grid points owned by a level's kept parents (extract.glsl): per parent the
 // mask of its local points in the list and the offset of its first one, and the points' values.
 struct PointList {
-    Buffer *owned = nullptr, *offsets = nullptr, *points = nullptr, *values = nullptr;
+    Buffer *owned = nullptr, *offsets = nullptr, *values = nullptr;
     uint32_t count = 0;
 };
 
@@ -47,15 +48,24 @@ struct FinestLevel {
     uint64_t points_evaluated = 0;
 };
 
+// Records the evaluation of a point list of `parents` (its masks and offsets, offsets readable
+// on the host) into `results` (as record_field): refine_points and the field kernel, by chunks
+// of parents with a bounded points buffer from `scratch`.
+nfd_result record_list(Device& device, DeviceNetwork& net, const Level& parents,
+                       const PointList& list, const Buffer& results, bool gradient,
+                       const LevelPush& push, Buffers& scratch);
+
 // Coarse-to-fine evaluation down to the finest level, with the keep rule of grid.h.
 nfd_result build_levels(Device& device, DeviceNetwork& net, const Geometry& geometry,
                         uint32_t resolution, FinestLevel* out);
 
-// The bindings of extract.glsl's level (kept bits, prefix, cells).
+// The bindings of extract.glsl's level (kept bits, prefix, cells), and with them its child grids
+// (the level's corners, the new points' masks, offsets and values).
 std::vector<Bind> level_bindings(const Level& level);
+std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g);
 
 // Marching cubes of an SDF (mesh_sdf.cpp) and the UDF mesher (mesh_udf.cpp): original-frame mesh.
-// Both release the finest level's sparse storage as soon as they no longer need it.
+// Both release the finest level's storage before the mesh is read back (peak memory).
 nfd_result mesh_sdf(Device& device, FinestLevel& finest, MeshData* mesh, ExtractStats* stats);
 nfd_result mesh_udf(Device& device, DeviceNetwork& net, FinestLevel& finest, MeshData* mesh,
                     ExtractStats* stats);
@@ -65,7 +75,6 @@ nfd_result mesh_udf(Device& device, DeviceNetwork& net, FinestLevel& finest, Mes
 struct Classified {
     explicit Classified(Context& vk) : buffers(vk) {}
     Buffers buffers;
-    Buffer *child_grids = nullptr;     // 27 values per parent
     Buffer *cases = nullptr;           // uvec4: cube cases, emitted-triangle masks
     Buffer *edge_masks = nullptr;      // uvec2: owned edges that carry a vertex
     Buffer *vertex_offsets = nullptr;  // per edge-mask word
@@ -78,10 +87,11 @@ struct Classified {
 
 // The shared back half of both meshers (marching.cpp, as marching.h on the CPU): mc_emit.comp
 // writes each parent's vertex edges and welded triangles, then `vertices` (McVertices or
-// UdfVertices, bound with the level, the child grids, `extra` and the vertex buffers) places
-// each vertex; the mesh is read back. Releases `classified`'s buffers on the way.
-nfd_result emit_mesh(Device& device, const FinestLevel& finest, Classified& classified,
-                     Kernel vertices, const std::vector<Bind>& extra, MeshData* mesh,
+// UdfVertices, bound with `inputs` and the vertex buffers) places each vertex; `classified`'s,
+// `finest`'s and `input_buffers` are released as soon as they are not needed, then the mesh is
+// read back.
+nfd_result emit_mesh(Device& device, FinestLevel& finest, Classified& classified, Kernel vertices,
+                     std::vector<Bind> inputs, Buffers& input_buffers, MeshData* mesh,
                      ExtractStats* stats);
 
 }  // namespace nfd::gpu

@@ -9,13 +9,8 @@ nfd_result mesh_sdf(Device& device, FinestLevel& finest, MeshData* mesh, Extract
     Classified c(*device.vk);
     NFD_TRY(c.make(k));
     Buffers scratch(*device.vk);
-    std::vector<Bind> classify = level_bindings(finest.parents);
-    classify.insert(classify.end(), {{NFD_B_CORNERS, *finest.parents.corners},
-                                     {NFD_B_OWNED, *finest.grid.owned},
-                                     {NFD_B_OFFSETS, *finest.grid.offsets},
-                                     {NFD_B_VALUES, *finest.grid.values},
-                                     {NFD_B_MC_TABLES, device.mc_tables},
-                                     {NFD_B_CHILD_GRIDS, *c.child_grids},
+    std::vector<Bind> classify = child_grid_bindings(finest.parents, finest.grid);
+    classify.insert(classify.end(), {{NFD_B_MC_TABLES, device.mc_tables},
                                      {NFD_B_CASES, *c.cases},
                                      {NFD_B_EDGE_MASKS, *c.edge_masks},
                                      {NFD_B_TRIANGLE_COUNTS, *c.triangle_counts},
@@ -25,11 +20,8 @@ nfd_result mesh_sdf(Device& device, FinestLevel& finest, MeshData* mesh, Extract
     NFD_TRY(device.vk->dispatch(device[Kernel::McClassify], classify, &finest.push, k));
     NFD_TRY(c.record_scans(device, scratch, k));
     NFD_TRY(device.vk->submit());
-    // The child grids now hold every value the later kernels read: the sparse storage goes
-    // before the mesh buffers are made (peak memory).
-    finest.buffers.release();
-    device.vk->destroy(*finest.parents.corners);
-    return emit_mesh(device, finest, c, Kernel::McVertices, {}, mesh, stats);
+    return emit_mesh(device, finest, c, Kernel::McVertices,
+                     child_grid_bindings(finest.parents, finest.grid), scratch, mesh, stats);
 }
 
 }  // namespace nfd::gpu
