@@ -26,7 +26,7 @@
 #define NFD_SCAN_BLOCK 1024        // elements per workgroup: 4 per invocation
 #define NFD_COUNT_PUSH_BYTES 4     // scan and bitmap_compact: the element count
 
-// ---- the sparse levels and meshers (extract.glsl, mc.glsl, udf.glsl) ------------------------------
+// ---- the sparse levels and meshers (extract.glsl, mc.glsl, udf.glsl) ---------------------------
 // One number per buffer role across all of them, so that any kernel can bind any role.
 // A level: its kept cells (extract.glsl).
 #define NFD_B_KEPT_BITS 0          // bitmap over the level's cells

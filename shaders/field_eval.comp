@@ -68,10 +68,12 @@ layout(std140, binding = NFD_B_FIELD_FREQUENCIES) uniform Frequencies {
 };
 
 #ifdef WEIGHTS_IN_STORAGE_BUFFER
-#define WEIGHT_BLOCK(B, NAME) layout(std430, binding = B) readonly buffer NAME##Block { vec4 w[]; } NAME;
+#define WEIGHT_BLOCK(B, NAME) \
+    layout(std430, binding = B) readonly buffer NAME##Block { vec4 w[]; } NAME;
 #else
 // 64 KiB, the largest range the host binds to one uniform block.
-#define WEIGHT_BLOCK(B, NAME) layout(std140, binding = B) uniform NAME##Block { vec4 w[NFD_GPU_UNIFORM_VEC4S]; } NAME;
+#define WEIGHT_BLOCK(B, NAME) \
+    layout(std140, binding = B) uniform NAME##Block { vec4 w[NFD_GPU_UNIFORM_VEC4S]; } NAME;
 #endif
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 0, layer0)
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 1, layer1)

@@ -5,7 +5,9 @@
 #include "common.glsl"
 #include "extract.glsl"
 layout(std430, binding = NFD_B_CHILD_CELLS) readonly buffer ChildCells { uint child_cells[]; };
-layout(std430, binding = NFD_B_CHILD_CORNERS) writeonly buffer ChildCorners { float child_corners[]; };
+layout(std430, binding = NFD_B_CHILD_CORNERS) writeonly buffer ChildCorners {
+    float child_corners[];
+};
 
 void main() {
     uint j = global_invocation_index(gl_WorkGroupSize.x);

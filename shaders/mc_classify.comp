@@ -6,7 +6,9 @@
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
-layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts { uint triangle_counts[]; };
+layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts {
+    uint triangle_counts[];
+};
 layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; };
 
 void main() {

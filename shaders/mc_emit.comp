@@ -6,9 +6,15 @@
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
-layout(std430, binding = NFD_B_VERTEX_OFFSETS) readonly buffer VertexOffsets { uint vertex_offsets[]; };
-layout(std430, binding = NFD_B_TRIANGLE_OFFSETS) readonly buffer TriangleOffsets { uint triangle_offsets[]; };
-layout(std430, binding = NFD_B_VERTEX_EDGES) writeonly buffer VertexEdges { uint vertex_edges[]; };  // k << 6 | id
+layout(std430, binding = NFD_B_VERTEX_OFFSETS) readonly buffer VertexOffsets {
+    uint vertex_offsets[];
+};
+layout(std430, binding = NFD_B_TRIANGLE_OFFSETS) readonly buffer TriangleOffsets {
+    uint triangle_offsets[];
+};
+layout(std430, binding = NFD_B_VERTEX_EDGES) writeonly buffer VertexEdges {
+    uint vertex_edges[];  // k << 6 | id
+};
 layout(std430, binding = NFD_B_INDICES) writeonly buffer Indices { uint indices[]; };
 
 void main() {

@@ -1,7 +1,7 @@
-// Exclusive prefix sum, in blocks of NFD_SCAN_BLOCK elements (1024: 256 invocations x 4): each block is scanned
-// in shared memory and its total written to `sums`; the host scans `sums` the same way and
-// dispatches the ADD_BLOCK_OFFSETS variant to add them back. POPCOUNT scans the number of set
-// bits of each word (a kept-cell bitmap) instead of the words themselves.
+// Exclusive prefix sum, in blocks of NFD_SCAN_BLOCK elements (1024: 256 invocations x 4): each
+// block is scanned in shared memory and its total written to `sums`; the host scans `sums` the
+// same way and dispatches the ADD_BLOCK_OFFSETS variant to add them back. POPCOUNT scans the
+// number of set bits of each word (a kept-cell bitmap, edge masks) instead of the words themselves.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"

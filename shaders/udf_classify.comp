@@ -9,7 +9,9 @@
 #include "extract.glsl"
 #include "mc.glsl"
 #include "udf.glsl"
-layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts { uint triangle_counts[]; };
+layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts {
+    uint triangle_counts[];
+};
 layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; };
 
 void main() {

@@ -60,7 +60,9 @@ template <size_t C>
 void evaluate_block(const Network& net, const float* xyz, size_t count, float* out,
                     float* out_gradients, Scratch& s) {
     float* h = s.a.data();
-    auto row = [](float* base, size_t feature, size_t c) { return base + (feature * C + c) * kBlock; };
+    auto row = [](float* base, size_t feature, size_t c) {
+        return base + (feature * C + c) * kBlock;
+    };
     // Encoding: [u0, u1, u2, then per frequency sin(f u0..2), cos(f u0..2)]. Derivative rows are
     // written only along the input's own axis (the others are zero and layer 0 skips them).
     for (size_t j = 0; j < 3; ++j) {

@@ -202,7 +202,8 @@ MeshPair extract_both(gpu::Device& device, const Geometry& g, uint32_t resolutio
 // corners tie in exact arithmetic (the symmetric blob has many), the evaluators' last-bit
 // differences pick either, and if the two candidates have opposite canonical directions the cell
 // takes the complementary case: the same crossed edges, the other winding and possibly the other
-// triangulation. `max_differing` bounds the fraction of GPU triangles that such cells change.
+// triangulation. `max_differing` bounds the fraction of GPU triangles that such cells change, and
+// of vertex normals flipped by the same kind of tie in their canonical direction (step 6).
 void expect_same_mesh(const MeshPair& m, const Geometry& g, uint32_t resolution,
                       double max_differing = 0) {
     EXPECT_EQ(m.gpu_stats.points_evaluated, m.cpu_stats.points_evaluated);
@@ -211,13 +212,18 @@ void expect_same_mesh(const MeshPair& m, const Geometry& g, uint32_t resolution,
     ASSERT_EQ(m.gpu.triangle_count(), m.cpu.triangle_count());
     ASSERT_EQ(m.gpu.normals.size(), m.gpu.positions.size());
     const float cell = 2.0f / float(resolution) * g.scale;
-    const std::vector<int64_t> map = match_vertices(m.gpu, m.cpu, cell, 1e-3f * cell);
+    // Measured: at most 1.5e-3 cells (4 of 262642 vertices at resolution 400, where the blob's
+    // crossings sit far from the frame's origin), else below 1e-3.
+    const std::vector<int64_t> map = match_vertices(m.gpu, m.cpu, cell, 1e-2f * cell);
+    size_t flipped_normals = 0;
     for (size_t i = 0; i < map.size(); ++i) {
         ASSERT_GE(map[i], 0) << "GPU vertex " << i << " has no CPU twin";
         float dot = 0;
         for (int a = 0; a < 3; ++a) dot += m.gpu.normals[3 * i + a] * m.cpu.normals[3 * map[i] + a];
+        if (max_differing > 0 && dot < 0) ++flipped_normals, dot = -dot;  // a tie, as for n
         ASSERT_GT(dot, 0.999f) << "normal of vertex " << i;
     }
+    EXPECT_LE(double(flipped_normals), max_differing * double(m.gpu.vertex_count()));
     const auto gpu_triangles = triangles(m.gpu, &map), cpu_triangles = triangles(m.cpu, nullptr);
     size_t differing = 0;
     for (const auto& t : gpu_triangles) differing += cpu_triangles.count(t) == 0;
@@ -228,11 +234,12 @@ void expect_same_mesh(const MeshPair& m, const Geometry& g, uint32_t resolution,
 
 // A closed blob in a shifted, scaled frame: watertight, outward, identical to the CPU mesh, at a
 // power-of-two resolution, one whose coarse levels drop cells past the last fine vertex (75:
-// 38 -> 75), and one too small to refine at all (16).
+// 38 -> 75), one too small to refine at all (16), and one whose finest level has more new points
+// than one evaluation chunk of levels.cpp's record_list (400: 1.3M).
 TEST_F(Gpu, MeshMatchesCpuOnClosedBlob) {
     const float center[3] = {1.0f, -2.0f, 0.5f};
     const Geometry g = parse_or_throw(geom_file(closed_blob(3.0f, center)));
-    for (uint32_t resolution : {128u, 75u, 16u}) {
+    for (uint32_t resolution : {128u, 75u, 16u, 400u}) {
         SCOPED_TRACE("resolution " + std::to_string(resolution));
         const MeshPair m = extract_both(device(), g, resolution);
         ASSERT_GT(m.gpu.triangle_count(), 0u);
@@ -274,20 +281,22 @@ TEST_F(Gpu, RejectsWhatTheCpuRejects) {
 // The UDF mesher (extract.h, steps 1-7) against mesh_udf_cpu: the same near cells and gradient
 // points (gradients_evaluated), the same triangles as sets of welded grid edges, positions to
 // rounding. |f| of the closed blob (one closed sheet, in a shifted, scaled frame) at a power of
-// two, at 75 (coarse levels drop cells past the last vertex) and at 16 (no refinement); a random
-// UDF SIREN (open sheets, boundaries, the edge filter at work; no ties, so identical winding).
+// two, at 75 (coarse levels drop cells past the last vertex), at 16 (no refinement) and at 400
+// (more gradient points than one evaluation chunk); a random UDF SIREN (open sheets, boundaries,
+// the edge filter at work; no ties, so identical winding).
 TEST_F(Gpu, UdfMeshMatchesCpu) {
     const float center[3] = {1.0f, -2.0f, 0.5f};
     GeomSpec blob = closed_blob(3.0f, center);
     blob.field_type = 1;
     blob.output = 1;
     const Geometry g = parse_or_throw(geom_file(blob));
-    for (uint32_t resolution : {128u, 75u, 16u}) {
+    for (uint32_t resolution : {128u, 75u, 16u, 400u}) {
         SCOPED_TRACE("resolution " + std::to_string(resolution));
         const MeshPair m = extract_both(device(), g, resolution);
         ASSERT_GT(m.gpu.triangle_count(), 0u);
         EXPECT_EQ(m.gpu_stats.gradients_evaluated, m.cpu_stats.gradients_evaluated);
-        expect_same_mesh(m, g, resolution, 0.01);  // measured: 20 of 53864 at 128, 96 of 18284 at 75
+        // Measured: 20 of 53864 triangles differ at 128, 96 of 18284 at 75, 416 at 400.
+        expect_same_mesh(m, g, resolution, 0.01);
     }
     const Geometry siren = parse_or_throw(geom_file(random_siren(16, 8, 11, /*field_type=*/1)));
     const MeshPair m = extract_both(device(), siren, 64);

@@ -198,7 +198,8 @@ TEST(NetworkGradient, MatchesFiniteDifferencesOnGoldenVectors) {
         ParsedFile f;
         const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
         ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &f), NFD_SUCCESS) << name;
-        const double err = gradient_error_vs_differences(f.geometry.network, random_points(2000, 8));
+        const double err =
+            gradient_error_vs_differences(f.geometry.network, random_points(2000, 8));
         std::printf("%s: max |analytic - difference| / max |grad| = %.3g\n", name.c_str(), err);
         EXPECT_LE(err, kGradientTolerance) << name;
     }

@@ -6,7 +6,6 @@
 #include <cstring>
 #include <new>
 
-#include "../grid.h"
 #include "../mc_tables.h"
 #include "gpu_decode.h"
 #include "nfdecode/nfdecode.h"
@@ -43,7 +42,7 @@ struct KernelDesc {
     uint32_t constant0 = kNoSpecialization;  // value of constant_id 0, if the kernel has one
 };
 
-const KernelDesc kKernels[] = {
+constexpr KernelDesc kKernels[] = {
     // Field: the network's sizes are specialization constants, its local size too.
     {Kernel::FieldEval, shaders::field_eval, B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES),
      B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
@@ -103,7 +102,16 @@ const KernelDesc kKernels[] = {
      kLevel | kGradients | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) | B(NFD_B_NORMALS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
 };
+
+constexpr bool rows_in_enum_order() {
+    for (size_t i = 0; i < kKernelCount; ++i)
+        if (kKernels[i].kernel != Kernel(i)) return false;
+    return true;
+}
 static_assert(sizeof(kKernels) / sizeof(kKernels[0]) == kKernelCount, "one row per kernel");
+static_assert(rows_in_enum_order(), "kKernels[k] describes Kernel k");
+
+constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientStorage; }
 
 // The marching-cubes tables, exactly as the CPU reference uses them (mc.glsl's layout).
 nfd_result upload_mc_tables(Device& d) {
@@ -121,8 +129,6 @@ nfd_result upload_mc_tables(Device& d) {
 }
 
 }  // namespace
-
-bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientStorage; }
 
 PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization) {
     const KernelDesc& k = kKernels[size_t(kernel)];
@@ -188,12 +194,9 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
     std::unique_ptr<Device> d(new (std::nothrow) Device());
     if (!d) return NFD_ERROR_OUT_OF_MEMORY;
     NFD_TRY(Context::create(adopt, enable_validation, &d->vk));
-    for (size_t i = 0; i < kKernelCount; ++i) {
-        const Kernel kernel = kKernels[i].kernel;
-        if (kernel != Kernel(i)) return NFD_ERROR_INTERNAL;  // the table is out of order
-        if (!is_field_kernel(kernel))
-            NFD_TRY(d->vk->create_pipeline(kernel_pipeline(kernel), &d->kernels[i]));
-    }
+    for (size_t i = 0; i < kKernelCount; ++i)
+        if (!is_field_kernel(Kernel(i)))
+            NFD_TRY(d->vk->create_pipeline(kernel_pipeline(Kernel(i)), &d->kernels[i]));
     NFD_TRY(upload_mc_tables(*d));
     *out = std::move(d);
     return NFD_SUCCESS;

@@ -40,7 +40,6 @@ constexpr size_t kKernelCount = size_t(Kernel::Count);
 // The pipeline description of a kernel; `specialization` completes a field kernel's (its network
 // shape, FIELD_* constant ids 0-13), and must be empty for the others.
 PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization = {});
-bool is_field_kernel(Kernel kernel);
 
 class Device {
 public:

@@ -311,7 +311,8 @@ nfd_result Context::create_pipeline(const PipelineDesc& desc, Pipeline* out) {
     };
     std::vector<VkDescriptorSetLayoutBinding> bindings;
     for (uint32_t b = 0; b < 32; ++b) {
-        const bool storage = desc.storage_bindings >> b & 1, uniform = desc.uniform_bindings >> b & 1;
+        const bool storage = desc.storage_bindings >> b & 1;
+        const bool uniform = desc.uniform_bindings >> b & 1;
         if (storage || uniform)
             bindings.push_back({b,
                                 storage ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
