@@ -160,7 +160,8 @@ TEST(Network, ClosedBlobMatchesItsFormula) {
 }
 
 // Golden vectors: tests/vectors/v1_0_<name>.values.txt holds lines "x y z value" (unit frame)
-// written by the Python reference decoder (f64) for v1_0_<name>.nfc.
+// written by the Python reference decoder (f64) for v1_0_<name>.nfc; gradients against finite
+// differences.
 TEST(Network, MatchesPythonReferenceValues) {
     const std::vector<std::string> names = golden_names();
     ASSERT_FALSE(names.empty()) << "no golden vectors in " << vectors_dir();
@@ -184,26 +185,15 @@ TEST(Network, MatchesPythonReferenceValues) {
         double worst = 0;
         for (size_t i = 0; i < expected.size(); ++i)
             worst = std::max(worst, std::fabs(double(got[i]) - expected[i]));
-        std::printf("%s: %zu points, max |C++ - Python| = %.3g\n", name.c_str(), expected.size(),
-                    worst);
-        EXPECT_LE(worst, kTolerance) << name;
-    }
-}
-
-
-TEST(NetworkGradient, MatchesFiniteDifferencesOnGoldenVectors) {
-    const std::vector<std::string> names = golden_names();
-    ASSERT_FALSE(names.empty()) << "no golden vectors in " << vectors_dir();
-    for (const std::string& name : names) {
-        ParsedFile f;
-        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
-        ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &f), NFD_SUCCESS) << name;
-        const double err =
+        const double gradient_err =
             gradient_error_vs_differences(f.geometry.network, random_points(2000, 8));
-        std::printf("%s: max |analytic - difference| / max |grad| = %.3g\n", name.c_str(), err);
-        EXPECT_LE(err, kGradientTolerance) << name;
+        std::printf("%s: %zu points, max |C++ - Python| = %.3g, gradient %.3g\n", name.c_str(),
+                    expected.size(), worst, gradient_err);
+        EXPECT_LE(worst, kTolerance) << name;
+        EXPECT_LE(gradient_err, kGradientTolerance) << name;
     }
 }
+
 
 // The value path of evaluate_gradient_cpu is evaluate_cpu's, bit for bit, whatever the blocking
 // and threading.
