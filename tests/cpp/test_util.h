@@ -2,6 +2,7 @@
 // synthetic networks, an f64 reference evaluator, a PLY reader, mesh checks and golden-vector paths.
 #pragma once
 #include <brotli/encode.h>
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
@@ -11,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <map>
 #include <random>
 #include <set>
@@ -459,6 +461,34 @@ inline double chamfer(const std::vector<float>& a, const std::vector<float>& b) 
 // ---- golden vectors (tests/vectors, produced by the Python encoder) ------------------------------
 
 // tests/vectors, or $NFD_TEST_VECTORS_DIR to run the same checks on another vector set.
+// The geometries of every CRC-consistent variant of a GEOM payload with byte i ^ pattern (i = 0,
+// stride, 2 stride, ...) that the parser accepts: fn(i, geometry). Hostile values (steps, frame,
+// levels) that no CRC catches, for the decoding stages behind the parser.
+template <class Fn>
+void for_each_accepted_damage(const Bytes& payload, size_t stride,
+                              std::initializer_list<uint8_t> patterns, Fn&& fn) {
+    for (size_t i = 0; i < payload.size(); i += stride) {
+        for (uint8_t p : patterns) {
+            Bytes damaged = payload;
+            damaged[i] ^= p;
+            const Bytes bytes = file({chunk("GEOM", damaged)});
+            ParsedFile parsed;
+            if (parse_file(bytes.data(), bytes.size(), &parsed) == NFD_SUCCESS) fn(i, parsed.geometry);
+        }
+    }
+}
+
+// Finite positions and normals, indices in range.
+inline ::testing::AssertionResult is_finite_mesh(const MeshData& m) {
+    for (float v : m.positions)
+        if (!std::isfinite(v)) return ::testing::AssertionFailure() << "position " << v;
+    for (float v : m.normals)
+        if (!std::isfinite(v)) return ::testing::AssertionFailure() << "normal " << v;
+    for (uint32_t k : m.indices)
+        if (k >= m.vertex_count()) return ::testing::AssertionFailure() << "index " << k;
+    return ::testing::AssertionSuccess();
+}
+
 inline std::string vectors_dir() {
     const char* env = std::getenv("NFD_TEST_VECTORS_DIR");
     return env && *env ? env : NFD_TEST_VECTORS_DIR;
