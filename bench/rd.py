@@ -44,6 +44,7 @@ SHAPES: dict[str, tuple[str, str, str]] = {
     "skirt": ("garments/skirt_2.obj.gz", "udf", "skirt_2"),
     "bunny-udf": ("stanford/bun_zipper.ply.gz", "udf", "bunny"),
     "dragon-udf": ("stanford/dragon_vrip_res3.ply.gz", "udf", "dragon_res3"),
+    "happy": ("stanford/happy_vrip_res3.ply.gz", "sdf", "happy_res3"),
     "happy-udf": ("stanford/happy_vrip_res3.ply.gz", "udf", "happy_res3"),
     # The ten raw range scans, aligned by bun.conf and merged: a 362k-point cloud with no faces.
     "bunny-scans": ("stanford/bunny_scans/bun.conf", "udf", "bunny_scans"),

@@ -38,15 +38,10 @@ AUTO_SDF_MAX_AMBIGUOUS = 0.02
 N(0, d*), the band the loss sees) has an ambiguous generalized winding number (0.2 < |w| < 0.8), i.e.
 the mesh encloses an inside despite small holes. Measured (20k points, seed 0): armadillo, dragon,
 spot, igea, nefertiti 0.00%, bunny 0.56% (5 holes), suzanne 0.53%, demosthenes 1.26% (67 boundary
-edges) → SDF; garments 3.7% (Pants1) to 17% (skirt), lionstatue 18% → UDF."""
-
-AUTO_SDF_MAX_NON_MANIFOLD = 0.01
-"""`--field auto` picks UDF for a mesh when more than this fraction of its edges are non-manifold
-(shared by more than two triangles) or of its triangles duplicate another: a surface folded onto
-itself, whose sign only means something away from the folds. Measured: armadillo, spot, garments,
-bun_zipper 0; bun_zipper_res2 0.62% of edges, 0.53% of faces → the winding test decides (SDF);
-dragon_vrip_res3 3.0% / 2.6%, happy_vrip_res3 2.9% / 2.5%, bun_zipper_res3 2.5% / 2.2%,
-bun_zipper_res4 5.1% / 4.2% → UDF."""
+edges) → SDF; garments 3.7% (Pants1) to 17% (skirt), lionstatue 18% → UDF.
+Meshes folded onto themselves (the res3 dragon and Happy Buddha: ~3% non-manifold edges, ~2.5%
+duplicate faces) still enclose an inside and stay SDF, which is measured better: fast w32, CD at 256,
+dragon SDF 0.00943 vs UDF 0.0294, happy SDF 0.00924 vs UDF 0.0113 (bench/RESULTS.md)."""
 
 AUTO_PROBE_POINTS = 20_000
 """Probe points of the `auto` test (~0.3 s on the bunny)."""

@@ -110,28 +110,14 @@ class FieldChoice(NamedTuple):
     reason: str  # one line: why, for the log
 
 
-def mesh_defects(faces: np.ndarray) -> tuple[float, float]:
-    """(fraction of edges that are non-manifold, fraction of faces that are duplicates), by vertex
-    index: edges shared by more than two triangles, triangles with the same three vertices as an
-    earlier one."""
-    corners = np.sort(np.asarray(faces, dtype=np.int64), axis=1)
-    edges = np.concatenate([corners[:, [0, 1]], corners[:, [1, 2]], corners[:, [0, 2]]])
-    _, uses = np.unique(edges, axis=0, return_counts=True)
-    duplicates = len(corners) - len(np.unique(corners, axis=0))
-    return float(np.mean(uses > 2)), duplicates / len(corners)
-
-
 def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Generator) -> FieldChoice:
     """Turn `--field auto|sdf|udf` into "sdf" or "udf", with the reason; orient a mesh so its inside
     is negative.
 
-    Point clouds are always UDF. For meshes, `auto` picks UDF when more than
-    config.AUTO_SDF_MAX_NON_MANIFOLD of the edges are non-manifold or of the faces duplicated (scans
-    merged without cleaning, such as the Stanford dragon and Happy Buddha reconstructions). Otherwise
-    one probe of winding numbers near the surface serves both remaining decisions: a mesh wound
-    inside-out (w ≈ -1 inside) is flipped, and `auto` picks SDF when at most
+    Point clouds are always UDF. For meshes one probe of winding numbers near the surface serves both
+    decisions: a mesh wound inside-out (w ≈ -1 inside) is flipped, and `auto` picks SDF when at most
     config.AUTO_SDF_MAX_AMBIGUOUS of the probe is ambiguous (config.AMBIGUOUS_WINDING), i.e. the mesh
-    encloses an inside despite small holes.
+    encloses an inside despite small holes or folds.
     """
     if requested not in ("auto", "sdf", "udf"):
         raise InputError(f"unknown field type {requested!r} (use sdf, udf or auto)")
@@ -141,13 +127,6 @@ def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Genera
         return FieldChoice("udf", "a point cloud has no inside")
     if requested == "udf":
         return FieldChoice("udf", "requested")
-    if requested == "auto":
-        assert sampler.faces is not None
-        non_manifold, duplicates = mesh_defects(sampler.faces)
-        if max(non_manifold, duplicates) > config.AUTO_SDF_MAX_NON_MANIFOLD:
-            return FieldChoice("udf", f"{non_manifold:.2%} of the edges are non-manifold and {duplicates:.2%} of "
-                                      f"the faces duplicated: more than {config.AUTO_SDF_MAX_NON_MANIFOLD:.0%}, "
-                                      "folded onto itself")
     w = sampler.winding_numbers(sampler.near_points(config.AUTO_PROBE_POINTS, config.TRUNCATION, rng))
     if np.sum(w < -0.5) > np.sum(w > 0.5):
         sampler.flip_orientation()

@@ -14,7 +14,7 @@ from nfencode.io import Shape, load_shape
 from nfencode.metrics import chamfer_distance
 from nfencode.normalize import to_unit, unit_ball_frame
 from nfencode.reference import extract_mesh
-from nfencode.sampling import SurfaceSampler, mesh_defects, resolve_field
+from nfencode.sampling import SurfaceSampler, resolve_field
 
 BUNNY_RES2 = SHARED_DATA / "stanford" / "bun_zipper_res2.ply.gz"
 BUNNY_RES4 = SHARED_DATA / "stanford" / "bun_zipper_res4.ply.gz"
@@ -69,7 +69,7 @@ def test_same_seed_gives_the_same_bytes_and_another_seed_does_not(small_epochs: 
 
 def test_auto_field_is_sdf_for_scans_with_small_holes_and_udf_for_open_garments() -> None:
     rng = np.random.default_rng(0)
-    bunny = resolve_field(_sampler(BUNNY_RES2), "auto", rng)  # 5 small holes, 0.6% non-manifold edges
+    bunny = resolve_field(_sampler(BUNNY_RES2), "auto", rng)  # 5 small holes
     assert bunny.field == "sdf" and "winding" in bunny.reason
     garment = resolve_field(_sampler(GARMENT), "auto", rng)
     assert garment.field == "udf" and "ambiguous winding" in garment.reason  # open cloth
@@ -77,20 +77,10 @@ def test_auto_field_is_sdf_for_scans_with_small_holes_and_udf_for_open_garments(
 
 
 @pytest.mark.parametrize("name", ["dragon_vrip_res3", "happy_vrip_res3"])
-def test_auto_field_is_udf_for_non_manifold_meshes(name: str) -> None:
-    sampler = _sampler(SHARED_DATA / "stanford" / f"{name}.ply.gz")
-    choice = resolve_field(sampler, "auto", np.random.default_rng(0))
-    assert choice.field == "udf" and "non-manifold" in choice.reason and "duplicated" in choice.reason
-    assert resolve_field(sampler, "sdf", np.random.default_rng(0)).field == "sdf"  # encloses an inside
-
-
-def test_mesh_defects_counts_non_manifold_edges_and_duplicate_faces() -> None:
-    tetrahedron = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
-    assert mesh_defects(tetrahedron) == (0.0, 0.0)
-    fin = np.concatenate([tetrahedron, [[0, 1, 4]]])  # a third triangle on edge 0-1
-    assert mesh_defects(fin) == (1 / 8, 0.0)
-    doubled = np.concatenate([tetrahedron, [[1, 0, 2]]])  # face 0 again, either winding
-    assert mesh_defects(doubled) == (3 / 6, 1 / 5)
+def test_auto_field_keeps_folded_but_closed_meshes_sdf(name: str) -> None:
+    # ~3% non-manifold edges, yet they enclose an inside; SDF measured 1.2-3x better than UDF there.
+    choice = resolve_field(_sampler(SHARED_DATA / "stanford" / f"{name}.ply.gz"), "auto", np.random.default_rng(0))
+    assert choice.field == "sdf" and "encloses an inside" in choice.reason
 
 
 def test_point_clouds_are_udf_only(small_epochs: None) -> None:
