@@ -198,10 +198,13 @@ def interpolate_cd(envelope: list[Point], size: int) -> float | None:
     return float(np.exp(np.interp(np.log(size), xs, np.log([p.cd for p in envelope]))))
 
 
-def verdict(cd: float, draco: float | None, gpcc: float | None) -> str:
+def verdict(cd: float, draco: float | None, gpcc: float | None, has_gpcc: bool = True) -> str:
+    """has_gpcc=False: ../shared/baselines has no G-PCC figure for the shape (the range scans)."""
+    pairs = (("Draco", draco), ("G-PCC", gpcc)) if has_gpcc else (("Draco", draco),)
     wins = [name + (" (none this small)" if other is None else "")
-            for name, other in (("Draco", draco), ("G-PCC", gpcc)) if other is None or cd < other]
-    return "nfc beats " + " and ".join(wins) if wins else "baselines win"
+            for name, other in pairs if other is None or cd < other]
+    verdict = "nfc beats " + " and ".join(wins) if wins else "baselines win"
+    return verdict if has_gpcc else verdict + "; no G-PCC figures"
 
 
 def fmt(x: float | None) -> str:
@@ -292,7 +295,7 @@ def main() -> None:
         print("|---|---:|---:|---:|---:|---:|---:|---|---|")
         for p in ours:
             d, g = interpolate_cd(draco_env, p.bytes), interpolate_cd(gpcc_env, p.bytes)
-            v = "—" if np.isnan(p.cd) else verdict(p.cd, d, g)
+            v = "—" if np.isnan(p.cd) else verdict(p.cd, d, g, bool(gpcc))
             print(f"| {p.setting} | {p.bytes} | {fmt(p.cd)} | {fmt(p.cd - floor)} | {fmt(d)} | "
                   f"{fmt(g)} | {p.seconds:.1f} | {v} | {p.surface} |")
         with open(csv_path, "w", newline="") as f:
