@@ -57,8 +57,9 @@ nfd_result mesh_sdf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active
 //     half a cell; across the medial axis). Validity depends on the edge only, so the filter is the
 //     same in both cells of an edge. Measured and rejected: also requiring dot(g_a, g_b) < 0 — a
 //     learned UDF's valley is blunt and its gradients near the floor turn tangential, so that test
-//     dropped a third of the true faces (T-shirt w24 at 256: CD 0.0127 vs 0.0114 without it, the
-//     largest floating fragment 0.6% vs 0.15% of the area) and its sign sat within f32 rounding.
+//     dropped a third of the candidate faces, most of them on the surface (T-shirt w24 at 256: CD
+//     0.0127 with it, 0.0114 without; largest floating fragment 0.6% vs 0.15% of the area), and its
+//     sign sat within f32 rounding of zero (bench/RESULTS.md, "UDF extractor: variants measured").
 //  6. Normals: per vertex (edge), normalize(g_a - g_b) flipped by the rule of step 2 (largest
 //     component > 0); the edge axis where that is zero or not finite. UDF meshes have no inside:
 //     winding and normals agree with each other cell by cell, not globally.
