@@ -204,10 +204,6 @@ bool VertexSet::find(int64_t x, int64_t y, int64_t z, uint32_t* out_rank) const 
     return true;
 }
 
-size_t VertexSet::memory_bytes() const {
-    return table_.capacity() * sizeof(uint32_t) + blocks_.capacity() * sizeof(Block);
-}
-
 // ---- levels and rules ---------------------------------------------------------------------
 
 uint32_t cells_at_level(uint32_t resolution, uint32_t level) {

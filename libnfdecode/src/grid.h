@@ -68,8 +68,6 @@ public:
     template <class Fn>
     void for_each(Fn&& fn) const;
 
-    size_t memory_bytes() const;
-
 private:
     static constexpr uint32_t kNoBlock = ~0u;
     struct Block {
