@@ -130,6 +130,12 @@ bool is_device_kind(const nfd_device_kind& k) {
     return v == NFD_DEVICE_AUTO || v == NFD_DEVICE_VULKAN || v == NFD_DEVICE_CPU;
 }
 
+// The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
+uint32_t options_resolution(uint32_t requested) {
+    const uint32_t r = requested ? requested : NFD_DEFAULT_RESOLUTION;
+    return r >= NFD_MIN_RESOLUTION && r <= NFD_MAX_RESOLUTION ? r : 0;
+}
+
 }  // namespace
 
 extern "C" {
@@ -274,10 +280,8 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
     if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
     *out_mesh = nullptr;
     if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
-    const nfd_mesh_options opts = options ? *options : nfd_mesh_options{};
-    const uint32_t resolution = opts.resolution ? opts.resolution : NFD_DEFAULT_RESOLUTION;
-    if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
-        return NFD_ERROR_LIMIT_EXCEEDED;
+    const uint32_t resolution = options_resolution(options ? options->resolution : 0);
+    if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
     const nfd::Geometry& g = asset->file.geometry;
     return guarded([&] {
         auto mesh = std::make_unique<nfd_mesh>();
@@ -347,10 +351,8 @@ nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
     if (!out_grid) return NFD_ERROR_INVALID_ARGUMENT;
     *out_grid = nullptr;
     if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
-    const nfd_grid_options opts = options ? *options : nfd_grid_options{};
-    const uint32_t resolution = opts.resolution ? opts.resolution : NFD_DEFAULT_RESOLUTION;
-    if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
-        return NFD_ERROR_LIMIT_EXCEEDED;
+    const uint32_t resolution = options_resolution(options ? options->resolution : 0);
+    if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
     const nfd::Geometry& g = asset->file.geometry;
     return guarded([&] {
         // The CPU reference builds the grid on every context for now: a grid built on the device
