@@ -18,6 +18,7 @@
 #include "mesh.h"
 #include "network.h"
 #include "nfdecode/nfdecode.h"
+#include "options.h"
 #include "sample_points.h"
 #if NFD_WITH_VULKAN
 #include "gpu/gpu_decode.h"
@@ -130,6 +131,14 @@ bool is_device_kind(const nfd_device_kind& k) {
     return v == NFD_DEVICE_AUTO || v == NFD_DEVICE_VULKAN || v == NFD_DEVICE_CPU;
 }
 
+// The first sized layouts (0.2): where their last 0.2 field ends. Fields appended later lie past.
+template <class T, class Field>
+constexpr size_t layout_end(Field T::*, size_t offset) { return offset + sizeof(Field); }
+#define NFD_LAYOUT_END(T, field) layout_end(&T::field, offsetof(T, field))
+constexpr size_t kContextOptions02 = NFD_LAYOUT_END(nfd_context_options, enable_validation);
+constexpr size_t kMeshOptions02 = NFD_LAYOUT_END(nfd_mesh_options, resolution);
+constexpr size_t kGridOptions02 = NFD_LAYOUT_END(nfd_grid_options, resolution);
+
 // The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
 uint32_t options_resolution(uint32_t requested) {
     const uint32_t r = requested ? requested : NFD_DEFAULT_RESOLUTION;
@@ -158,10 +167,18 @@ const char* nfd_result_string(nfd_result result) {
     return "unknown result";
 }
 
+// The header and the CMake project (the package version engines find) must not drift apart.
+static_assert(NFD_VERSION == NFD_MAKE_VERSION(NFD_PACKAGE_VERSION_MAJOR, NFD_PACKAGE_VERSION_MINOR,
+                                              NFD_PACKAGE_VERSION_PATCH),
+              "nfdecode.h vs CMakeLists.txt");
+uint32_t nfd_version(void) { return NFD_VERSION; }
+
 nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context) {
     if (!out_context) return NFD_ERROR_INVALID_ARGUMENT;
     *out_context = nullptr;
-    const nfd_context_options opts = options ? *options : nfd_context_options{};
+    nfd_context_options opts;
+    if (nfd::read_options(options, kContextOptions02, &opts) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
     if (!is_device_kind(opts.device)) return NFD_ERROR_INVALID_ARGUMENT;
     if (opts.adopt && opts.device == NFD_DEVICE_CPU) return NFD_ERROR_INVALID_ARGUMENT;
     return guarded([&] {
@@ -280,7 +297,10 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
     if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
     *out_mesh = nullptr;
     if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
-    const uint32_t resolution = options_resolution(options ? options->resolution : 0);
+    nfd_mesh_options opts;
+    if (nfd::read_options(options, kMeshOptions02, &opts) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t resolution = options_resolution(opts.resolution);
     if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
     const nfd::Geometry& g = asset->file.geometry;
     return guarded([&] {
@@ -351,7 +371,10 @@ nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
     if (!out_grid) return NFD_ERROR_INVALID_ARGUMENT;
     *out_grid = nullptr;
     if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
-    const uint32_t resolution = options_resolution(options ? options->resolution : 0);
+    nfd_grid_options opts;
+    if (nfd::read_options(options, kGridOptions02, &opts) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t resolution = options_resolution(opts.resolution);
     if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
     const nfd::Geometry& g = asset->file.geometry;
     return guarded([&] {

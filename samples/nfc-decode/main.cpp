@@ -155,6 +155,7 @@ const char* field_name(const nfd_asset_info& info) {
 
 void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
     nfd_mesh_options mo = {};
+    mo.struct_size = sizeof mo;
     mo.resolution = o.resolution;
     check(nfd_mesh_extract(h->context, h->asset, &mo, &h->mesh),
           o.input + ": meshing the " + field_name(info));
@@ -195,6 +196,7 @@ void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
 void decode_grid(const Options& o, Handles* h) {
     auto t = Clock::now();
     nfd_grid_options go = {};
+    go.struct_size = sizeof go;
     go.resolution = o.resolution;
     check(nfd_grid_extract(h->context, h->asset, &go, &h->grid), o.input + ": sampling the grid");
     nfd_grid_voxels voxels;
@@ -234,6 +236,7 @@ void run(const Options& o) {
 
     t = Clock::now();
     nfd_context_options co = {};
+    co.struct_size = sizeof co;
     co.device = o.device;
     check(nfd_context_create(&co, &h.context), "device");
     const double ms_device = ms_since(t);

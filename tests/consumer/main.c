@@ -11,6 +11,7 @@ int main(void) {
     nfd_result r;
 
     memset(&options, 0, sizeof options); /* zero = defaults */
+    options.struct_size = sizeof options;
     options.device = NFD_DEVICE_CPU;
     r = nfd_context_create(&options, &context);
     if (r != NFD_SUCCESS) {

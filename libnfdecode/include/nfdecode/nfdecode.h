@@ -37,9 +37,27 @@
 extern "C" {
 #endif
 
+/* Every function of the library is declared NFD_API: exported from a shared build (all other
+ * symbols are hidden), plain in a static one. Define NFD_SHARED when using a Windows DLL. */
+#if defined(_WIN32) && defined(NFD_SHARED)
+#ifdef NFD_BUILDING
+#define NFD_API __declspec(dllexport)
+#else
+#define NFD_API __declspec(dllimport)
+#endif
+#elif defined(__GNUC__) || defined(__clang__)
+#define NFD_API __attribute__((visibility("default")))
+#else
+#define NFD_API
+#endif
+
+/* The version of this header. nfd_version() gives the library's, which may differ from the
+ * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 1
+#define NFD_VERSION_MINOR 2
 #define NFD_VERSION_PATCH 0
+#define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
+#define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
 /* The newest bitstream version this library reads (FORMAT.md, "Version policy"). */
 #define NFD_FORMAT_MAJOR 1
@@ -85,7 +103,23 @@ typedef enum nfd_result {
 } nfd_result;
 
 /* Static, human-readable, never NULL (unknown values give "unknown result"). */
-const char* nfd_result_string(nfd_result result);
+NFD_API const char* nfd_result_string(nfd_result result);
+
+/* The linked library's version, NFD_MAKE_VERSION(major, minor, patch). Thread-safe. */
+NFD_API uint32_t nfd_version(void);
+
+/* ---------------------------------------------------------------------------------------------
+ * Option structs
+ *
+ * Every option struct begins with `struct_size`: set it to sizeof(the struct) as your header
+ * declares it, and zero-initialise the rest (zero is every field's default). Later versions only
+ * append fields; the library reads the fields that `struct_size` covers and takes the defaults for
+ * the others, so a program built against an older header keeps working with a newer library.
+ * struct_size = 0 is read as the first sized layout (version 0.2: the fields marked "0.2"), so that
+ * `= {0}` keeps working. A struct_size smaller than that layout is NFD_ERROR_INVALID_ARGUMENT; a
+ * larger one than this library knows (a newer header's struct) is accepted when the fields it does
+ * not know are all zero, their defaults, and is NFD_ERROR_INVALID_ARGUMENT otherwise.
+ * ------------------------------------------------------------------------------------------- */
 
 /* ---------------------------------------------------------------------------------------------
  * Context
@@ -112,8 +146,9 @@ typedef struct nfd_vulkan_device {
     void* get_instance_proc_addr; /* PFN_vkGetInstanceProcAddr; NULL = the loader's */
 } nfd_vulkan_device;
 
-/* Zero-initialise, then set what you need. */
+/* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
 typedef struct nfd_context_options {
+    uint32_t struct_size;                 /* 0.2: sizeof(nfd_context_options), or 0 */
     nfd_device_kind device;               /* default NFD_DEVICE_AUTO */
     const nfd_vulkan_device* adopt;       /* NULL: create a headless device (first discrete GPU,
                                              else integrated, else lavapipe/CPU implementation) */
@@ -129,14 +164,14 @@ typedef struct nfd_context_options {
  * device to adopt given, and no usable device, or a build without Vulkan); NFD_ERROR_DEVICE;
  * NFD_ERROR_OUT_OF_MEMORY. AUTO without `adopt` never fails for lack of a device: it falls back to
  * the CPU when no Vulkan device can be created or initialised. */
-nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context);
-void nfd_context_destroy(nfd_context* context);
+NFD_API nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context);
+NFD_API void nfd_context_destroy(nfd_context* context);
 
 /* NFD_DEVICE_VULKAN or NFD_DEVICE_CPU: what the context actually runs on (AUTO for NULL). */
-nfd_device_kind nfd_context_device_kind(const nfd_context* context);
+NFD_API nfd_device_kind nfd_context_device_kind(const nfd_context* context);
 /* The device's name (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" or "cpu"); owned by the context;
  * "" for NULL. */
-const char* nfd_context_device_name(const nfd_context* context);
+NFD_API const char* nfd_context_device_name(const nfd_context* context);
 
 /* ---------------------------------------------------------------------------------------------
  * Asset: one .nfc file
@@ -164,16 +199,16 @@ typedef struct nfd_asset_info {
  * Outcomes: NFD_SUCCESS; NFD_ERROR_TRUNCATED / CORRUPT / UNSUPPORTED_VERSION / UNSUPPORTED_FEATURE
  * for bad bytes; NFD_ERROR_INVALID_ARGUMENT for NULL pointers; NFD_ERROR_OUT_OF_MEMORY.
  * Allocation is bounded by the caps above, whatever the bytes say. */
-nfd_result nfd_asset_create(const void* bytes, size_t size, nfd_asset** out_asset);
-void nfd_asset_destroy(nfd_asset* asset);
-nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info);
+NFD_API nfd_result nfd_asset_create(const void* bytes, size_t size, nfd_asset** out_asset);
+NFD_API void nfd_asset_destroy(nfd_asset* asset);
+NFD_API nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info);
 
 /* Evaluates the field at `count` points given in the ORIGINAL frame (xyz interleaved, 3*count
  * floats), writing `count` distances in the unit frame (multiply by info.scale for original
  * units). Runs on the context's device. count == 0 succeeds without touching the pointers;
  * otherwise NULL points/out_values give NFD_ERROR_INVALID_ARGUMENT. Memory used inside is bounded
  * (points are processed in blocks), whatever `count` is. */
-nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, const float* points,
+NFD_API nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, const float* points,
                               size_t count, float* out_values);
 
 /* As nfd_asset_evaluate (out_values identical), and also the field's analytic gradient at each
@@ -185,7 +220,7 @@ nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, cons
  * is not differentiable (y = 0) the derivative of y >= 0 is taken. Same argument rules, outcomes
  * and bounded memory as nfd_asset_evaluate; out_gradients NULL with count > 0 gives
  * NFD_ERROR_INVALID_ARGUMENT. */
-nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_asset* asset,
+NFD_API nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_asset* asset,
                                        const float* points, size_t count, float* out_values,
                                        float* out_gradients);
 
@@ -194,8 +229,9 @@ nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_asset* as
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_mesh nfd_mesh;
 
-/* Zero-initialise, then set what you need. */
+/* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
 typedef struct nfd_mesh_options {
+    uint32_t struct_size; /* 0.2: sizeof(nfd_mesh_options), or 0 */
     uint32_t resolution; /* grid cells per axis over the unit cube; 0 = NFD_DEFAULT_RESOLUTION;
                             NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION, else LIMIT_EXCEEDED */
 } nfd_mesh_options;
@@ -221,31 +257,31 @@ typedef struct nfd_decode_stats {
  * signed marching cubes from the field's gradients; the surface may be open, and as an unsigned
  * field has no inside, winding and normals agree with each other but are not globally oriented.
  * options may be NULL. An empty mesh (field without a surface) is a success. */
-nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
+NFD_API nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
                             const nfd_mesh_options* options, nfd_mesh** out_mesh);
-void nfd_mesh_destroy(nfd_mesh* mesh);
+NFD_API void nfd_mesh_destroy(nfd_mesh* mesh);
 
 /* Pointers stay valid until nfd_mesh_destroy. */
-nfd_result nfd_mesh_get_data(const nfd_mesh* mesh, nfd_mesh_data* out_data);
+NFD_API nfd_result nfd_mesh_get_data(const nfd_mesh* mesh, nfd_mesh_data* out_data);
 /* Timings and counts of the extraction that produced this mesh. */
-nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats);
+NFD_API nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats);
 
 /* Samples `count` points uniformly by area on the mesh (deterministic for a seed on every
  * platform), writing 3*count floats to out_points (original frame) and, if out_normals is not
  * NULL, 3*count floats of unit face normals. count == 0 succeeds and writes nothing. An empty mesh
  * with count > 0, or out_points NULL, gives NFD_ERROR_INVALID_ARGUMENT. */
-nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, uint64_t seed,
+NFD_API nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, uint64_t seed,
                                   float* out_points, float* out_normals);
 
 /* Writes the mesh as binary glTF 2.0 (.glb: one scene/node/mesh, POSITION with min/max, NORMAL,
  * UNSIGNED_INT indices; an empty mesh gives an empty scene) or binary little-endian PLY (vertex
  * float x,y,z,nx,ny,nz; face list uchar uint vertex_indices). NFD_ERROR_INVALID_ARGUMENT for NULL
  * arguments, NFD_ERROR_IO if the file cannot be opened or fully written. */
-nfd_result nfd_mesh_write_glb(const nfd_mesh* mesh, const char* path);
-nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path);
+NFD_API nfd_result nfd_mesh_write_glb(const nfd_mesh* mesh, const char* path);
+NFD_API nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path);
 
 /* Writes a point set (3*count floats, optional normals) as binary little-endian PLY. */
-nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
+NFD_API nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
                                 const char* path);
 
 /* ---------------------------------------------------------------------------------------------
@@ -257,8 +293,9 @@ nfd_result nfd_points_write_ply(const float* points, const float* normals, size_
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_grid nfd_grid;
 
-/* Zero-initialise, then set what you need. */
+/* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
 typedef struct nfd_grid_options {
+    uint32_t struct_size; /* 0.2: sizeof(nfd_grid_options), or 0 */
     uint32_t resolution; /* grid cells per axis over the unit cube, as in nfd_mesh_options */
 } nfd_grid_options;
 
@@ -294,12 +331,12 @@ typedef struct nfd_grid_voxels {
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (context, asset or out_grid NULL);
  * NFD_ERROR_LIMIT_EXCEEDED (resolution outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION);
  * NFD_ERROR_OUT_OF_MEMORY. */
-nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
+NFD_API nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
                             const nfd_grid_options* options, nfd_grid** out_grid);
-void nfd_grid_destroy(nfd_grid* grid);
+NFD_API void nfd_grid_destroy(nfd_grid* grid);
 
 /* Pointers stay valid until nfd_grid_destroy. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
-nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels);
+NFD_API nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels);
 
 /* Writes the voxels as an OpenVDB file holding one openvdb::FloatGrid named "distance": the voxels
  * active with their values (full float precision), the linear transform index -> original frame
@@ -315,7 +352,7 @@ nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels
  * NFD_ERROR_UNSUPPORTED_FEATURE in a build without OpenVDB (CMake NFD_WITH_OPENVDB=OFF), before
  * the file is touched; NFD_ERROR_IO if the file cannot be created or fully written;
  * NFD_ERROR_OUT_OF_MEMORY. */
-nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char* source_name);
+NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char* source_name);
 
 #ifdef __cplusplus
 } /* extern "C" */

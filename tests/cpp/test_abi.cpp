@@ -1,0 +1,85 @@
+// The ABI promises of nfdecode.h: option structs grow by struct_size, the runtime version matches
+// the header. The structs below are frozen copies of the 0.2 layouts, as a program built against
+// the 0.2 header passes them: they must keep working however the library's structs grow.
+#include <gtest/gtest.h>
+#include <nfdecode/nfdecode.h>
+
+#include <cstring>
+
+#include "test_util.h"
+
+namespace nfd::test {
+namespace {
+
+namespace v0_2 {
+struct context_options {
+    uint32_t struct_size;
+    nfd_device_kind device;
+    const nfd_vulkan_device* adopt;
+    uint32_t cpu_threads;
+    int enable_validation;
+};
+struct mesh_options {
+    uint32_t struct_size;
+    uint32_t resolution;
+};
+}  // namespace v0_2
+
+TEST(Abi, RuntimeVersionIsTheHeaders) {
+    EXPECT_EQ(nfd_version(), uint32_t(NFD_VERSION));
+    EXPECT_EQ(NFD_VERSION >> 16, uint32_t(NFD_VERSION_MAJOR));
+}
+
+TEST(Abi, OldLayoutsNewLayoutsAndZeroSizeAgree) {
+    v0_2::context_options old_context{sizeof(v0_2::context_options), NFD_DEVICE_CPU, nullptr, 1, 0};
+    nfd_context* ctx = nullptr;
+    ASSERT_EQ(nfd_context_create(reinterpret_cast<const nfd_context_options*>(&old_context), &ctx),
+              NFD_SUCCESS);
+    EXPECT_EQ(nfd_context_device_kind(ctx), NFD_DEVICE_CPU);
+    const float center[3] = {0, 0, 0};
+    const Bytes b = geom_file(closed_blob(1.0f, center));
+    nfd_asset* asset = nullptr;
+    ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &asset), NFD_SUCCESS);
+
+    auto triangles = [&](const void* options) {
+        nfd_mesh* mesh = nullptr;
+        EXPECT_EQ(nfd_mesh_extract(ctx, asset, static_cast<const nfd_mesh_options*>(options), &mesh),
+                  NFD_SUCCESS);
+        nfd_mesh_data d{};
+        nfd_mesh_get_data(mesh, &d);
+        nfd_mesh_destroy(mesh);
+        return d.triangle_count;
+    };
+    const v0_2::mesh_options old_mesh{sizeof(v0_2::mesh_options), 48};
+    const v0_2::mesh_options zero_size{0, 48};  // `= {0}` then a field: read as the 0.2 layout
+    nfd_mesh_options current{};
+    current.struct_size = sizeof current;
+    current.resolution = 48;
+    const size_t expected = triangles(&current);
+    EXPECT_GT(expected, 100u);
+    EXPECT_EQ(triangles(&old_mesh), expected);
+    EXPECT_EQ(triangles(&zero_size), expected);
+
+    // A newer header's struct: fields this library does not know are accepted while zero.
+    struct {
+        nfd_mesh_options known;
+        uint32_t unknown[4];
+    } newer{};
+    newer.known = current;
+    newer.known.struct_size = sizeof newer;
+    EXPECT_EQ(triangles(&newer), expected);
+    newer.unknown[2] = 1;
+    nfd_mesh* mesh = reinterpret_cast<nfd_mesh*>(0x1);
+    EXPECT_EQ(nfd_mesh_extract(ctx, asset, &newer.known, &mesh), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(mesh, nullptr);
+    // Smaller than the first sized layout: not a struct this library can read.
+    nfd_mesh_options tiny = current;
+    tiny.struct_size = 2;
+    EXPECT_EQ(nfd_mesh_extract(ctx, asset, &tiny, &mesh), NFD_ERROR_INVALID_ARGUMENT);
+
+    nfd_asset_destroy(asset);
+    nfd_context_destroy(ctx);
+}
+
+}  // namespace
+}  // namespace nfd::test
