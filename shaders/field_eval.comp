@@ -21,12 +21,13 @@
 // Defining WEIGHTS_IN_STORAGE_BUFFER gives the variant for layers larger than the device's
 // maxUniformBufferRange.
 //
-// Defining WITH_GRADIENT gives the value + gradient variant (network.h, evaluate_gradient_cpu):
-// forward mode, each point carries COMP = 4 rows of activations, the value and its derivatives
-// along x, y, z. The derivative rows go through the same weight vec4s as the value row, so a
-// weight load feeds POINTS x COMP rows; only the bias and the activation's chain rule
-// (omega0 cos(omega0 z), from the same sincos_reduced as the value) tell them apart. The output
-// is (value, gradient) as one vec4 per point.
+// Defining WITH_GRADIENT gives the value + gradient variant (network.h, evaluate_gradient_cpu),
+// in reverse mode: the forward pass is the value kernel's (the same rows, so the same value bit
+// for bit) and also keeps each hidden unit's slope omega0 cos(omega0 z); the backward pass sends
+// the output's derivative back through the transposed weights (each weight vec4 again feeding
+// POINTS rows) and, at layer 0, through the encoding. Forward mode (four rows per point: value,
+// d/dx, d/dy, d/dz) cost 4.3x a value on 2-core llvmpipe, width 32; reverse mode: see
+// bench/RESULTS.md. The output is (value, gradient) as one vec4 per point.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
@@ -50,12 +51,6 @@ layout(constant_id = 13) const uint POINTS = 8;      // points per invocation
 layout(local_size_x_id = NFD_FIELD_LOCAL_SIZE_ID) in;
 
 const uint ENC4 = 1 + 6 * FREQ4;
-#ifdef WITH_GRADIENT
-const uint COMP = 4;  // rows per point: value, d/dx, d/dy, d/dz
-#else
-const uint COMP = 1;
-#endif
-const uint ROWS = POINTS * COMP;  // row r is component r % COMP of point r / COMP
 
 layout(std430, binding = NFD_B_FIELD_POINTS) readonly buffer Points { float points[]; };
 #ifdef WITH_GRADIENT
@@ -87,8 +82,12 @@ WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 7, layer7)
 // Point i of the input is result first + i: a long list is evaluated in chunks of points.
 layout(push_constant) uniform Push { uint count; uint first; } push;
 
-vec4 ping[ROWS * MAX4];
-vec4 pong[ROWS * MAX4];
+vec4 ping[POINTS * MAX4];
+vec4 pong[POINTS * MAX4];
+#ifdef WITH_GRADIENT
+// slope[(K * POINTS + p) * MAX4 + o4]: omega0 cos(omega0 z) of hidden layer K's outputs.
+vec4 slope[(NUM_LAYERS - 1) * POINTS * MAX4];
+#endif
 
 float activate_output(float y) {
     if (OUTPUT_ACTIVATION == 1) return abs(y);
@@ -104,68 +103,88 @@ float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign
     return 1.0;
 }
 
-// Hidden activation of rows p * COMP .. p * COMP + COMP - 1 into DST at output vec4 o4:
-// sin(omega0 z) for the value, omega0 cos(omega0 z) dz for the derivatives.
+// Hidden activation of point p into DST at output vec4 o4: sin(omega0 z), and in the gradient
+// variant also its slope omega0 cos(omega0 z), from the same sincos_reduced.
 #ifdef WITH_GRADIENT
-#define ACTIVATE(DST, p, o4, acc)                                                           \
+#define ACTIVATE(K, DST, p, o4, acc)                                                        \
     {                                                                                       \
-        vec4 s, slope;                                                                      \
+        vec4 s, ds;                                                                         \
         [[unroll]] for (uint j = 0; j < 4; ++j) {                                           \
-            vec2 sc = sincos_reduced(OMEGA0 * acc[p * COMP][j]);                            \
+            vec2 sc = sincos_reduced(OMEGA0 * acc[p][j]);                                   \
             s[j] = sc.x;                                                                    \
-            slope[j] = OMEGA0 * sc.y;                                                       \
+            ds[j] = OMEGA0 * sc.y;                                                          \
         }                                                                                   \
-        DST[p * COMP * MAX4 + o4] = s;                                                      \
-        [[unroll]] for (uint c = 1; c < COMP; ++c)                                          \
-            DST[(p * COMP + c) * MAX4 + o4] = slope * acc[p * COMP + c];                    \
+        DST[p * MAX4 + o4] = s;                                                             \
+        slope[(K * POINTS + p) * MAX4 + o4] = ds;                                           \
     }
 #else
-#define ACTIVATE(DST, p, o4, acc) DST[p * MAX4 + o4] = sin_reduced(OMEGA0 * acc[p]);
+#define ACTIVATE(K, DST, p, o4, acc) DST[p * MAX4 + o4] = sin_reduced(OMEGA0 * acc[p]);
 #endif
 
-// One linear layer over all ROWS rows, four outputs at a time so that each weight vec4 feeds
-// ROWS dot products. Hidden layers apply sin(omega0 * .) (ACTIVATE), the last none. The bias
-// goes to value rows only. Layer 0's inputs each depend on one coordinate (vec4 0 = (u, 0) on all
-// three), so of its derivative rows, row 1 + a needs only the 1 + 2 FREQ4 vec4s of axis a: vec4 0
-// and per block b the sin and cos vec4s (1 + 6 b + a, 4 + 6 b + a); the others are zero and are
-// neither written nor read, which cuts the gradient variant's work on the widest layer by 3x.
+// One linear layer over the POINTS rows, four outputs at a time so that each weight vec4 feeds
+// POINTS dot products. Hidden layers apply sin(omega0 * .) (ACTIVATE), the last none.
 #define LAYER(K, IN4, OUT4, W, SRC, DST)                                                    \
     if (K < NUM_LAYERS) {                                                                   \
-        const uint dense_stride = K == 0 ? COMP : 1;                                        \
         for (uint o4 = 0; o4 < OUT4; ++o4) {                                                \
-            vec4 acc[ROWS];                                                                 \
+            vec4 acc[POINTS];                                                               \
             vec4 bias = W.w[OUT4 * 4 * IN4 + o4];                                           \
-            for (uint r = 0; r < ROWS; ++r) acc[r] = r % COMP == 0 ? bias : vec4(0.0);      \
+            for (uint p = 0; p < POINTS; ++p) acc[p] = bias;                                \
             uint row = o4 * 4 * IN4;                                                        \
             for (uint i = 0; i < IN4; ++i) {                                                \
                 vec4 w0 = W.w[row + i], w1 = W.w[row + i + IN4];                            \
                 vec4 w2 = W.w[row + i + 2 * IN4], w3 = W.w[row + i + 3 * IN4];              \
-                [[unroll]] for (uint r = 0; r < ROWS; r += dense_stride) {                  \
-                    vec4 x = SRC[r * MAX4 + i];                                             \
-                    acc[r] += vec4(dot(w0, x), dot(w1, x), dot(w2, x), dot(w3, x));         \
-                }                                                                           \
-            }                                                                               \
-            if (K == 0 && COMP > 1) {                                                       \
-                [[unroll]] for (uint a = 0; a < 3; ++a) {                                   \
-                    for (uint j = 0; j <= 2 * FREQ4; ++j) {                                 \
-                        uint i = j == 0 ? 0 : 1 + 6 * ((j - 1) / 2) + 3 * ((j - 1) % 2) + a;\
-                        vec4 w0 = W.w[row + i], w1 = W.w[row + i + IN4];                    \
-                        vec4 w2 = W.w[row + i + 2 * IN4], w3 = W.w[row + i + 3 * IN4];      \
-                        [[unroll]] for (uint p = 0; p < POINTS; ++p) {                      \
-                            uint r = p * COMP + 1 + a;                                      \
-                            vec4 x = SRC[r * MAX4 + i];                                     \
-                            acc[r] += vec4(dot(w0, x), dot(w1, x), dot(w2, x), dot(w3, x)); \
-                        }                                                                   \
-                    }                                                                       \
+                [[unroll]] for (uint p = 0; p < POINTS; ++p) {                              \
+                    vec4 x = SRC[p * MAX4 + i];                                             \
+                    acc[p] += vec4(dot(w0, x), dot(w1, x), dot(w2, x), dot(w3, x));         \
                 }                                                                           \
             }                                                                               \
             if (K + 1 < NUM_LAYERS) {                                                       \
-                [[unroll]] for (uint p = 0; p < POINTS; ++p) ACTIVATE(DST, p, o4, acc)      \
+                [[unroll]] for (uint p = 0; p < POINTS; ++p) ACTIVATE(K, DST, p, o4, acc)   \
             } else {                                                                        \
-                for (uint r = 0; r < ROWS; ++r) DST[r * MAX4 + o4] = acc[r];                \
+                for (uint p = 0; p < POINTS; ++p) DST[p * MAX4 + o4] = acc[p];              \
             }                                                                               \
         }                                                                                   \
     }
+
+#ifdef WITH_GRADIENT
+// d(output) / d(input vec4 i) of layer W for point p, given d(output) / d(layer outputs) in SRC:
+// column block i of the transposed weights. Padded outputs have zero weights, so their lanes of
+// SRC do not matter.
+#define BACK_COLUMN(OUT4, IN4, W, SRC, i, acc)                                              \
+    {                                                                                       \
+        for (uint p = 0; p < POINTS; ++p) acc[p] = vec4(0.0);                               \
+        for (uint o4 = 0; o4 < OUT4; ++o4) {                                                \
+            uint row = o4 * 4 * IN4 + i;                                                    \
+            vec4 w0 = W.w[row], w1 = W.w[row + IN4];                                        \
+            vec4 w2 = W.w[row + 2 * IN4], w3 = W.w[row + 3 * IN4];                          \
+            [[unroll]] for (uint p = 0; p < POINTS; ++p) {                                  \
+                vec4 d = SRC[p * MAX4 + o4];                                                \
+                acc[p] += d.x * w0 + d.y * w1 + d.z * w2 + d.w * w3;                        \
+            }                                                                               \
+        }                                                                                   \
+    }
+
+// Backward through hidden layer K > 0 (inputs: the outputs of layer K - 1): SRC holds
+// d(output) / d(z_K), DST receives d(output) / d(z_{K-1}) = (W_K^T SRC) * slope_{K-1}.
+#define BACK_LAYER(K, IN4, OUT4, W, SRC, DST)                                               \
+    if (K < NUM_LAYERS) {                                                                   \
+        for (uint i = 0; i < IN4; ++i) {                                                    \
+            vec4 acc[POINTS];                                                               \
+            BACK_COLUMN(OUT4, IN4, W, SRC, i, acc)                                          \
+            for (uint p = 0; p < POINTS; ++p)                                               \
+                DST[p * MAX4 + i] = acc[p] * slope[((K - 1) * POINTS + p) * MAX4 + i];      \
+        }                                                                                   \
+    }
+#endif
+
+// sin and cos of the four frequencies of block b times one coordinate (columns 0 and 1). The
+// products are rounded to f32 before the reduction, as FORMAT.md specifies.
+mat2x4 encode(uint b, float coordinate) {
+    precise vec4 a = frequencies[b] * coordinate;
+    vec2 s0 = sincos_reduced(a.x), s1 = sincos_reduced(a.y);
+    vec2 s2 = sincos_reduced(a.z), s3 = sincos_reduced(a.w);
+    return mat2x4(vec4(s0.x, s1.x, s2.x, s3.x), vec4(s0.y, s1.y, s2.y, s3.y));
+}
 
 void main() {
     uint first = global_invocation_index(gl_WorkGroupSize.x) * POINTS;
@@ -175,44 +194,17 @@ void main() {
     for (uint p = 0; p < POINTS; ++p) {
         uint i = min(first + p, push.count - 1);
         vec3 u = vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
-        uint v = p * COMP * MAX4;  // the value row of point p
+        uint v = p * MAX4;
         ping[v] = vec4(u, 0.0);
-#ifdef WITH_GRADIENT
-        ping[v + MAX4] = vec4(1.0, 0.0, 0.0, 0.0);  // du / du_x
-        ping[v + 2 * MAX4] = vec4(0.0, 1.0, 0.0, 0.0);
-        ping[v + 3 * MAX4] = vec4(0.0, 0.0, 1.0, 0.0);
-#endif
         for (uint b = 0; b < FREQ4; ++b) {
-            vec4 f = frequencies[b];
-            // The products are rounded to f32 before the reduction, as FORMAT.md specifies.
-            precise vec4 ax = f * u.x, ay = f * u.y, az = f * u.z;
-            vec2 sx0 = sincos_reduced(ax.x), sx1 = sincos_reduced(ax.y);
-            vec2 sx2 = sincos_reduced(ax.z), sx3 = sincos_reduced(ax.w);
-            vec2 sy0 = sincos_reduced(ay.x), sy1 = sincos_reduced(ay.y);
-            vec2 sy2 = sincos_reduced(ay.z), sy3 = sincos_reduced(ay.w);
-            vec2 sz0 = sincos_reduced(az.x), sz1 = sincos_reduced(az.y);
-            vec2 sz2 = sincos_reduced(az.z), sz3 = sincos_reduced(az.w);
-            uint base = 1 + 6 * b;
-            vec4 sin_x = vec4(sx0.x, sx1.x, sx2.x, sx3.x), cos_x = vec4(sx0.y, sx1.y, sx2.y, sx3.y);
-            vec4 sin_y = vec4(sy0.x, sy1.x, sy2.x, sy3.x), cos_y = vec4(sy0.y, sy1.y, sy2.y, sy3.y);
-            vec4 sin_z = vec4(sz0.x, sz1.x, sz2.x, sz3.x), cos_z = vec4(sz0.y, sz1.y, sz2.y, sz3.y);
-            ping[v + base + 0] = sin_x;
-            ping[v + base + 1] = sin_y;
-            ping[v + base + 2] = sin_z;
-            ping[v + base + 3] = cos_x;
-            ping[v + base + 4] = cos_y;
-            ping[v + base + 5] = cos_z;
-#ifdef WITH_GRADIENT
-            // d sin(f u_a) = f cos(f u_a) du_a, d cos(f u_a) = -f sin(f u_a) du_a, in row 1 + a
-            // only (LAYER skips the other two).
-            uint dx = v + MAX4 + base, dy = dx + MAX4, dz = dy + MAX4;
-            ping[dx + 0] = f * cos_x;
-            ping[dx + 3] = -f * sin_x;
-            ping[dy + 1] = f * cos_y;
-            ping[dy + 4] = -f * sin_y;
-            ping[dz + 2] = f * cos_z;
-            ping[dz + 5] = -f * sin_z;
-#endif
+            mat2x4 ex = encode(b, u.x), ey = encode(b, u.y), ez = encode(b, u.z);
+            uint base = v + 1 + 6 * b;
+            ping[base + 0] = ex[0];
+            ping[base + 1] = ey[0];
+            ping[base + 2] = ez[0];
+            ping[base + 3] = ex[1];
+            ping[base + 4] = ey[1];
+            ping[base + 5] = ez[1];
         }
     }
 
@@ -226,16 +218,50 @@ void main() {
     LAYER(7, OUT4_6, OUT4_7, layer7, pong, ping)
 
     // The output layer K = NUM_LAYERS - 1 wrote pong when K is even, ping when odd.
-    for (uint p = 0; p < POINTS && first + p < push.count; ++p) {
-        uint v = p * COMP * MAX4;
-        float y = (NUM_LAYERS & 1) == 1 ? pong[v].x : ping[v].x;
-#ifdef WITH_GRADIENT
-        vec3 dy = (NUM_LAYERS & 1) == 1
-                      ? vec3(pong[v + MAX4].x, pong[v + 2 * MAX4].x, pong[v + 3 * MAX4].x)
-                      : vec3(ping[v + MAX4].x, ping[v + 2 * MAX4].x, ping[v + 3 * MAX4].x);
-        values[push.first + first + p] = vec4(activate_output(y), output_slope(y) * dy);
+#ifndef WITH_GRADIENT
+    for (uint p = 0; p < POINTS && first + p < push.count; ++p)
+        values[push.first + first + p] = activate_output(
+            (NUM_LAYERS & 1) == 1 ? pong[p * MAX4].x : ping[p * MAX4].x);
 #else
-        values[push.first + first + p] = activate_output(y);
-#endif
+    // Backward from the output (one unit in lane x of vec4 0) down to the inputs of layer 1; the
+    // output's array holds y, and the derivative d activate / dy replaces it there.
+    float y[POINTS];
+    for (uint p = 0; p < POINTS; ++p) {
+        y[p] = (NUM_LAYERS & 1) == 1 ? pong[p * MAX4].x : ping[p * MAX4].x;
+        vec4 d = vec4(output_slope(y[p]), 0.0, 0.0, 0.0);
+        if ((NUM_LAYERS & 1) == 1) pong[p * MAX4] = d; else ping[p * MAX4] = d;
     }
+    BACK_LAYER(7, OUT4_6, OUT4_7, layer7, ping, pong)
+    BACK_LAYER(6, OUT4_5, OUT4_6, layer6, pong, ping)
+    BACK_LAYER(5, OUT4_4, OUT4_5, layer5, ping, pong)
+    BACK_LAYER(4, OUT4_3, OUT4_4, layer4, pong, ping)
+    BACK_LAYER(3, OUT4_2, OUT4_3, layer3, ping, pong)
+    BACK_LAYER(2, OUT4_1, OUT4_2, layer2, pong, ping)
+    BACK_LAYER(1, OUT4_0, OUT4_1, layer1, ping, pong)
+    // Now pong holds d(output) / d(z_0) (BACK_LAYER(1) wrote it, or the output itself is layer
+    // 0). Through layer 0 and the encoding: vec4 0 is (u, 0); per block b and axis a, sin(f u_a)
+    // has derivative f cos(f u_a) and cos(f u_a) has -f sin(f u_a), along axis a only.
+    vec3 gradient[POINTS];
+    {
+        vec4 acc[POINTS];
+        BACK_COLUMN(OUT4_0, ENC4, layer0, pong, 0, acc)
+        for (uint p = 0; p < POINTS; ++p) gradient[p] = acc[p].xyz;
+    }
+    for (uint b = 0; b < FREQ4; ++b) {
+        vec4 f = frequencies[b];
+        [[unroll]] for (uint a = 0; a < 3; ++a) {
+            vec4 d_sin[POINTS], d_cos[POINTS];
+            BACK_COLUMN(OUT4_0, ENC4, layer0, pong, 1 + 6 * b + a, d_sin)
+            BACK_COLUMN(OUT4_0, ENC4, layer0, pong, 4 + 6 * b + a, d_cos)
+            for (uint p = 0; p < POINTS; ++p) {
+                uint i = min(first + p, push.count - 1);
+                mat2x4 e = encode(b, points[3 * i + a]);
+                gradient[p][a] += dot(d_sin[p], f * e[1]) - dot(d_cos[p], f * e[0]);
+            }
+        }
+    }
+    for (uint p = 0; p < POINTS && first + p < push.count; ++p)
+        values[push.first + first + p] = vec4(activate_output(y[p]), gradient[p]);
+#endif
 }
+
