@@ -12,7 +12,7 @@ struct Spirv {
 
 extern const Spirv field_eval;          // MLP, weights in uniform blocks
 extern const Spirv field_eval_storage;  // MLP, weights in storage buffers (large layers)
-extern const Spirv field_gradient;      // MLP value + gradient (forward mode), uniform weights
+extern const Spirv field_gradient;      // MLP value + gradient (reverse mode), uniform weights
 extern const Spirv field_gradient_storage;  // the same, weights in storage buffers
 extern const Spirv refine_count;        // which child-grid vertices each kept cell owns
 extern const Spirv refine_points;       // writes the owned vertices' unit positions
