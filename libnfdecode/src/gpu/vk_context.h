@@ -5,6 +5,14 @@
 // Entry points are loaded at run time from the Vulkan loader (libvulkan.so.1, or the host's
 // vkGetInstanceProcAddr), so a machine without Vulkan still runs the CPU path: creation then
 // reports NFD_ERROR_DEVICE_UNAVAILABLE. No function here throws, exits or aborts.
+//
+// Why a table of our own and not volk (Debian libvulkan-volk-dev 1.3.239): volk keeps the
+// instance-level entry points in process-wide globals (volkLoadInstance), and engines that link
+// libnfdecode commonly use volk themselves. Linked statically, both copies define the same
+// symbols; either way one side's volkLoadInstance rebinds the other's instance functions, and a
+// context adopting the host's device through its own vkGetInstanceProcAddr next to a headless one
+// (test_adopt) needs two sets at once. The per-context table below is volk's
+// VolkDeviceTable idea applied to the ~50 functions this layer calls, at both levels.
 #pragma once
 #define VK_NO_PROTOTYPES
 #include <vulkan/vulkan.h>
