@@ -20,6 +20,7 @@
 #include "nfdecode/nfdecode.h"
 #include "options.h"
 #include "sample_points.h"
+#include "stream.h"
 #if NFD_WITH_VULKAN
 #include "gpu/gpu_decode.h"
 #endif

@@ -23,7 +23,7 @@
 #include <utility>
 #include <vector>
 
-#include "bitstream.h"
+#include "stream.h"  // parse_file, and bitstream.h
 #include "mesh.h"
 #include "network.h"
 
