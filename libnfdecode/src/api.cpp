@@ -298,12 +298,11 @@ void nfd_stream_destroy(nfd_stream* stream) { delete stream; }
 nfd_result nfd_stream_feed(nfd_stream* stream, const void* bytes, size_t size,
                            nfd_stream_progress* out_progress) {
     if (!stream) return NFD_ERROR_INVALID_ARGUMENT;
-    const nfd_result r = size > 0 && !bytes
-                             ? NFD_ERROR_INVALID_ARGUMENT
-                             : guarded([&] {
-                                   return stream->reader.feed(static_cast<const uint8_t*>(bytes),
-                                                              size);
-                               });
+    nfd_result r = NFD_ERROR_INVALID_ARGUMENT;  // bytes NULL with a size: the stream is unchanged
+    if (bytes || size == 0) {
+        r = guarded([&] { return stream->reader.feed(static_cast<const uint8_t*>(bytes), size); });
+        stream->reader.record_failure(r);
+    }
     if (out_progress) *out_progress = progress_of(*stream);
     return r;
 }

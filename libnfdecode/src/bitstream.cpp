@@ -238,7 +238,6 @@ uint32_t crc32(const uint8_t* data, size_t size, uint32_t previous) {
     return crc ^ 0xFFFFFFFFu;
 }
 
-
 bool TagSet::insert(uint32_t tag) {
     if (bitmap_.empty()) {
         for (size_t i = 0; i < count_; ++i)

@@ -23,6 +23,12 @@ public:
     // No more bytes: NFD_ERROR_TRUNCATED unless the file is complete (sticky as feed's failures).
     nfd_result finish();
 
+    // Makes a failure that feed could not record itself sticky: an exception (std::bad_alloc,
+    // mapped by api.cpp) may leave a piece half read. Keeps an earlier failure.
+    void record_failure(nfd_result r) {
+        if (error_ == NFD_SUCCESS) error_ = r;
+    }
+
     nfd_result error() const { return error_; }
     uint64_t bytes_consumed() const { return consumed_; }  // bytes taken from feed, on failure
                                                            // up to the end of the failing piece

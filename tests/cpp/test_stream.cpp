@@ -468,5 +468,23 @@ TEST(Stream, MemoryIsBoundedByTheChunkInProgress) {
     }
 }
 
+// An allocation failure inside a feed is sticky like a file's failure: a piece may be half read.
+TEST(Stream, OutOfMemoryIsSticky) {
+    const Bytes bytes = geom_file(random_siren(16, 8, 4));
+    // One byte of the body: reserving its buffer fails. The whole body: decoding it in place does.
+    for (size_t body_bytes : {size_t(1), bytes.size() - 24}) {
+        StreamPtr s = new_stream();
+        ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), 24, nullptr), NFD_SUCCESS);  // to the body
+        g_fail_allocations_over = 64;
+        const nfd_result r = nfd_stream_feed(s.get(), &bytes[24], body_bytes, nullptr);
+        g_fail_allocations_over = SIZE_MAX;
+        EXPECT_EQ(r, NFD_ERROR_OUT_OF_MEMORY) << body_bytes;
+        EXPECT_EQ(nfd_stream_feed(s.get(), &bytes[25], 1, nullptr), NFD_ERROR_OUT_OF_MEMORY);
+        EXPECT_EQ(nfd_stream_finish(s.get()), NFD_ERROR_OUT_OF_MEMORY);
+        nfd_asset* a = nullptr;
+        EXPECT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_ERROR_OUT_OF_MEMORY);
+    }
+}
+
 }  // namespace
 }  // namespace nfd::test

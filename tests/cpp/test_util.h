@@ -23,9 +23,10 @@
 #include <utility>
 #include <vector>
 
-#include "stream.h"  // parse_file, and bitstream.h
+#include "bitstream.h"
 #include "mesh.h"
 #include "network.h"
+#include "stream.h"
 
 namespace nfd::test {
 
