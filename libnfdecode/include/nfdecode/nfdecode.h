@@ -230,7 +230,8 @@ NFD_API nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_a
  * An nfd_stream verifies a file while it is being received (network, slow storage) and hands out
  * the asset as soon as the geometry chunk is complete, before the rest of the file (optional
  * chunks such as colour) has arrived. The chunk framing makes this possible (FORMAT.md,
- * "Incremental reading"): the header announces file_size and each chunk's length precedes it.
+ * "Incremental reading"): the header announces file_size, and each chunk's length precedes its
+ * payload.
  *
  *     nfd_stream* s;  nfd_stream_progress p;  nfd_asset* asset = NULL;
  *     nfd_stream_create(NULL, &s);
@@ -255,11 +256,13 @@ NFD_API nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_a
  * nfd_asset_create, knowing the size up front, applies FORMAT.md's size rule first (TRUNCATED,
  * CORRUPT), whereas the stream has reported that chunk's failure before it could know the size.
  * Errors are sticky: after a failure every nfd_stream_feed, nfd_stream_finish and
- * nfd_stream_take_asset returns the same code.
+ * nfd_stream_take_asset returns the same code. (NFD_ERROR_INVALID_ARGUMENT, the caller's mistake
+ * and not the file's, leaves the stream as it was.)
  *
  * Memory: the stream holds at most the header or one chunk (FORMAT.md caps a chunk at
  * NFD_MAX_CHUNK_SIZE), never the whole file, and reserves a chunk's buffer only after its length
- * has been checked against that cap and against file_size. Bytes that complete a structure within
+ * has been checked against that cap and against file_size; plus, from GEOM's end until it is
+ * taken, the decoded asset. Bytes that complete a structure within
  * one nfd_stream_feed call are read in place, not copied; only a structure split across calls is
  * gathered. Feeding costs time linear in the bytes, whatever the piece sizes (1 byte at a time
  * included). Decoding the geometry allocates as nfd_asset_create does.
