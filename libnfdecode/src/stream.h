@@ -30,8 +30,8 @@ public:
     }
 
     nfd_result error() const { return error_; }
-    uint64_t bytes_consumed() const { return consumed_; }  // bytes taken from feed, on failure
-                                                           // up to the end of the failing piece
+    // Bytes taken from feed: after a failure, up to the end of the piece that failed.
+    uint64_t bytes_consumed() const { return consumed_; }
     const FileParser& parser() const { return parser_; }
     FileParser& parser() { return parser_; }
 
@@ -44,7 +44,7 @@ private:
 
 // The one-shot reader: `size` bytes, all of them the file. Errors exactly as FORMAT.md orders them
 // (the size rule right after the header, since the size is known); see nfd_asset_create. Reads in
-// place, copying nothing. May throw std::bad_alloc; api.cpp maps it.
+// place: only an input shorter than the header is copied. May throw std::bad_alloc; api.cpp maps it.
 nfd_result parse_file(const uint8_t* bytes, size_t size, ParsedFile* out);
 
 }  // namespace nfd
