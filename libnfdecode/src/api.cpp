@@ -20,6 +20,7 @@
 #include "nfdecode/nfdecode.h"
 #include "options.h"
 #include "sample_points.h"
+#include "stream.h"
 #if NFD_WITH_VULKAN
 #include "gpu/gpu_decode.h"
 #endif
@@ -35,6 +36,11 @@ struct nfd_context {
 
 struct nfd_asset {
     nfd::ParsedFile file;
+};
+
+struct nfd_stream {
+    nfd::StreamReader reader;
+    bool asset_taken = false;
 };
 
 struct nfd_mesh {
@@ -138,11 +144,29 @@ constexpr size_t layout_end(Field T::*, size_t offset) { return offset + sizeof(
 constexpr size_t kContextOptions02 = NFD_LAYOUT_END(nfd_context_options, enable_validation);
 constexpr size_t kMeshOptions02 = NFD_LAYOUT_END(nfd_mesh_options, resolution);
 constexpr size_t kGridOptions02 = NFD_LAYOUT_END(nfd_grid_options, resolution);
+constexpr size_t kStreamOptions03 = NFD_LAYOUT_END(nfd_stream_options, struct_size);
 
 // The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
 uint32_t options_resolution(uint32_t requested) {
     const uint32_t r = requested ? requested : NFD_DEFAULT_RESOLUTION;
     return r >= NFD_MIN_RESOLUTION && r <= NFD_MAX_RESOLUTION ? r : 0;
+}
+
+nfd_stream_progress progress_of(const nfd_stream& stream) {
+    const nfd::FileParser& parser = stream.reader.parser();
+    nfd_stream_progress p{};
+    p.bytes_consumed = stream.reader.bytes_consumed();
+    p.chunks_complete = parser.chunks_read();
+    if (parser.header_read()) {
+        p.file_size = parser.file().file_size;
+        p.format_major = parser.file().major;
+        p.format_minor = parser.file().minor;
+        p.flags |= NFD_STREAM_HEADER_READ;
+    }
+    if (parser.geometry_read()) p.flags |= NFD_STREAM_GEOMETRY_READY;
+    if (parser.file().has_colour) p.flags |= NFD_STREAM_COLOUR_SEEN;
+    if (parser.complete()) p.flags |= NFD_STREAM_COMPLETE;
+    return p;
 }
 
 }  // namespace
@@ -255,6 +279,61 @@ nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info) 
     info.has_colour = f.has_colour ? 1 : 0;
     *out_info = info;
     return NFD_SUCCESS;
+}
+
+nfd_result nfd_stream_create(const nfd_stream_options* options, nfd_stream** out_stream) {
+    if (!out_stream) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_stream = nullptr;
+    nfd_stream_options opts;
+    if (nfd::read_options(options, kStreamOptions03, &opts) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        *out_stream = new nfd_stream();
+        return NFD_SUCCESS;
+    });
+}
+
+void nfd_stream_destroy(nfd_stream* stream) { delete stream; }
+
+nfd_result nfd_stream_feed(nfd_stream* stream, const void* bytes, size_t size,
+                           nfd_stream_progress* out_progress) {
+    if (!stream) return NFD_ERROR_INVALID_ARGUMENT;
+    nfd_result r = NFD_ERROR_INVALID_ARGUMENT;  // bytes NULL with a size: the stream is unchanged
+    if (bytes || size == 0) {
+        r = guarded([&] { return stream->reader.feed(static_cast<const uint8_t*>(bytes), size); });
+        stream->reader.record_failure(r);
+    }
+    if (out_progress) *out_progress = progress_of(*stream);
+    return r;
+}
+
+nfd_result nfd_stream_finish(nfd_stream* stream) {
+    return stream ? stream->reader.finish() : NFD_ERROR_INVALID_ARGUMENT;
+}
+
+nfd_result nfd_stream_take_asset(nfd_stream* stream, nfd_asset** out_asset) {
+    if (!out_asset) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_asset = nullptr;
+    if (!stream) return NFD_ERROR_INVALID_ARGUMENT;
+    if (stream->reader.error() != NFD_SUCCESS) return stream->reader.error();
+    if (!stream->reader.parser().geometry_read() || stream->asset_taken)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        auto asset = std::make_unique<nfd_asset>();
+        // The geometry moves out: the parser needs only the header's fields and has_colour for
+        // the chunks after GEOM, and those are plain values that stay in place.
+        asset->file = std::move(stream->reader.parser().file());
+        stream->asset_taken = true;
+        *out_asset = asset.release();
+        return NFD_SUCCESS;
+    });
+}
+
+nfd_result nfd_peek_format_version(const void* bytes, size_t size, uint32_t* out_major,
+                                   uint32_t* out_minor) {
+    if (!bytes || !out_major || !out_minor) return NFD_ERROR_INVALID_ARGUMENT;
+    if (size < nfd::kHeaderSize) return NFD_ERROR_TRUNCATED;
+    return nfd::read_format_version(static_cast<const uint8_t*>(bytes), out_major, out_minor);
 }
 
 nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, const float* points,

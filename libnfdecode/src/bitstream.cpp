@@ -4,6 +4,7 @@
 
 #include <brotli/decode.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -24,8 +25,6 @@ namespace {
     } while (0)
 
 constexpr uint8_t kMagic[4] = {0x89, 'N', 'F', 'C'};
-constexpr size_t kHeaderSize = 16;
-constexpr size_t kChunkOverhead = 12;  // tag, length, crc
 
 constexpr uint32_t tag_of(const char (&s)[5]) {
     return uint32_t(uint8_t(s[0])) | uint32_t(uint8_t(s[1])) << 8 | uint32_t(uint8_t(s[2])) << 16 |
@@ -71,43 +70,15 @@ uint32_t load_u32(const uint8_t* p) {
 
 bool is_letter(uint8_t c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
 
-// "Each tag may appear at most once", checked in O(1) per chunk whatever the chunk count: a file
-// may legally hold millions of empty optional chunks. A tag is four letters, so a bitmap over the
-// 52^4 possible tags (0.9 MiB) is allocated only when a file has more chunks than the inline list.
-class TagSet {
-public:
-    // Returns false if `tag` (four letters) was inserted before.
-    bool insert(uint32_t tag) {
-        if (bitmap_.empty()) {
-            for (size_t i = 0; i < count_; ++i)
-                if (inline_[i] == tag) return false;
-            if (count_ < inline_.size()) {
-                inline_[count_++] = tag;
-                return true;
-            }
-            bitmap_.assign(kTagSpace / 64 + 1, 0);
-            for (size_t i = 0; i < count_; ++i) set(index(inline_[i]));
-        }
-        const uint32_t i = index(tag);
-        if (bitmap_[i / 64] >> (i % 64) & 1) return false;
-        set(i);
-        return true;
-    }
-
-private:
-    static constexpr uint32_t kTagSpace = 52u * 52u * 52u * 52u;
-    static uint32_t letter(uint32_t c) { return c >= 'a' ? c - 'a' + 26 : c - 'A'; }
-    static uint32_t index(uint32_t tag) {
-        uint32_t i = 0;
-        for (int k = 3; k >= 0; --k) i = i * 52 + letter((tag >> (8 * k)) & 0xFF);
-        return i;
-    }
-    void set(uint32_t i) { bitmap_[i / 64] |= uint64_t(1) << (i % 64); }
-
-    std::array<uint32_t, 8> inline_{};
-    size_t count_ = 0;
-    std::vector<uint64_t> bitmap_;
-};
+// TagSet's bitmap index of a tag of four letters.
+constexpr uint32_t kTagSpace = 52u * 52u * 52u * 52u;
+uint32_t letter_index(uint32_t c) { return c >= 'a' ? c - 'a' + 26 : c - 'A'; }
+uint32_t tag_index(uint32_t tag) {
+    uint32_t i = 0;
+    for (int k = 3; k >= 0; --k) i = i * 52 + letter_index((tag >> (8 * k)) & 0xFF);
+    return i;
+}
+void set_bit(std::vector<uint64_t>& bitmap, uint32_t i) { bitmap[i / 64] |= uint64_t(1) << (i % 64); }
 
 // Decompresses into exactly `out_size` bytes: the stream must produce exactly that much output,
 // end there, and use all of `in`. Anything else (invalid, shorter, longer, trailing input) is
@@ -252,7 +223,7 @@ nfd_result read_geometry(Reader& r, Geometry* g) {
 
 }  // namespace
 
-uint32_t crc32(const uint8_t* data, size_t size) {
+uint32_t crc32(const uint8_t* data, size_t size, uint32_t previous) {
     static const std::array<uint32_t, 256> table = [] {
         std::array<uint32_t, 256> t{};
         for (uint32_t i = 0; i < 256; ++i) {
@@ -262,59 +233,107 @@ uint32_t crc32(const uint8_t* data, size_t size) {
         }
         return t;
     }();
-    uint32_t crc = 0xFFFFFFFFu;
+    uint32_t crc = previous ^ 0xFFFFFFFFu;
     for (size_t i = 0; i < size; ++i) crc = table[(crc ^ data[i]) & 0xFF] ^ (crc >> 8);
     return crc ^ 0xFFFFFFFFu;
 }
 
-nfd_result parse_file(const uint8_t* bytes, size_t size, ParsedFile* out) {
-    // Header, in the documented order: size, magic, CRC, major, flags, file_size. The CRC comes
-    // before the version so that a damaged header reads as corrupt, not as a misleading version.
-    if (size < kHeaderSize) return NFD_ERROR_TRUNCATED;
-    NFD_CHECK(std::memcmp(bytes, kMagic, 4) == 0);
-    NFD_CHECK(crc32(bytes, 12) == load_u32(bytes + 12));
-    const uint8_t major = bytes[4], minor = bytes[5];
-    if (major != NFD_FORMAT_MAJOR) return NFD_ERROR_UNSUPPORTED_VERSION;
-    NFD_CHECK((bytes[6] | bytes[7]) == 0);
-    const uint32_t file_size = load_u32(bytes + 8);
-    NFD_CHECK(file_size >= kHeaderSize + kChunkOverhead && file_size <= NFD_MAX_FILE_SIZE);
-    if (size < file_size) return NFD_ERROR_TRUNCATED;
-    NFD_CHECK(size == file_size);  // trailing bytes
-
-    ParsedFile file;
-    file.major = major;
-    file.minor = minor;
-    file.file_size = file_size;
-
-    TagSet seen;
-    bool first = true;
-    for (size_t pos = kHeaderSize; pos < file_size;) {
-        // Chunk framing: bounds, then CRC, then meaning.
-        Reader r(bytes + pos, file_size - pos);
-        uint32_t tag = 0, length = 0;
-        NFD_TRY(r.u32(&tag));
-        NFD_TRY(r.u32(&length));
-        NFD_CHECK(length <= NFD_MAX_CHUNK_SIZE);
-        if (r.remaining() < uint64_t(length) + 4) return NFD_ERROR_TRUNCATED;
-        const uint8_t* payload = bytes + pos + 8;
-        NFD_CHECK(crc32(bytes + pos, 8 + size_t(length)) == load_u32(payload + length));
-
-        for (int k = 0; k < 4; ++k) NFD_CHECK(is_letter(uint8_t(tag >> (8 * k))));
-        NFD_CHECK(seen.insert(tag));
-        NFD_CHECK(!first || tag == kTagGeom);  // GEOM must come first
-        first = false;
-
-        if (tag == kTagGeom) {
-            Reader chunk(payload, length);
-            NFD_TRY(read_geometry(chunk, &file.geometry));
-        } else if (tag == kTagColour) {
-            file.has_colour = true;  // reserved in 1.0: verified above, decoded by a later version
-        } else if (uint8_t(tag) >= 'A' && uint8_t(tag) <= 'Z') {
-            return NFD_ERROR_UNSUPPORTED_FEATURE;  // unknown critical chunk
-        }  // unknown optional chunk: verified, skipped
-        pos += kChunkOverhead + length;
+bool TagSet::insert(uint32_t tag) {
+    if (bitmap_.empty()) {
+        for (size_t i = 0; i < count_; ++i)
+            if (inline_[i] == tag) return false;
+        if (count_ < inline_.size()) {
+            inline_[count_++] = tag;
+            return true;
+        }
+        bitmap_.assign(kTagSpace / 64 + 1, 0);
+        for (size_t i = 0; i < count_; ++i) set_bit(bitmap_, tag_index(inline_[i]));
     }
-    *out = std::move(file);
+    const uint32_t i = tag_index(tag);
+    if (bitmap_[i / 64] >> (i % 64) & 1) return false;
+    set_bit(bitmap_, i);
+    return true;
+}
+
+nfd_result read_format_version(const uint8_t* header, uint32_t* major, uint32_t* minor) {
+    NFD_CHECK(std::memcmp(header, kMagic, 4) == 0);
+    NFD_CHECK(crc32(header, 12) == load_u32(header + 12));
+    *major = header[4];
+    *minor = header[5];
+    return NFD_SUCCESS;
+}
+
+size_t FileParser::next_piece_size() const {
+    switch (next_) {
+        case Next::Header: return kHeaderSize;
+        case Next::Frame: return size_t(std::min<uint64_t>(kChunkFrameSize, file_.file_size - offset_));
+        case Next::Body: return size_t(length_) + kChunkCrcSize;
+        case Next::End: break;
+    }
+    return 0;
+}
+
+nfd_result FileParser::read_piece(const uint8_t* piece) {
+    const size_t size = next_piece_size();
+    switch (next_) {
+        case Next::Header: NFD_TRY(read_header(piece)); break;
+        case Next::Frame: NFD_TRY(read_frame(piece, size)); break;
+        case Next::Body: NFD_TRY(read_body(piece)); break;
+        case Next::End: return NFD_ERROR_INTERNAL;  // the caller reads past the end
+    }
+    offset_ += size;
+    return NFD_SUCCESS;
+}
+
+// In the documented order: magic, CRC, major, flags, file_size. The CRC comes before the version so
+// that a damaged header reads as corrupt, not as a misleading version.
+nfd_result FileParser::read_header(const uint8_t* header) {
+    NFD_TRY(read_format_version(header, &file_.major, &file_.minor));
+    if (file_.major != NFD_FORMAT_MAJOR) return NFD_ERROR_UNSUPPORTED_VERSION;
+    NFD_CHECK((header[6] | header[7]) == 0);
+    file_.file_size = load_u32(header + 8);
+    NFD_CHECK(file_.file_size >= kHeaderSize + kChunkFrameSize + kChunkCrcSize &&
+              file_.file_size <= NFD_MAX_FILE_SIZE);
+    if (total_size_ != kUnknownSize) {
+        if (total_size_ < file_.file_size) return NFD_ERROR_TRUNCATED;
+        NFD_CHECK(total_size_ == file_.file_size);  // trailing bytes
+    }
+    next_ = Next::Frame;
+    return NFD_SUCCESS;
+}
+
+// Chunk framing: the 8 bytes of tag and length within the file, the length cap, then payload and
+// CRC within the file. Nothing about the tag yet: that comes after the CRC.
+nfd_result FileParser::read_frame(const uint8_t* frame, size_t size) {
+    if (size < kChunkFrameSize) return NFD_ERROR_TRUNCATED;
+    std::memcpy(frame_, frame, kChunkFrameSize);
+    tag_ = load_u32(frame);
+    length_ = load_u32(frame + 4);
+    NFD_CHECK(length_ <= NFD_MAX_CHUNK_SIZE);
+    const uint64_t left = file_.file_size - offset_ - kChunkFrameSize;
+    if (left < uint64_t(length_) + kChunkCrcSize) return NFD_ERROR_TRUNCATED;
+    next_ = Next::Body;
+    return NFD_SUCCESS;
+}
+
+// Then CRC, tag (letters, duplicate, GEOM first, unknown critical) and payload.
+nfd_result FileParser::read_body(const uint8_t* body) {
+    NFD_CHECK(crc32(body, length_, crc32(frame_, kChunkFrameSize)) == load_u32(body + length_));
+    for (int k = 0; k < 4; ++k) NFD_CHECK(is_letter(uint8_t(tag_ >> (8 * k))));
+    NFD_CHECK(seen_.insert(tag_));
+    NFD_CHECK(chunks_read_ > 0 || tag_ == kTagGeom);  // GEOM must come first
+
+    if (tag_ == kTagGeom) {
+        Reader payload(body, length_);
+        NFD_TRY(read_geometry(payload, &file_.geometry));
+    } else if (tag_ == kTagColour) {
+        file_.has_colour = true;  // reserved in 1.0: verified above, decoded by a later version
+    } else if (uint8_t(tag_) >= 'A' && uint8_t(tag_) <= 'Z') {
+        return NFD_ERROR_UNSUPPORTED_FEATURE;  // unknown critical chunk
+    }  // unknown optional chunk: verified, skipped
+    ++chunks_read_;
+    const uint64_t end = offset_ + length_ + kChunkCrcSize;
+    next_ = end == file_.file_size ? Next::End : Next::Frame;
     return NFD_SUCCESS;
 }
 

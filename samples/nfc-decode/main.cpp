@@ -2,7 +2,7 @@
 // API only.
 //
 //   nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N]
-//              [--device auto|vulkan|cpu] [--stats]
+//              [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]] [--stats]
 //
 // Errors are one line on stderr ("nfc-decode: error: ...") and a non-zero exit status: 2 for a
 // bad command line, 1 for anything that failed while decoding.
@@ -15,19 +15,27 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
 
 const char kUsage[] =
     "usage: nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N]\n"
-    "                  [--device auto|vulkan|cpu] [--stats]\n"
+    "                  [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]]\n"
+    "                  [--stats]\n"
     "  OUT             .glb or .ply: the surface mesh; .vdb: the distance on a narrow band\n"
     "                  around it (OpenVDB)\n"
     "  --resolution N  grid cells per axis over the unit cube (8..1024, default 256)\n"
     "  --points N      write N points sampled uniformly on the surface (PLY) instead of the mesh\n"
     "  --device D      auto (Vulkan, else CPU; default), vulkan, or cpu\n"
+    "  --stream-chunk N\n"
+    "                  feed the file to nfd_stream N bytes at a time, never holding it whole;\n"
+    "                  meshing starts from the asset the stream yields\n"
+    "  --bandwidth R   with --stream-chunk: pace the pieces as if the file arrived at R, a\n"
+    "                  positive number then B/s, KB/s or MB/s (1 KB = 1024 B), e.g. 256KB/s\n"
     "  --stats         print sizes, per-stage timings and counts\n";
 
 struct Failure {
@@ -46,6 +54,8 @@ struct Options {
     uint32_t resolution = 0;
     size_t points = 0;
     nfd_device_kind device = NFD_DEVICE_AUTO;
+    size_t stream_chunk = 0;  // 0: read the whole file, then nfd_asset_create
+    double bandwidth = 0;     // bytes per second; 0: as fast as the file reads
     bool stats = false;
 };
 
@@ -58,6 +68,19 @@ unsigned long long parse_count(const char* flag, const char* text, unsigned long
         fail(2, std::string(flag) + " expects an integer in " + std::to_string(min) + ".." +
                     std::to_string(max) + ", got '" + text + "'");
     return v;
+}
+
+// "256KB/s": a positive number, then B/s, KB/s or MB/s with 1 KB = 1024 B. Bytes per second.
+double parse_bandwidth(const char* text) {
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(text, &end);
+    const std::string unit = end;
+    const double scale = unit == "B/s" ? 1.0 : unit == "KB/s" ? 1024.0 : unit == "MB/s" ? 1048576.0 : 0;
+    if (end == text || errno || !std::isfinite(v) || !(v > 0) || scale == 0)
+        fail(2, std::string("--bandwidth expects a rate such as 256KB/s (B/s, KB/s or MB/s, "
+                            "1 KB = 1024 B), got '") + text + "'");
+    return v * scale;
 }
 
 bool ends_with(const std::string& s, const char* suffix) {
@@ -92,6 +115,10 @@ Options parse_args(int argc, char** argv) {
             else if (d == "vulkan") o.device = NFD_DEVICE_VULKAN;
             else if (d == "cpu") o.device = NFD_DEVICE_CPU;
             else fail(2, "--device expects auto, vulkan or cpu, got '" + d + "'");
+        } else if (arg == "--stream-chunk") {
+            o.stream_chunk = size_t(parse_count("--stream-chunk", value(), 1, NFD_MAX_FILE_SIZE));
+        } else if (arg == "--bandwidth") {
+            o.bandwidth = parse_bandwidth(value());
         } else if (arg == "--stats") {
             o.stats = true;
         } else if (!arg.empty() && arg[0] == '-') {
@@ -109,6 +136,8 @@ Options parse_args(int argc, char** argv) {
         fail(2, "output must end in .glb or .ply (mesh) or .vdb (grid): '" + o.output + "'");
     if (o.points && !ends_with(o.output, ".ply"))
         fail(2, "--points writes a point cloud: the output must be .ply");
+    if (o.bandwidth > 0 && !o.stream_chunk)
+        fail(2, "--bandwidth paces the pieces of --stream-chunk: give both");
     return o;
 }
 
@@ -222,19 +251,71 @@ void decode_grid(const Options& o, Handles* h) {
     }
 }
 
-void run(const Options& o) {
-    Handles h;
+// How the asset was read, for --stats.
+struct Input {
+    double ms_read = 0, ms_parse = 0;  // receiving the bytes; inside the parser
+    double ms_geometry = -1;           // streamed: first piece to asset ready; < 0 otherwise
+    unsigned long long geometry_byte = 0;  // streamed: bytes in when the asset was ready
+};
+
+// The whole file, then nfd_asset_create.
+Input read_asset(const Options& o, nfd_asset** asset) {
+    Input in;
     auto t = Clock::now();
     const std::vector<unsigned char> bytes = read_file(o.input);
-    const double ms_read = ms_since(t);
-
+    in.ms_read = ms_since(t);
     t = Clock::now();
-    check(nfd_asset_create(bytes.data(), bytes.size(), &h.asset), o.input);
-    const double ms_parse = ms_since(t);
+    check(nfd_asset_create(bytes.data(), bytes.size(), asset), o.input);
+    in.ms_parse = ms_since(t);
+    return in;
+}
+
+// --stream-chunk: the file read piece by piece into nfd_stream, paced by --bandwidth, never held
+// whole; the asset is taken as soon as the stream has the geometry, and the stream must still
+// finish cleanly (a damaged or truncated tail fails the decode, as without streaming).
+Input stream_asset(const Options& o, nfd_asset** asset) {
+    std::FILE* f = std::fopen(o.input.c_str(), "rb");
+    if (!f) fail(1, o.input + ": cannot open: " + std::strerror(errno));
+    const std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(f, &std::fclose);
+    nfd_stream* s = nullptr;
+    check(nfd_stream_create(nullptr, &s), "stream");
+    const std::unique_ptr<nfd_stream, void (*)(nfd_stream*)> stream(s, &nfd_stream_destroy);
+
+    Input in;
+    std::vector<unsigned char> piece(o.stream_chunk);
+    const auto t0 = Clock::now();
+    unsigned long long arrived = 0;
+    size_t n;
+    while ((n = std::fread(piece.data(), 1, piece.size(), f)) > 0) {
+        arrived += n;
+        if (o.bandwidth > 0)  // the piece is complete when its last byte would have arrived
+            std::this_thread::sleep_until(
+                t0 + std::chrono::duration_cast<Clock::duration>(
+                         std::chrono::duration<double>(double(arrived) / o.bandwidth)));
+        const auto t = Clock::now();
+        nfd_stream_progress progress;
+        const nfd_result r = nfd_stream_feed(s, piece.data(), n, &progress);
+        in.ms_parse += ms_since(t);
+        check(r, o.input);
+        if (!*asset && (progress.flags & NFD_STREAM_GEOMETRY_READY)) {
+            check(nfd_stream_take_asset(s, asset), o.input);
+            in.ms_geometry = ms_since(t0);
+            in.geometry_byte = progress.bytes_consumed;
+        }
+    }
+    if (std::ferror(f)) fail(1, o.input + ": read error");
+    check(nfd_stream_finish(s), o.input);
+    in.ms_read = ms_since(t0) - in.ms_parse;
+    return in;
+}
+
+void run(const Options& o) {
+    Handles h;
+    const Input in = o.stream_chunk ? stream_asset(o, &h.asset) : read_asset(o, &h.asset);
     nfd_asset_info info;
     check(nfd_asset_get_info(h.asset, &info), o.input);
 
-    t = Clock::now();
+    auto t = Clock::now();
     nfd_context_options co = {};
     co.struct_size = sizeof co;
     co.device = o.device;
@@ -242,12 +323,15 @@ void run(const Options& o) {
     const double ms_device = ms_since(t);
 
     if (o.stats) {
-        std::printf("file        %zu bytes (format %u.%u, %s, %u-bit, %u layers, width %u)\n",
-                    bytes.size(), info.format_major, info.format_minor, field_name(info),
+        std::printf("file        %u bytes (format %u.%u, %s, %u-bit, %u layers, width %u)\n",
+                    info.file_size, info.format_major, info.format_minor, field_name(info),
                     info.bits, info.num_layers, info.layer_widths[0]);
         std::printf("device      %s\n", nfd_context_device_name(h.context));
-        std::printf("read        %9.2f ms\n", ms_read);
-        std::printf("parse       %9.2f ms\n", ms_parse);
+        std::printf("read        %9.2f ms\n", in.ms_read);
+        std::printf("parse       %9.2f ms\n", in.ms_parse);
+        if (in.ms_geometry >= 0)
+            std::printf("geometry    %9.2f ms  (asset ready at byte %llu of %u)\n", in.ms_geometry,
+                        in.geometry_byte, info.file_size);
         std::printf("device init %9.2f ms\n", ms_device);
     }
     if (ends_with(o.output, ".vdb"))

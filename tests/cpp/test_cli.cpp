@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 
@@ -95,6 +96,68 @@ TEST(Cli, ErrorsAreOneLineWithNonZeroStatus) {
                           "built without OpenVDB");
 #endif
     for (const std::string& p : {good, truncated}) std::remove(p.c_str());
+}
+
+// --stream-chunk feeds the file through nfd_stream: the output is the plain decode's, byte for byte.
+TEST(Cli, StreamedInputWritesTheSameFile) {
+    const std::string in = golden_path("bunny_sdf_w16", ".nfc");
+    const std::string dir = std::filesystem::temp_directory_path().string() + "/nfd_cli_stream_" +
+                            std::to_string(::getpid());
+    const std::string common = " --device cpu --resolution 48 -o " + dir;
+    ASSERT_EQ(run_cli(in + common + "plain.glb").status, 0);
+    const Bytes plain = read_bytes(dir + "plain.glb");
+    ASSERT_GT(plain.size(), 1000u);
+    for (const char* chunk : {"1", "7", "100000"}) {
+        const std::string out = dir + "streamed" + chunk + ".glb";
+        const CliRun r = run_cli(in + common + "streamed" + chunk + ".glb --stream-chunk " + chunk);
+        ASSERT_EQ(r.status, 0) << chunk << r.err;
+        EXPECT_TRUE(read_bytes(out) == plain) << "--stream-chunk " << chunk;
+        std::remove(out.c_str());
+    }
+    const CliRun stats = run_cli(in + common + "stats.glb --stream-chunk 64 --stats");
+    ASSERT_EQ(stats.status, 0) << stats.err;
+    EXPECT_NE(stats.out.find("geometry "), std::string::npos) << stats.out;
+    for (const char* name : {"plain.glb", "stats.glb"}) std::remove((dir + name).c_str());
+}
+
+// 1500 bytes at 8 KB/s take at least 0.18 s to arrive.
+TEST(Cli, BandwidthPacesTheStream) {
+    const std::string in = golden_path("tshirt_udf_w16", ".nfc");
+    ASSERT_EQ(read_bytes(in).size(), 1500u);
+    const std::string out =
+        std::filesystem::temp_directory_path().string() + "/nfd_cli_paced_" + std::to_string(::getpid()) + ".glb";
+    const auto t0 = std::chrono::steady_clock::now();
+    const CliRun r = run_cli(in + " -o " + out + " --device cpu --resolution 8 --stream-chunk 100 "
+                             "--bandwidth 8KB/s");
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_GE(seconds, 1500.0 / 8192.0);
+    std::remove(out.c_str());
+}
+
+TEST(Cli, StreamErrors) {
+    const std::string good = temp_file("sgood.nfc", geom_file(closed_blob()));
+    Bytes cut = geom_file(closed_blob());
+    cut.resize(cut.size() - 3);
+    const std::string truncated = temp_file("scut.nfc", cut);
+    Bytes flipped = geom_file(closed_blob());
+    flipped[40] ^= 0x10;
+    const std::string corrupt = temp_file("sflip.nfc", flipped);
+    const std::string out = " -o x.glb --device cpu --resolution 8";
+
+    expect_one_line_error(run_cli(truncated + out + " --stream-chunk 5"), 1, "truncated");
+    expect_one_line_error(run_cli(truncated + out + " --stream-chunk 1 --bandwidth 1MB/s"), 1,
+                          "truncated");
+    expect_one_line_error(run_cli(corrupt + out + " --stream-chunk 3"), 1, "corrupt");
+    expect_one_line_error(run_cli("/nonexistent.nfc" + out + " --stream-chunk 3"), 1, "cannot open");
+    expect_one_line_error(run_cli(good + out + " --stream-chunk 0"), 2, "--stream-chunk");
+    expect_one_line_error(run_cli(good + out + " --stream-chunk x"), 2, "--stream-chunk");
+    for (const char* rate : {"fast", "256", "256kb/s", "256 KB/s", "0KB/s", "-1MB/s", "1e999B/s",
+                             "3GB/s", "KB/s", "nanB/s"})
+        expect_one_line_error(run_cli(good + out + " --stream-chunk 4 --bandwidth '" + rate + "'"),
+                              2, "--bandwidth");
+    expect_one_line_error(run_cli(good + out + " --bandwidth 1MB/s"), 2, "--stream-chunk");
+    for (const std::string& p : {good, truncated, corrupt}) std::remove(p.c_str());
 }
 
 }  // namespace

@@ -26,6 +26,7 @@
 #include "bitstream.h"
 #include "mesh.h"
 #include "network.h"
+#include "stream.h"
 
 namespace nfd::test {
 

@@ -226,6 +226,131 @@ NFD_API nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_a
                                        float* out_gradients);
 
 /* ---------------------------------------------------------------------------------------------
+ * Streaming input: a file as its bytes arrive
+ *
+ * An nfd_stream verifies a file while it is being received (network, slow storage) and hands out
+ * the asset as soon as the geometry chunk is complete, before the rest of the file (optional
+ * chunks such as colour) has arrived. The chunk framing makes this possible (FORMAT.md,
+ * "Incremental reading"): the header announces file_size, and each chunk's length precedes its
+ * payload.
+ *
+ *     nfd_stream* s;  nfd_stream_progress p;  nfd_asset* asset = NULL;
+ *     nfd_stream_create(NULL, &s);
+ *     while ((n = receive(buf, sizeof buf)) > 0) {
+ *         if (nfd_stream_feed(s, buf, n, &p) != NFD_SUCCESS) break;          // damaged: stop
+ *         if (!asset && (p.flags & NFD_STREAM_GEOMETRY_READY)) nfd_stream_take_asset(s, &asset);
+ *     }
+ *     r = nfd_stream_finish(s);   // NFD_SUCCESS: the whole file arrived and is valid
+ *     nfd_stream_destroy(s);      // the asset taken lives on, owned by the caller
+ *
+ * Which result a stream gives. The stream checks the bytes in FORMAT.md's order as they arrive
+ * and reports the first failure in byte order, from the nfd_stream_feed call whose bytes complete
+ * the structure that fails (the 16-byte header; a chunk's 8-byte frame: tag, length; a chunk's
+ * payload and CRC); a byte fed past file_size is NFD_ERROR_CORRUPT (trailing data), and
+ * nfd_stream_finish on a file not yet complete is NFD_ERROR_TRUNCATED. Hence the final result
+ * (the failing feed's, else finish's) equals nfd_asset_create's on the same bytes
+ *   - for every input of exactly file_size bytes, valid or damaged,
+ *   - for every input whose header is incomplete (under 16 bytes: TRUNCATED) or damaged,
+ *   - for every prefix of a valid file (TRUNCATED) and every valid file followed by more bytes
+ *     (CORRUPT).
+ * It can differ only when the bytes are not file_size long AND a chunk within them fails:
+ * nfd_asset_create, knowing the size up front, applies FORMAT.md's size rule first (TRUNCATED,
+ * CORRUPT), whereas the stream has reported that chunk's failure before it could know the size.
+ * Errors are sticky: after a failure every nfd_stream_feed, nfd_stream_finish and
+ * nfd_stream_take_asset returns the same code. (NFD_ERROR_INVALID_ARGUMENT, the caller's mistake
+ * and not the file's, leaves the stream as it was.)
+ *
+ * Memory: the stream holds at most the header or one chunk (FORMAT.md caps a chunk at
+ * NFD_MAX_CHUNK_SIZE), never the whole file, and reserves a chunk's buffer only after its length
+ * has been checked against that cap and against file_size; plus, from GEOM's end until it is
+ * taken, the decoded asset. Bytes that complete a structure within
+ * one nfd_stream_feed call are read in place, not copied; only a structure split across calls is
+ * gathered. Feeding costs time linear in the bytes, whatever the piece sizes (1 byte at a time
+ * included). Decoding the geometry allocates as nfd_asset_create does.
+ *
+ * Threads: a stream is used by one thread at a time (no function may run concurrently on the same
+ * stream); different streams are independent. The asset taken is independent of the stream.
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_stream nfd_stream;
+
+/* Zero-initialise and set struct_size (see "Option structs"). No options yet: the struct exists so
+ * that later versions can add some without changing nfd_stream_create. */
+typedef struct nfd_stream_options {
+    uint32_t struct_size; /* 0.3: sizeof(nfd_stream_options), or 0 */
+} nfd_stream_options;
+
+/* Bits of nfd_stream_progress.flags. Once set, a bit stays set (also after a failure, for what was
+ * verified before it, and after the asset is taken). */
+#define NFD_STREAM_HEADER_READ 0x1u     /* the header is verified: file_size, format_* are known */
+#define NFD_STREAM_GEOMETRY_READY 0x2u  /* GEOM (the first chunk) is verified and decoded: the
+                                           asset can be taken */
+#define NFD_STREAM_COLOUR_SEEN 0x4u     /* a `colr` chunk is verified (decoded by a later version) */
+#define NFD_STREAM_COMPLETE 0x8u        /* all file_size bytes are verified: finish will succeed */
+
+typedef struct nfd_stream_progress {
+    uint64_t bytes_consumed;  /* bytes taken from the feeds so far: all of them while the stream
+                                 is healthy; after a failure, up to the end of the structure that
+                                 failed (at most file_size: a trailing byte is not taken) */
+    uint32_t file_size;       /* announced by the header; 0 before NFD_STREAM_HEADER_READ */
+    uint32_t format_major, format_minor; /* of the file; 0 before NFD_STREAM_HEADER_READ */
+    uint32_t chunks_complete; /* chunks verified, GEOM included: each is reported as its last byte
+                                 (its CRC) arrives */
+    uint32_t flags;           /* NFD_STREAM_* bits */
+} nfd_stream_progress;
+
+/* options may be NULL. Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (out_stream NULL, or
+ * options not readable, see "Option structs"); NFD_ERROR_OUT_OF_MEMORY. */
+NFD_API nfd_result nfd_stream_create(const nfd_stream_options* options, nfd_stream** out_stream);
+/* An asset taken from the stream is not affected. Accepts NULL. */
+NFD_API void nfd_stream_destroy(nfd_stream* stream);
+
+/* Hands the next `size` bytes of the file to the stream (any size, 0 included; bytes may be NULL
+ * when size is 0). The bytes are not retained: the caller may reuse them on return. If
+ * out_progress is not NULL it receives the stream's progress after this call, whatever the
+ * outcome (when stream is non-NULL).
+ * Outcomes: NFD_SUCCESS (the bytes are consistent with a valid file so far); the first failure
+ * in byte order, NFD_ERROR_TRUNCATED / CORRUPT / UNSUPPORTED_VERSION / UNSUPPORTED_FEATURE (see
+ * "Which result a stream gives"; sticky); NFD_ERROR_INVALID_ARGUMENT (stream NULL, or bytes NULL
+ * with size > 0; the stream is unchanged); NFD_ERROR_OUT_OF_MEMORY (sticky: the stream is then
+ * unusable). */
+NFD_API nfd_result nfd_stream_feed(nfd_stream* stream, const void* bytes, size_t size,
+                                   nfd_stream_progress* out_progress);
+
+/* Says that no more bytes will come. NFD_SUCCESS if the file is complete and valid (every byte
+ * verified, exactly file_size of them); NFD_ERROR_TRUNCATED if it is not complete; the earlier
+ * failure if there was one. Sticky like feed's failures; calling it again returns the same. A feed
+ * of more bytes after a successful finish is trailing data (NFD_ERROR_CORRUPT).
+ * NFD_ERROR_INVALID_ARGUMENT for NULL. */
+NFD_API nfd_result nfd_stream_finish(nfd_stream* stream);
+
+/* Transfers the asset to the caller, once, as soon as NFD_STREAM_GEOMETRY_READY is set: the caller
+ * owns it (nfd_asset_destroy) and may use it on any thread while the stream goes on receiving.
+ * Why a transfer and not a borrowed pointer: an asset is immutable and shared across threads, so
+ * the stream must not change it after handing it out, and it must be able to outlive the stream.
+ * The asset is the file's geometry, bit for bit the one nfd_asset_create gives (same meshes and
+ * values); nfd_asset_get_info reports the header's version and file_size, and has_colour as of the
+ * moment it was taken (a `colr` chunk arriving later is reported by NFD_STREAM_COLOUR_SEEN). Taken
+ * before the stream completes, it is geometry verified by its CRC and every GEOM rule, in a file
+ * whose later bytes may still fail: only a stream that finishes with NFD_SUCCESS has passed every
+ * check of nfd_asset_create.
+ * Outcomes: NFD_SUCCESS (*out_asset set); the stream's failure if it has failed (even when GEOM
+ * was verified before it; an asset taken earlier stays valid); NFD_ERROR_INVALID_ARGUMENT (NULL
+ * argument, geometry not yet ready, or the asset already taken); NFD_ERROR_OUT_OF_MEMORY.
+ * *out_asset is NULL on every failure. */
+NFD_API nfd_result nfd_stream_take_asset(nfd_stream* stream, nfd_asset** out_asset);
+
+/* The format version of a file from its first 16 bytes, without parsing the rest: the checks that
+ * every major keeps (FORMAT.md "Version policy"), in FORMAT.md's order. For a file from another
+ * major this succeeds, so a caller can tell "too new for this library" from "not an .nfc file".
+ * Only bytes 0..15 are read; the file's other header rules (flags, file_size) are 1.x rules and
+ * are left to nfd_asset_create / nfd_stream.
+ * Outcomes: NFD_SUCCESS (*out_major, *out_minor set, whatever their values); NFD_ERROR_TRUNCATED
+ * (size < 16); NFD_ERROR_CORRUPT (bad magic, then bad header CRC); NFD_ERROR_INVALID_ARGUMENT
+ * (a NULL pointer). Writes the outputs only on success. Thread-safe. */
+NFD_API nfd_result nfd_peek_format_version(const void* bytes, size_t size, uint32_t* out_major,
+                                           uint32_t* out_minor);
+
+/* ---------------------------------------------------------------------------------------------
  * Mesh extraction
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_mesh nfd_mesh;
