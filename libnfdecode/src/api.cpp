@@ -144,7 +144,7 @@ constexpr size_t layout_end(Field T::*, size_t offset) { return offset + sizeof(
 constexpr size_t kContextOptions02 = NFD_LAYOUT_END(nfd_context_options, enable_validation);
 constexpr size_t kMeshOptions02 = NFD_LAYOUT_END(nfd_mesh_options, resolution);
 constexpr size_t kGridOptions02 = NFD_LAYOUT_END(nfd_grid_options, resolution);
-constexpr size_t kStreamOptions03 = NFD_LAYOUT_END(nfd_stream_options, struct_size);
+constexpr size_t kStreamOptions02 = NFD_LAYOUT_END(nfd_stream_options, struct_size);
 
 // The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
 uint32_t options_resolution(uint32_t requested) {
@@ -285,7 +285,7 @@ nfd_result nfd_stream_create(const nfd_stream_options* options, nfd_stream** out
     if (!out_stream) return NFD_ERROR_INVALID_ARGUMENT;
     *out_stream = nullptr;
     nfd_stream_options opts;
-    if (nfd::read_options(options, kStreamOptions03, &opts) != NFD_SUCCESS)
+    if (nfd::read_options(options, kStreamOptions02, &opts) != NFD_SUCCESS)
         return NFD_ERROR_INVALID_ARGUMENT;
     return guarded([&] {
         *out_stream = new nfd_stream();

@@ -276,7 +276,7 @@ typedef struct nfd_stream nfd_stream;
 /* Zero-initialise and set struct_size (see "Option structs"). No options yet: the struct exists so
  * that later versions can add some without changing nfd_stream_create. */
 typedef struct nfd_stream_options {
-    uint32_t struct_size; /* 0.3: sizeof(nfd_stream_options), or 0 */
+    uint32_t struct_size; /* 0.2: sizeof(nfd_stream_options), or 0 */
 } nfd_stream_options;
 
 /* Bits of nfd_stream_progress.flags. Once set, a bit stays set (also after a failure, for what was
