@@ -15,6 +15,9 @@ for it has the same `options_hash`: a hash of the options that change the bytes 
 not `device`, which only changes float rounding), the input file's contents and the nfencode version.
 A `.conf` of range scans is hashed as the `.conf` itself, not the scans it lists.
 
+Grouping (`group` > 1, for GPUs): assets with identical options are trained several per task as one
+batched model (`batch_train.compress_many`); each still gets its own file and row.
+
 Isolation: every failure of one asset (unreadable or broken file, bad manifest row, bad option, a
 crashed worker) becomes an `error` row; the others continue. Workers read inputs by path (on a
 joined cluster every node must see them at the same path) and return the bytes; only the driver
@@ -245,16 +248,57 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
             "error": message}
 
 
+def encode_group(inputs: list[str], options: dict[str, Any], threads: int | None) -> list[dict[str, Any]]:
+    """Several shapes with the same options trained as one batched model (`batch_train`); never
+    raises. A shape that fails to load gets its error; if the group's training fails (one shape
+    the encoder rejects), each remaining shape is encoded on its own, so only that one fails."""
+    if len(inputs) == 1:
+        return [encode_asset(inputs[0], options, threads)]
+    start = time.perf_counter()
+    results: list[dict[str, Any] | None] = [None] * len(inputs)
+    try:
+        from .batch_train import compress_many
+        from .encoder import EncodeConfig
+        from .io import load_shape
+
+        shapes = []
+        for i, path in enumerate(inputs):
+            try:
+                shapes.append((i, load_shape(path)))
+            except NfcError as e:
+                results[i] = {"status": "error", "data": None, "field": None, "seconds": 0.0,
+                              "error": e.message if e.message.startswith(path) else f"{path}: {e.message}"}
+        cfg = EncodeConfig(**{k: options[k] for k in ENCODE_OPTIONS if k in options}, quiet=True, threads=threads)
+        encoded = compress_many([shape for _, shape in shapes], cfg)
+        seconds = (time.perf_counter() - start) / max(1, len(shapes))  # the group's time, shared
+        for (i, _), result in zip(shapes, encoded):
+            results[i] = {"status": "ok", "data": result.data, "field": result.field, "seconds": seconds,
+                          "error": None}
+    except Exception:  # noqa: BLE001 - isolate: fall back to one task per shape
+        return [r if r is not None and r["status"] == "error" else encode_asset(path, options, threads)
+                for path, r in zip(inputs, results)]
+    return [r for r in results if r is not None]
+
+
 # --- Runners ---------------------------------------------------------------------------------------
 
 Job = tuple[Asset, str]  # asset and its options hash
 Done = Callable[[Job, dict[str, Any]], None]
 
 
-def run_in_process(jobs: list[Job], threads: int | None, done: Done) -> None:
+def group_jobs(jobs: list[Job], size: int) -> list[list[Job]]:
+    """Chunks of at most `size` jobs with identical options (in input order within each option set)."""
+    by_options: dict[str, list[Job]] = {}
     for job in jobs:
-        asset, _ = job
-        done(job, encode_asset(asset.input, asset.options, threads))
+        by_options.setdefault(json.dumps(job[0].options, sort_keys=True), []).append(job)
+    return [same[i: i + size] for same in by_options.values() for i in range(0, len(same), size)]
+
+
+def run_in_process(groups: list[list[Job]], threads: int | None, done: Done) -> None:
+    for group in groups:
+        results = encode_group([a.input for a, _ in group], group[0][0].options, threads)
+        for job, result in zip(group, results):
+            done(job, result)
 
 
 @dataclass(frozen=True)
@@ -272,8 +316,8 @@ def _ray_error_message(asset: Asset, e: BaseException) -> str:
     return f"{asset.input}: worker failed ({type(e).__name__}): {first}"
 
 
-def run_ray(jobs: list[Job], opts: RayOptions, done: Done) -> None:
-    """Run the jobs as Ray tasks, at most `opts.workers` at a time. Joins `opts.address` (or
+def run_ray(groups: list[list[Job]], opts: RayOptions, done: Done) -> None:
+    """Run the job groups as Ray tasks (one per group), at most `opts.workers` at a time. Joins `opts.address` (or
     RAY_ADDRESS) or starts a local cluster of workers × cpus_per_task CPUs, shut down at the end;
     an already initialised Ray (a caller's cluster) is used as it is and left running."""
     try:
@@ -299,26 +343,27 @@ def run_ray(jobs: list[Job], opts: RayOptions, done: Done) -> None:
             where = f"the Ray cluster at {address}" if address else "a local Ray cluster"
             raise NfcError(f"cannot start or join {where}: {' '.join(str(e).split())[:300]}") from None
     try:
-        task = ray.remote(encode_asset).options(num_cpus=opts.cpus_per_task, num_gpus=opts.gpus_per_task,
+        task = ray.remote(encode_group).options(num_cpus=opts.cpus_per_task, num_gpus=opts.gpus_per_task,
                                                 max_retries=0)
         threads = opts.threads or max(1, int(opts.cpus_per_task))
-        queue = list(reversed(jobs))
-        pending: dict[Any, Job] = {}
-        limit = opts.workers or len(jobs)
+        queue = list(reversed(groups))
+        pending: dict[Any, list[Job]] = {}
+        limit = opts.workers or len(groups)
         try:
             while queue or pending:
                 while queue and len(pending) < limit:
-                    job = queue.pop()
-                    pending[task.remote(job[0].input, job[0].options, threads)] = job
+                    group = queue.pop()
+                    pending[task.remote([a.input for a, _ in group], group[0][0].options, threads)] = group
                 ready, _ = ray.wait(list(pending), num_returns=1)
                 for ref in ready:
-                    job = pending.pop(ref)
+                    group = pending.pop(ref)
                     try:
-                        result = ray.get(ref)
-                    except Exception as e:  # a crashed or killed worker: this asset only
-                        result = {"status": "error", "data": None, "field": None, "seconds": 0.0,
-                                  "error": _ray_error_message(job[0], e)}
-                    done(job, result)
+                        results = ray.get(ref)
+                    except Exception as e:  # a crashed or killed worker: this task's assets only
+                        results = [{"status": "error", "data": None, "field": None, "seconds": 0.0,
+                                    "error": _ray_error_message(asset, e)} for asset, _ in group]
+                    for job, result in zip(group, results):
+                        done(job, result)
         except BaseException:
             for ref in pending:
                 ray.cancel(ref, force=True)
@@ -353,12 +398,16 @@ def encode_batch(
     cpus_per_task: float = 1.0,
     gpus_per_task: float = 0.0,
     threads: int | None = None,
+    group: int = 1,
     quiet: bool = False,
     report: Callable[[str], None] | None = None,
 ) -> Summary:
     """Encode every asset of INPUT into OUTDIR (module docstring). `workers=1` without an address
-    runs in this process with `threads` torch threads; anything else runs on Ray. `report` receives
-    one line per failed asset as it fails."""
+    runs in this process with `threads` torch threads; anything else runs on Ray. `group` > 1 trains
+    up to that many assets with the same options per task as one batched model (`batch_train`; meant
+    for GPUs). `report` receives one line per failed asset as it fails."""
+    if group < 1:
+        raise InputError(f"group must be >= 1, got {group}")
     start = time.perf_counter()
     _check_types(defaults, "options")
     plan = discover(input_path, defaults)
@@ -423,10 +472,11 @@ def encode_batch(
             else:
                 jobs.append((asset, digest))
         if jobs:
+            groups = group_jobs(jobs, group)
             if workers == 1 and address is None and not os.environ.get("RAY_ADDRESS"):
-                run_in_process(jobs, threads, finished)
+                run_in_process(groups, threads, finished)
             else:
-                run_ray(jobs, RayOptions(address, workers, cpus_per_task, gpus_per_task, threads), finished)
+                run_ray(groups, RayOptions(address, workers, cpus_per_task, gpus_per_task, threads), finished)
     finally:  # interrupted: the journal (previous rows + this run's so far) stays as it is
         bar.close()
         journal.close()
@@ -435,5 +485,5 @@ def encode_batch(
     return Summary(rows, time.perf_counter() - start)
 
 
-__all__ = ["Asset", "Plan", "RayOptions", "Summary", "discover", "encode_asset", "encode_batch", "options_hash",
+__all__ = ["Asset", "Plan", "RayOptions", "Summary", "discover", "encode_asset", "encode_batch", "encode_group", "group_jobs", "options_hash",
            "previous_rows", "available_cpus", "run_in_process", "run_ray", "write_atomic", "ROW_KEYS", "RESULTS_NAME"]

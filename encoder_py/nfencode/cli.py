@@ -122,6 +122,7 @@ def cmd_encode_batch(args: argparse.Namespace) -> int:
     _check_encode_args(args)
     _positive("--workers", args.workers)
     _positive("--tasks-per-gpu", args.tasks_per_gpu)
+    _positive("--group", args.group)
     if args.cpus_per_task <= 0:
         raise InputError(f"--cpus-per-task must be > 0, got {args.cpus_per_task}")
     gpus_per_task = 0.0
@@ -135,7 +136,8 @@ def cmd_encode_batch(args: argparse.Namespace) -> int:
     workers = args.workers if args.workers is not None else (None if joined else batch.available_cpus())
     summary = batch.encode_batch(
         args.input, args.output, _encode_options(args), workers=workers, address=args.address,
-        cpus_per_task=args.cpus_per_task, gpus_per_task=gpus_per_task, threads=args.threads, quiet=args.quiet,
+        cpus_per_task=args.cpus_per_task, gpus_per_task=gpus_per_task, threads=args.threads, group=args.group,
+        quiet=args.quiet,
         report=lambda message: sys.stderr.write(f"nfc: error: {message}\n"),
     )
     ok, skipped, failed = summary.count("ok"), summary.count("skipped"), summary.count("error")
@@ -270,7 +272,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="join this Ray cluster (e.g. ray://head:10001 or head:6379; default $RAY_ADDRESS) "
                         "instead of starting a local one")
     p.add_argument("--cpus-per-task", type=float, default=1.0, help="Ray CPUs (and torch threads) per asset (default 1)")
-    p.add_argument("--tasks-per-gpu", type=int, default=4, help="with a GPU: assets sharing one GPU (default 4)")
+    p.add_argument("--tasks-per-gpu", type=int, default=4, help="with a GPU: tasks sharing one GPU (default 4)")
+    p.add_argument("--group", type=int, default=1,
+                   help="train up to K assets with the same options per task as one batched model "
+                        "(many tiny networks per kernel launch; for GPUs, e.g. 16; default 1)")
     _add_encode_options(p)
     p.set_defaults(run=cmd_encode_batch)
 

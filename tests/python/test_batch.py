@@ -218,3 +218,25 @@ def test_cuda_encode_is_deterministic_and_close_to_cpu(tmp_path: Path) -> None:
     cpu = compress(shape, EncodeConfig(width=8, epochs=1, quiet=True, device="cpu"))
     assert cuda[0].data == cuda[1].data
     assert np.isclose(cuda[0].final_loss, cpu.final_loss, rtol=0.5)
+
+
+def test_group_trains_assets_together_and_isolates_a_rejected_one(tmp_path: Path) -> None:
+    lib, out = write_library(tmp_path), tmp_path / "out"
+    points = trimesh.creation.icosphere(subdivisions=2).vertices
+    (lib / "cloud.ply").write_text("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+                                   "property float z\nend_header\n" % len(points)
+                                   + "".join(f"{x} {y} {z}\n" for x, y, z in points))
+    # One group of four: the broken file fails to load; the SDF meshes and the UDF cloud train together.
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", "--group", "4", *ENCODE)
+    table = rows(out)
+    assert code == 1 and "3 encoded, 0 skipped (up to date), 1 failed of 4" in stdout
+    assert {n: r["field"] for n, r in table.items()} == {"box.ply": "sdf", "broken.obj": None, "cloud.ply": "udf",
+                                                         "sphere.obj": "sdf"}
+    for name in ("box", "cloud", "sphere"):
+        assert read_nfc((out / f"{name}.nfc").read_bytes()).geometry.network.out_features == [8, 8, 1]
+    # --field sdf: the encoder rejects the point cloud, which fails the group's training; the group
+    # falls back to one shape at a time, so only the cloud fails.
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", "--group", "4", "--field", "sdf", *ENCODE)
+    table = rows(out)
+    assert code == 1 and "2 encoded, 0 skipped (up to date), 2 failed of 4" in stdout
+    assert "no inside" in table["cloud.ply"]["error"] and table["box.ply"]["status"] == "ok"
