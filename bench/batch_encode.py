@@ -39,7 +39,7 @@ def data_dir() -> Path:
 
 def nfc(*args: str) -> tuple[int, float, str]:
     start = time.perf_counter()
-    p = subprocess.run([sys.executable, "-m", "nfencode.cli", *args], capture_output=True, text=True)
+    p = subprocess.run([sys.executable, "-m", "nfencode.cli", *args], capture_output=True, text=True, check=False)
     return p.returncode, time.perf_counter() - start, p.stdout + p.stderr
 
 
@@ -69,14 +69,13 @@ def library(args: argparse.Namespace) -> None:
     if decoder.exists():
         with tempfile.TemporaryDirectory() as tmp:
             bad = [r["output"] for r in ok if subprocess.run(
-                [str(decoder), r["output"], "-o", f"{tmp}/x.glb", "--resolution", "64"], capture_output=True).returncode]
+                [str(decoder), r["output"], "-o", f"{tmp}/x.glb", "--resolution", "64"], capture_output=True, check=False).returncode]
         print(f"nfc-decode: {len(ok) - len(bad)} of {len(ok)} files decode" + (f"; failed: {bad}" if bad else ""))
 
 
 def synthetic_shapes(n: int, seed: int = 0) -> list:
     import numpy as np
     import trimesh
-
     from nfencode.io import Shape
 
     rng = np.random.default_rng(seed)
@@ -93,7 +92,6 @@ def synthetic_shapes(n: int, seed: int = 0) -> list:
 
 def trainer(args: argparse.Namespace) -> None:
     import torch
-
     from nfencode.batch_train import compress_many
     from nfencode.encoder import EncodeConfig, compress
 

@@ -240,7 +240,7 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
         message = f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e)
     except MemoryError:
         message = "out of memory"
-    except Exception as e:  # a bug on one asset must not stop the library; the row says what it was
+    except Exception as e:  # noqa: BLE001 - a bug on one asset must not stop the library; the row says what
         message = f"internal error: {type(e).__name__}: {' '.join(str(e).split())}"
     if not message.startswith(input):
         message = f"{input}: {message}"
@@ -338,8 +338,8 @@ def run_ray(groups: list[list[Job]], opts: RayOptions, done: Done) -> None:
                 ray.init(address=address, **quiet)
             else:
                 workers = opts.workers or 1
-                ray.init(num_cpus=max(1, int(round(workers * opts.cpus_per_task))), include_dashboard=False, **quiet)
-        except Exception as e:  # ConnectionError, RuntimeError, ...: one line, not a traceback
+                ray.init(num_cpus=max(1, round(workers * opts.cpus_per_task)), include_dashboard=False, **quiet)
+        except Exception as e:  # noqa: BLE001 - ConnectionError, RuntimeError, ...: one line, not a traceback
             where = f"the Ray cluster at {address}" if address else "a local Ray cluster"
             raise NfcError(f"cannot start or join {where}: {' '.join(str(e).split())[:300]}") from None
     try:
@@ -359,7 +359,7 @@ def run_ray(groups: list[list[Job]], opts: RayOptions, done: Done) -> None:
                     group = pending.pop(ref)
                     try:
                         results = ray.get(ref)
-                    except Exception as e:  # a crashed or killed worker: this task's assets only
+                    except Exception as e:  # noqa: BLE001 - a crashed or killed worker: this task's assets only
                         results = [{"status": "error", "data": None, "field": None, "seconds": 0.0,
                                     "error": _ray_error_message(asset, e)} for asset, _ in group]
                     for job, result in zip(group, results):
@@ -419,7 +419,7 @@ def encode_batch(
 
     order = {a.name: i for i, a in enumerate(plan.assets)}
     final: dict[int, dict[str, Any]] = {}
-    journal = open(out / RESULTS_NAME, "a", encoding="utf-8")
+    journal = open(out / RESULTS_NAME, "a", encoding="utf-8")  # noqa: SIM115 - closed in the finally below
     bar = tqdm(total=len(plan.assets) + len(plan.errors), desc="encode-batch", unit="asset",
                disable=True if quiet else None, dynamic_ncols=True)
     counts = {"ok": 0, "skipped": 0, "error": 0}
@@ -485,5 +485,22 @@ def encode_batch(
     return Summary(rows, time.perf_counter() - start)
 
 
-__all__ = ["Asset", "Plan", "RayOptions", "Summary", "discover", "encode_asset", "encode_batch", "encode_group", "group_jobs", "options_hash",
-           "previous_rows", "available_cpus", "run_in_process", "run_ray", "write_atomic", "ROW_KEYS", "RESULTS_NAME"]
+__all__ = [
+    "RESULTS_NAME",
+    "ROW_KEYS",
+    "Asset",
+    "Plan",
+    "RayOptions",
+    "Summary",
+    "available_cpus",
+    "discover",
+    "encode_asset",
+    "encode_batch",
+    "encode_group",
+    "group_jobs",
+    "options_hash",
+    "previous_rows",
+    "run_in_process",
+    "run_ray",
+    "write_atomic",
+]

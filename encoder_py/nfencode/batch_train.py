@@ -196,7 +196,7 @@ def compress_many(shapes: Sequence[Shape], cfg: EncodeConfig, *, patience: int |
         data = StackedData(*(torch.stack([getattr(p.data, name) for p in preps]).to(device) for name in
                              ("encoded", "distances", "validation_encoded", "validation_distances")))
         net = StackedSiren.stack(preps, device)
-        schedule = dict(batch_size=preset.batch_size, patience=patience)
+        schedule = {"batch_size": preset.batch_size, "patience": patience}
         fit_many(net, data, preps, epochs=epochs, lr=preset.lr, cosine=preset.cosine, **schedule)
 
         best_loss = validation_losses(net, data, cfg.bits)

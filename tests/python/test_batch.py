@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 import torch
 import trimesh
-
 from nfencode import batch, config
 from nfencode.batch import ROW_KEYS, encode_batch, write_atomic
 from nfencode.bitstream import read_nfc
@@ -223,8 +222,8 @@ def test_cuda_encode_is_deterministic_and_close_to_cpu(tmp_path: Path) -> None:
 def test_group_trains_assets_together_and_isolates_a_rejected_one(tmp_path: Path) -> None:
     lib, out = write_library(tmp_path), tmp_path / "out"
     points = trimesh.creation.icosphere(subdivisions=2).vertices
-    (lib / "cloud.ply").write_text("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
-                                   "property float z\nend_header\n" % len(points)
+    (lib / "cloud.ply").write_text(f"ply\nformat ascii 1.0\nelement vertex {len(points)}\nproperty float x\n"
+                                   "property float y\nproperty float z\nend_header\n"
                                    + "".join(f"{x} {y} {z}\n" for x, y, z in points))
     # One group of four: the broken file fails to load; the SDF meshes and the UDF cloud train together.
     code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", "--group", "4", *ENCODE)

@@ -12,10 +12,9 @@ import json
 import time
 from pathlib import Path
 
+import nfencode
 import pytest
 import trimesh
-
-import nfencode
 from nfencode.bitstream import read_nfc
 from nfencode.cli import main
 

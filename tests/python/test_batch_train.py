@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 import torch
 import trimesh
-
 from nfencode import config
 from nfencode.batch_train import StackedData, StackedSiren, batched_fake_quantize, compress_many, fit_many
 from nfencode.bitstream import read_nfc
