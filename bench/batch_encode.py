@@ -40,7 +40,7 @@ def data_dir() -> Path:
 def nfc(*args: str) -> tuple[int, float, str]:
     start = time.perf_counter()
     p = subprocess.run([sys.executable, "-m", "nfencode.cli", *args], capture_output=True, text=True, check=False)
-    return p.returncode, time.perf_counter() - start, p.stdout + p.stderr
+    return p.returncode, time.perf_counter() - start, p.stdout
 
 
 def library(args: argparse.Namespace) -> None:

@@ -36,6 +36,7 @@ from .devices import cpu_threads, resolve_device
 from .encoder import EncodeConfig, EncodeResult, Prepared, check_config, finish, prepare
 from .io import Shape
 from .sampling import draw_epoch, epoch_counts
+from .train import TrainingData
 
 
 def batched_fake_quantize(x: torch.Tensor, bits: int) -> torch.Tensor:
@@ -178,6 +179,26 @@ def fit_many(
     return epochs
 
 
+def _prepare_stacked(shapes: Sequence[Shape], cfg: EncodeConfig,
+                     device: torch.device) -> tuple[list[Prepared], StackedData]:
+    """Each shape's `encoder.prepare` (on the CPU), its training data copied into one stacked
+    (K, ...) tensor per kind on `device` and then dropped, so peak memory is the stack plus one shape
+    (~200 MB per shape at the default 100k surface points per epoch and 16 frequencies)."""
+    names = ("encoded", "distances", "validation_encoded", "validation_distances")
+    preps: list[Prepared] = []
+    stacked: list[torch.Tensor] = []
+    for k, shape in enumerate(shapes):
+        prep = prepare(shape, cfg, torch.device("cpu"))
+        parts = [getattr(prep.data, name) for name in names]
+        if k == 0:
+            stacked = [torch.empty((len(shapes), *t.shape), dtype=t.dtype, device=device) for t in parts]
+        for target, part in zip(stacked, parts):
+            target[k].copy_(part)
+        prep.data = TrainingData(*(torch.empty(0) for _ in names))  # the stack holds it now
+        preps.append(prep)
+    return preps, StackedData(*stacked)
+
+
 def compress_many(shapes: Sequence[Shape], cfg: EncodeConfig, *, patience: int | None = None) -> list[EncodeResult]:
     """Encode every shape with the same settings (width, bits, preset, epochs, seed) as one batched
     model; the i-th result is what `encoder.compress(shapes[i], cfg)` computes, up to float rounding.
@@ -191,10 +212,7 @@ def compress_many(shapes: Sequence[Shape], cfg: EncodeConfig, *, patience: int |
     previous_threads = torch.get_num_threads()
     torch.set_num_threads(cpu_threads(cfg.threads))
     try:
-        cpu = torch.device("cpu")
-        preps = [prepare(shape, cfg, cpu) for shape in shapes]
-        data = StackedData(*(torch.stack([getattr(p.data, name) for p in preps]).to(device) for name in
-                             ("encoded", "distances", "validation_encoded", "validation_distances")))
+        preps, data = _prepare_stacked(shapes, cfg, device)
         net = StackedSiren.stack(preps, device)
         schedule = {"batch_size": preset.batch_size, "patience": patience}
         fit_many(net, data, preps, epochs=epochs, lr=preset.lr, cosine=preset.cosine, **schedule)
