@@ -99,7 +99,9 @@ def trainer(args: argparse.Namespace) -> None:
     cfg = EncodeConfig(width=args.width, epochs=args.epochs, quiet=True, device=args.device, threads=args.threads)
     device = torch.device("cuda" if args.device == "cuda" or (args.device == "auto" and torch.cuda.is_available())
                           else "cpu")
-    name = torch.cuda.get_device_name() if device.type == "cuda" else f"CPU, {torch.get_num_threads()} threads"
+    from nfencode.devices import cpu_threads
+
+    name = torch.cuda.get_device_name() if device.type == "cuda" else f"CPU, {cpu_threads(args.threads)} threads"
     print(f"{len(shapes)} synthetic shapes, W {args.width}, epochs {args.epochs or 'preset'} (+QAT), {name}")
     compress(shapes[0], cfg)  # warm-up (CUDA context, kernels)
     n_one = min(len(shapes), args.one_by_one)
