@@ -8,7 +8,8 @@ one started here, or an existing one joined by address; the extra `nfencode[batc
   an interrupted run never leaves a partial `.nfc`;
 - `OUTDIR/results.jsonl`, one row per asset (ROW_KEYS plus `options_hash`). Rows are appended as
   assets finish, so an interrupted run keeps what it finished; at the end the file is rewritten
-  (atomically) with exactly this run's rows, in input order.
+  (atomically) with exactly this run's rows: the assets in input order, then the unusable manifest
+  lines and duplicate output names.
 
 Resume: an asset is skipped when its `.nfc` exists, has the recorded size, and the last recorded row
 for it has the same `options_hash`: a hash of the options that change the bytes (ENCODE_OPTIONS but
@@ -19,7 +20,9 @@ Grouping (`group` > 1, for GPUs): assets with identical options are trained seve
 batched model (`batch_train.compress_many`); each still gets its own file and row.
 
 Isolation: every failure of one asset (unreadable or broken file, bad manifest row, bad option, a
-crashed worker) becomes an `error` row; the others continue. Workers read inputs by path (on a
+crashed worker) becomes an `error` row; the others continue. A failure that the same input bytes and
+options always give (the file or an option rejected) is recorded with its hash and reported again by
+a rerun without running it; crashes, I/O errors, memory and a missing device are retried. Workers read inputs by path (on a
 joined cluster every node must see them at the same path) and return the bytes; only the driver
 writes.
 """
@@ -40,7 +43,7 @@ from tqdm import tqdm
 
 from . import __version__
 from .devices import available_cpus
-from .errors import InputError, NfcError
+from .errors import DeviceError, InputError, NfcError
 from .io import MESH_EXTENSIONS, SCAN_ALIGNMENT_EXTENSION, split_extension
 
 RESULTS_NAME = "results.jsonl"
@@ -185,7 +188,8 @@ def file_digest(path: str) -> str:
 
 
 def previous_rows(outdir: Path) -> dict[str, dict[str, Any]]:
-    """Last finished (ok or skipped) row per output file name in OUTDIR/results.jsonl; a torn or
+    """The last row per asset in OUTDIR/results.jsonl with an options hash: a finished one (ok or
+    skipped) under its output file name, a final error under "error:" + its input. A torn or
     foreign line (an interrupted write) is ignored."""
     found: dict[str, dict[str, Any]] = {}
     try:
@@ -197,8 +201,12 @@ def previous_rows(outdir: Path) -> dict[str, dict[str, Any]]:
             r = json.loads(line)
         except json.JSONDecodeError:
             continue
-        if isinstance(r, dict) and r.get("status") in ("ok", "skipped") and isinstance(r.get("output"), str):
+        if not isinstance(r, dict) or not r.get("options_hash"):
+            continue
+        if r.get("status") in ("ok", "skipped") and isinstance(r.get("output"), str):
             found[Path(r["output"]).name] = r
+        elif r.get("status") == "error" and isinstance(r.get("input"), str):
+            found["error:" + r["input"]] = r
     return found
 
 
@@ -222,9 +230,12 @@ def write_atomic(path: Path, data: bytes) -> None:
 # --- One asset -------------------------------------------------------------------------------------
 
 def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> dict[str, Any]:
-    """Load and encode one shape; never raises. Returns {status, data, field, seconds, error}. This is
-    the Ray task: it imports torch itself and writes nothing."""
+    """Load and encode one shape; never raises. Returns {status, data, field, seconds, error, final}:
+    `final` marks a failure the same input bytes and options will always give (the input or an
+    option rejected), which a rerun reports again instead of retrying; crashes, I/O errors, memory
+    and a missing device are retried. It imports torch itself and writes nothing (the Ray task)."""
     start = time.perf_counter()
+    final = False
     try:
         from .encoder import EncodeConfig, compress
         from .io import load_shape
@@ -235,7 +246,7 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
         return {"status": "ok", "data": result.data, "field": result.field,
                 "seconds": time.perf_counter() - start, "error": None}
     except NfcError as e:
-        message = e.message
+        message, final = e.message, not isinstance(e, DeviceError)
     except OSError as e:
         message = f"{e.filename}: {e.strerror}" if e.filename and e.strerror else str(e)
     except MemoryError:
@@ -245,7 +256,7 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
     if not message.startswith(input):
         message = f"{input}: {message}"
     return {"status": "error", "data": None, "field": None, "seconds": time.perf_counter() - start,
-            "error": message}
+            "error": message, "final": final}
 
 
 def encode_group(inputs: list[str], options: dict[str, Any], threads: int | None) -> list[dict[str, Any]]:
@@ -267,7 +278,8 @@ def encode_group(inputs: list[str], options: dict[str, Any], threads: int | None
                 shapes.append((i, load_shape(path)))
             except NfcError as e:
                 results[i] = {"status": "error", "data": None, "field": None, "seconds": 0.0,
-                              "error": e.message if e.message.startswith(path) else f"{path}: {e.message}"}
+                              "error": e.message if e.message.startswith(path) else f"{path}: {e.message}",
+                              "final": True}
         cfg = EncodeConfig(**{k: options[k] for k in ENCODE_OPTIONS if k in options}, quiet=True, threads=threads)
         encoded = compress_many([shape for _, shape in shapes], cfg)
         seconds = (time.perf_counter() - start) / max(1, len(shapes))  # the group's time, shared
@@ -447,6 +459,8 @@ def encode_batch(
                 r.update(output=str(target), bytes=len(result["data"]), field=result["field"], options_hash=digest)
             except OSError as e:
                 r.update(status="error", error=f"{target}: cannot write ({e.strerror or e})")
+        elif result.get("final"):
+            r.update(options_hash=digest)  # the same bytes and options fail the same way: not retried
         record(order[asset.name], r)
 
     try:
@@ -469,6 +483,10 @@ def encode_batch(
                 record(order[asset.name], row(asset.input, "skipped", output=str(target), bytes=before["bytes"],
                                               seconds=time.perf_counter() - t0, field=before.get("field"),
                                               width=asset.options.get("width"), options_hash=digest))
+            elif (failed := previous.get("error:" + asset.input)) is not None and failed["options_hash"] == digest:
+                record(order[asset.name], row(asset.input, "error", seconds=time.perf_counter() - t0,
+                                              width=asset.options.get("width"), error=failed.get("error"),
+                                              options_hash=digest))
             else:
                 jobs.append((asset, digest))
         if jobs:

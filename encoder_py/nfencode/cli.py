@@ -267,7 +267,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="output directory: <name>.nfc per asset and results.jsonl (created if missing)")
     p.add_argument("--workers", type=int, default=None,
                    help="assets encoded at once (default: the CPUs here; on a joined cluster, as many as it "
-                        "schedules); 1 runs in this process without Ray")
+                        "schedules); 1 runs in this process without Ray (unless --address or RAY_ADDRESS is given)")
     p.add_argument("--address", default=None,
                    help="join this Ray cluster (e.g. ray://head:10001 or head:6379; default $RAY_ADDRESS) "
                         "instead of starting a local one")

@@ -12,7 +12,7 @@ import os
 from typing import TYPE_CHECKING
 
 from . import config
-from .errors import InputError
+from .errors import DeviceError, InputError
 
 if TYPE_CHECKING:  # torch is imported only where a device is resolved: `nfc info` etc. never need it
     import torch
@@ -29,7 +29,7 @@ def resolve_device(name: str) -> torch.device:
     if name == "auto":
         name = "cuda" if torch.cuda.is_available() else "cpu"
     if name == "cuda" and not torch.cuda.is_available():
-        raise InputError("--device cuda: torch sees no CUDA GPU (use --device cpu or auto)")
+        raise DeviceError("--device cuda: torch sees no CUDA GPU (use --device cpu or auto)")
     return torch.device(name)
 
 

@@ -26,8 +26,8 @@ ENCODE = ["--width", "8", "--epochs", "1", "--quiet"]
 
 @pytest.fixture(autouse=True)
 def small_epochs(monkeypatch: pytest.MonkeyPatch) -> None:
-    """10k instead of 100k surface points per epoch: these tests check orchestration, not quality."""
-    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 10_000)
+    """5k instead of 100k surface points per epoch: these tests check orchestration, not quality."""
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 5_000)
 
 
 def write_library(root: Path) -> Path:
@@ -73,13 +73,18 @@ def test_in_process_batch_rows_isolation_resume_and_no_ray(tmp_path: Path, monke
         assert len(data) == r["bytes"] and r["seconds"] > 0
         assert read_nfc(data).geometry.network.out_features == [8, 8, 1]
     assert first["broken.obj"]["status"] == "error" and first["broken.obj"]["output"] is None
+    assert first["broken.obj"]["options_hash"]  # a final failure: these bytes and options always fail
     assert sorted(p.name for p in out.iterdir()) == ["box.nfc", "results.jsonl", "sphere.nfc"]  # no temporaries
     mtimes = {p.name: p.stat().st_mtime_ns for p in out.glob("*.nfc")}
 
-    # Rerun: finished assets are skipped (files untouched), the broken one is retried and fails again.
-    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", *ENCODE)
+    # Rerun: finished assets are skipped (files untouched); the broken one, unchanged, fails again
+    # from its recorded row, without loading or encoding anything (torch must not be needed).
+    encode_group = batch.encode_group
+    monkeypatch.setattr(batch, "encode_group", None)  # calling it would raise
+    code, stdout, stderr = run("encode-batch", lib, "-o", out, "--workers", "1", *ENCODE)
+    monkeypatch.setattr(batch, "encode_group", encode_group)
     again = rows(out)
-    assert code == 1 and "0 encoded, 2 skipped" in stdout
+    assert code == 1 and "0 encoded, 2 skipped" in stdout and "contains no vertices" in stderr
     assert [again[n]["status"] for n in ("box.ply", "broken.obj", "sphere.obj")] == ["skipped", "error", "skipped"]
     assert again["box.ply"]["bytes"] == first["box.ply"]["bytes"]
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.nfc")} == mtimes

@@ -56,6 +56,7 @@ def test_two_workers_rows_isolation_resume(cluster: object, tmp_path: Path) -> N
     rows = {Path(r["input"]).name: r for r in map(json.loads, (out / "results.jsonl").read_text().splitlines())}
     assert rows["broken.ply"]["status"] == "error" and "broken.ply" in rows["broken.ply"]["error"]
     assert rows["crash_box.ply"]["status"] == "error" and "worker failed" in rows["crash_box.ply"]["error"]
+    assert rows["broken.ply"]["options_hash"] and rows["crash_box.ply"]["options_hash"] is None  # crashes: retried
     for name in ("sphere.obj", "box.ply", "capsule.off"):
         r = rows[name]
         assert r["status"] == "ok" and r["field"] == "sdf" and r["width"] == 8
@@ -63,7 +64,8 @@ def test_two_workers_rows_isolation_resume(cluster: object, tmp_path: Path) -> N
     assert sorted(p.name for p in out.iterdir()) == ["box.nfc", "capsule.nfc", "results.jsonl", "sphere.nfc"]
     assert len(stderr.splitlines()) == 2
 
-    # Rerun: nothing finished is encoded again; only the two failures are retried.
+    # Rerun: nothing finished is encoded again, and the unchanged broken file fails again from its
+    # row (no task runs at all).
     (lib / "crash_box.ply").unlink()
     start = time.perf_counter()
     code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "2", *ENCODE)
