@@ -88,6 +88,9 @@ def test_in_process_batch_rows_isolation_resume_and_no_ray(tmp_path: Path, monke
     assert [again[n]["status"] for n in ("box.ply", "broken.obj", "sphere.obj")] == ["skipped", "error", "skipped"]
     assert again["box.ply"]["bytes"] == first["box.ply"]["bytes"]
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.nfc")} == mtimes
+    # Execution settings (device, threads) are not part of the hash: still up to date.
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", *ENCODE, "--device", "cpu", "--threads", "1")
+    assert code == 1 and "0 encoded, 2 skipped" in stdout
 
     # Another option (seed) or another input file content means another file: re-encoded.
     (lib / "broken.obj").unlink()
