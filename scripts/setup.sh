@@ -28,10 +28,10 @@ if [ ! -x .venv/bin/python ]; then
   echo "[setup] creating .venv"
   "$PY" -m venv .venv
 fi
-if ! .venv/bin/python -c "import nfencode, pytest, matplotlib, fast_simplification" 2>/dev/null; then
-  echo "[setup] pip install ./encoder_py[test,bench]"
+if ! .venv/bin/python -c "import nfencode, pytest, matplotlib, fast_simplification, ray" 2>/dev/null; then
+  echo "[setup] pip install ./encoder_py[test,bench,batch]"
   .venv/bin/pip install -q --upgrade pip
-  .venv/bin/pip install -q -e "./encoder_py[test,bench]"
+  .venv/bin/pip install -q -e "./encoder_py[test,bench,batch]"
 fi
 
 # The C++ decoder, samples and tests.

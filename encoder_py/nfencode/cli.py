@@ -2,13 +2,16 @@
 
 Every user-facing failure (bad input file, corrupt .nfc, I/O error, wrong arguments) ends in exactly
 one line `nfc: error: ...` on stderr and a non-zero exit status (2 for command-line misuse, 1 for the
-rest); tracebacks are reserved for bugs. `info`, `decode` and `eval` never import torch.
+rest); tracebacks are reserved for bugs. `info`, `decode` and `eval` never import torch; `encode-batch`
+imports Ray only when it runs on Ray. `encode-batch` reports each failed asset as one such line and
+exits 1 when any failed.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -25,6 +28,8 @@ from .bitstream import (
     NfcFile,
     read_nfc,
 )
+from .config import MAX_TORCH_THREADS
+from .devices import DEVICE_CHOICES
 from .errors import InputError, NfcError
 from .io import Shape, load_shape, save_mesh, save_points
 
@@ -76,31 +81,75 @@ def _positive(name: str, value: int | None, low: int = 1, high: int | None = Non
 def cmd_encode(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     output = _output_path(args.output, (".nfc",))
-    _positive("--width", args.width, 1, MAX_WIDTH)
-    _positive("--bits", args.bits, MIN_BITS, MAX_BITS)
-    _positive("--epochs", args.epochs)
+    _check_encode_args(args)
     shape = load_shape(args.input)
     from . import encoder  # imports torch: only this command needs it
 
-    config = encoder.EncodeConfig(
-        field=args.field,
-        width=args.width,
-        bits=args.bits,
-        preset=args.preset,
-        epochs=args.epochs,
-        seed=args.seed,
-        quiet=args.quiet,
-    )
+    from .devices import resolve_device
+
+    device = resolve_device(args.device)
+    config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads)
     result = encoder.compress(shape, config)
-    output.write_bytes(result.data)
+    from .batch import write_atomic
+
+    write_atomic(output, result.data)
     seconds = time.perf_counter() - start
     print(f"field: {result.field}, {result.field_reason}")
     print(
         f"{output}: {len(result.data)} bytes ({result.field}, width {args.width}, {args.bits} bits, "
-        f"preset {args.preset}), encoded in {seconds:.1f} s (training {result.seconds:.1f} s, "
+        f"preset {args.preset}, {device.type}), encoded in {seconds:.1f} s (training {result.seconds:.1f} s, "
         f"final loss {result.final_loss:.3g})"
     )
     return 0
+
+
+def _encode_options(args: argparse.Namespace) -> dict:
+    """The EncodeConfig fields that `encode` and `encode-batch` share (batch.ENCODE_OPTIONS)."""
+    return {"field": args.field, "width": args.width, "bits": args.bits, "preset": args.preset,
+            "epochs": args.epochs, "seed": args.seed, "device": args.device}
+
+
+def _check_encode_args(args: argparse.Namespace) -> None:
+    _positive("--width", args.width, 1, MAX_WIDTH)
+    _positive("--bits", args.bits, MIN_BITS, MAX_BITS)
+    _positive("--epochs", args.epochs)
+    _positive("--threads", args.threads)
+
+
+def cmd_encode_batch(args: argparse.Namespace) -> int:
+    from . import batch
+
+    _check_encode_args(args)
+    _positive("--workers", args.workers)
+    _positive("--tasks-per-gpu", args.tasks_per_gpu)
+    _positive("--group", args.group)
+    if args.cpus_per_task <= 0:
+        raise InputError(f"--cpus-per-task must be > 0, got {args.cpus_per_task}")
+    gpus_per_task = 0.0
+    if args.device == "cuda" or (args.device == "auto" and args.address is None and _driver_sees_gpu()):
+        gpus_per_task = 1.0 / args.tasks_per_gpu
+    joined = args.address is not None or bool(os.environ.get("RAY_ADDRESS"))
+    if not joined and args.device == "cuda":
+        from .devices import resolve_device
+
+        resolve_device("cuda")  # fail once here, not once per asset
+    workers = args.workers if args.workers is not None else (None if joined else batch.available_cpus())
+    summary = batch.encode_batch(
+        args.input, args.output, _encode_options(args), workers=workers, address=args.address,
+        cpus_per_task=args.cpus_per_task, gpus_per_task=gpus_per_task, threads=args.threads, group=args.group,
+        quiet=args.quiet,
+        report=lambda message: sys.stderr.write(f"nfc: error: {message}\n"),
+    )
+    ok, skipped, failed = summary.count("ok"), summary.count("skipped"), summary.count("error")
+    print(f"{args.output}: {ok} encoded, {skipped} skipped (up to date), {failed} failed of {len(summary.rows)} "
+          f"in {summary.seconds:.1f} s; rows in {Path(args.output) / batch.RESULTS_NAME}")
+    return EXIT_ERROR if summary.failed else 0
+
+
+def _driver_sees_gpu() -> bool:
+    import torch
+
+    return bool(torch.cuda.is_available())
 
 
 def _info_dict(path: str, f: NfcFile, size: int) -> dict:
@@ -209,15 +258,26 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("encode", help="compress a mesh or point cloud into an .nfc file")
     p.add_argument("input", help="PLY, OBJ, OFF, glTF or GLB file (optionally .gz), or a scanalyze .conf of scans")
     p.add_argument("-o", "--output", required=True, help="output .nfc file")
-    p.add_argument("--field", choices=("sdf", "udf", "auto"), default="auto",
-                   help="signed (watertight shapes), unsigned (anything) or auto (SDF when closed, nearly manifold)")
-    p.add_argument("--width", type=int, default=32, help="hidden layer width: sets the rate (default 32)")
-    p.add_argument("--bits", type=int, default=8, help="quantization bit width (default 8)")
-    p.add_argument("--preset", choices=("fast", "paper"), default="fast", help="training schedule")
-    p.add_argument("--epochs", type=int, default=None, help="override the preset's epoch count")
-    p.add_argument("--seed", type=int, default=0, help="random seed (encoding is deterministic in it)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_encode_options(p)
     p.set_defaults(run=cmd_encode)
+
+    p = sub.add_parser("encode-batch", help="encode a directory of shapes or a JSON-lines manifest (Ray)")
+    p.add_argument("input", help="directory of shape files, or a .jsonl manifest: one {\"path\": ..., options} per line")
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR",
+                   help="output directory: <name>.nfc per asset and results.jsonl (created if missing)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="assets encoded at once (default: the CPUs here; on a joined cluster, as many as it "
+                        "schedules); 1 runs in this process without Ray (unless --address or RAY_ADDRESS is given)")
+    p.add_argument("--address", default=None,
+                   help="join this Ray cluster (e.g. ray://head:10001 or head:6379; default $RAY_ADDRESS) "
+                        "instead of starting a local one")
+    p.add_argument("--cpus-per-task", type=float, default=1.0, help="Ray CPUs (and torch threads) per asset (default 1)")
+    p.add_argument("--tasks-per-gpu", type=int, default=4, help="with a GPU: tasks sharing one GPU (default 4)")
+    p.add_argument("--group", type=int, default=1,
+                   help="train up to K assets with the same options per task as one batched model "
+                        "(many tiny networks per kernel launch; for GPUs, e.g. 16; default 1)")
+    _add_encode_options(p)
+    p.set_defaults(run=cmd_encode_batch)
 
     p = sub.add_parser("info", help="describe an .nfc file")
     p.add_argument("file")
@@ -240,6 +300,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
     p.set_defaults(run=cmd_eval)
     return parser
+
+
+def _add_encode_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--field", choices=("sdf", "udf", "auto"), default="auto",
+                   help="signed (watertight shapes), unsigned (anything) or auto (SDF when closed, nearly manifold)")
+    p.add_argument("--width", type=int, default=32, help="hidden layer width: sets the rate (default 32)")
+    p.add_argument("--bits", type=int, default=8, help="quantization bit width (default 8)")
+    p.add_argument("--preset", choices=("fast", "paper"), default="fast", help="training schedule")
+    p.add_argument("--epochs", type=int, default=None, help="override the preset's epoch count")
+    p.add_argument("--seed", type=int, default=0, help="random seed (same bytes for the same seed on a given device)")
+    p.add_argument("--device", choices=DEVICE_CHOICES, default="auto",
+                   help="train on the CPU, a CUDA GPU, or auto (CUDA when torch sees one; default)")
+    p.add_argument("--threads", type=int, default=None,
+                   help=f"CPU torch threads (default: the CPUs available, at most {MAX_TORCH_THREADS})")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import copy
 import math
-import os
 import time
 from dataclasses import dataclass
 
@@ -30,13 +29,14 @@ from .bitstream import (
     NfcFile,
     write_nfc,
 )
+from .devices import cpu_threads, resolve_device
 from .errors import InputError
 from .io import Shape
 from .model import Siren
 from .normalize import to_unit, unit_ball_frame
 from .quantize import quantize_layers
-from .sampling import SurfaceSampler, build_pool, resolve_field
-from .train import fit, prepare_data, validation_loss
+from .sampling import DistancePool, SurfaceSampler, build_pool, resolve_field
+from .train import TrainingData, fit, prepare_data, validation_loss
 
 
 @dataclass
@@ -50,6 +50,8 @@ class EncodeConfig:
     epochs: int | None = None
     seed: int = 0
     quiet: bool = False
+    device: str = "auto"  # "auto" (CUDA when torch sees a GPU), "cpu" or "cuda"
+    threads: int | None = None  # CPU torch threads; None: devices.cpu_threads()
 
 
 @dataclass
@@ -61,7 +63,8 @@ class EncodeResult:
     final_loss: float  # truncated validation loss of the quantized network that was written
 
 
-def _check_config(cfg: EncodeConfig) -> config.Preset:
+def check_config(cfg: EncodeConfig) -> config.Preset:
+    """The preset of `cfg`, after checking every value (InputError otherwise)."""
     if cfg.preset not in config.PRESETS:
         raise InputError(f"unknown preset {cfg.preset!r} (choose from {', '.join(config.PRESETS)})")
     if not 1 <= cfg.width <= MAX_WIDTH:
@@ -70,22 +73,30 @@ def _check_config(cfg: EncodeConfig) -> config.Preset:
         raise InputError(f"bit width {cfg.bits} outside {MIN_BITS}..{MAX_BITS}")
     if cfg.epochs is not None and cfg.epochs < 0:
         raise InputError(f"epochs must be non-negative, got {cfg.epochs}")
+    if cfg.field not in ("auto", "sdf", "udf"):
+        raise InputError(f"unknown field type {cfg.field!r} (use sdf, udf or auto)")
     return config.PRESETS[cfg.preset]
 
 
-def _torch_threads() -> int:
-    available = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return max(1, min(available, config.MAX_TORCH_THREADS))
+@dataclass
+class Prepared:
+    """Everything before training: the frame, the field, the ground-truth pool and the initial
+    network (on the CPU; `data` on the training device)."""
+
+    field: str
+    field_reason: str
+    center32: np.ndarray
+    scale32: float
+    pool: DistancePool
+    model: Siren
+    data: TrainingData
+    rng: np.random.Generator  # the shape's numpy stream, continued by training
 
 
-def compress(shape: Shape, cfg: EncodeConfig) -> EncodeResult:
-    """Encode the geometry of `shape` into `.nfc` bytes. Deterministic given cfg.seed (and thread count)."""
-    start = time.perf_counter()
-    preset = _check_config(cfg)
-    epochs = preset.epochs if cfg.epochs is None else cfg.epochs
+def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
+    """Frame, field choice, pool and initial weights of `shape`; the random draws of one seed."""
     rng = np.random.default_rng(cfg.seed)
     generator = torch.Generator().manual_seed(cfg.seed)
-
     # The file stores the frame in f32; train in exactly the frame a decoder will apply.
     center, scale = unit_ball_frame(shape.vertices)
     center32 = np.asarray(center, dtype=np.float32)
@@ -94,13 +105,53 @@ def compress(shape: Shape, cfg: EncodeConfig) -> EncodeResult:
         raise InputError("the shape has no extent (all vertices coincide) or coordinates overflow float32")
     sampler = SurfaceSampler(to_unit(shape.vertices, center32, scale32), shape.faces)
     field, field_reason = resolve_field(sampler, cfg.field, rng)
+    pool = build_pool(sampler, field, rng)
+    model = Siren(cfg.width, "identity" if field == "sdf" else "abs", generator=generator)
+    data = prepare_data(model, pool)
+    if device.type != "cpu":
+        data = TrainingData(*(t.to(device) for t in (data.encoded, data.distances, data.validation_encoded,
+                                                      data.validation_distances)))
+    return Prepared(field, field_reason, center32, scale32, pool, model, data, rng)
+
+
+def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_loss: float, start: float) -> EncodeResult:
+    """Quantize the chosen layers and write the `.nfc` bytes."""
+    levels, steps = quantize_layers(best_layers.cpu(), bits)
+    network = NetworkBlock(
+        num_frequencies=config.NUM_FREQUENCIES,
+        frequency_base=config.FREQUENCY_BASE,
+        omega0=config.OMEGA0,
+        output=OUTPUT_IDENTITY if prep.field == "sdf" else OUTPUT_ABS,
+        bits=bits,
+        out_features=[layer.out_features for layer in best_layers],
+        steps=steps,
+        levels=levels,
+    )
+    c = prep.center32
+    geometry = GeometryChunk(
+        field_type=FIELD_SDF if prep.field == "sdf" else FIELD_UDF,
+        truncation=config.TRUNCATION,
+        center=(float(c[0]), float(c[1]), float(c[2])),
+        scale=prep.scale32,
+        network=network,
+    )
+    data_bytes = write_nfc(NfcFile(geometry))
+    return EncodeResult(data_bytes, prep.field, prep.field_reason, time.perf_counter() - start, best_loss)
+
+
+def compress(shape: Shape, cfg: EncodeConfig) -> EncodeResult:
+    """Encode the geometry of `shape` into `.nfc` bytes. Deterministic given cfg.seed on a given
+    device (on the CPU: and thread count)."""
+    start = time.perf_counter()
+    preset = check_config(cfg)
+    device = resolve_device(cfg.device)
+    epochs = preset.epochs if cfg.epochs is None else cfg.epochs
 
     previous_threads = torch.get_num_threads()
-    torch.set_num_threads(_torch_threads())
+    torch.set_num_threads(cpu_threads(cfg.threads))
     try:
-        pool = build_pool(sampler, field, rng)
-        model = Siren(cfg.width, "identity" if field == "sdf" else "abs", generator=generator)
-        data = prepare_data(model, pool)
+        prep = prepare(shape, cfg, device)
+        model, data, pool, rng = prep.model.to(device), prep.data, prep.pool, prep.rng
         fit(model, data, pool, epochs=epochs, lr=preset.lr, cosine=preset.cosine,
             batch_size=preset.batch_size, rng=rng, quiet=cfg.quiet)
 
@@ -113,26 +164,6 @@ def compress(shape: Shape, cfg: EncodeConfig) -> EncodeResult:
             qat_loss = validation_loss(model, data, cfg.bits)
             if qat_loss < best_loss:
                 best_loss, best_layers = qat_loss, model.layers
-        levels, steps = quantize_layers(best_layers, cfg.bits)
+        return finish(prep, best_layers, cfg.bits, best_loss, start)
     finally:
         torch.set_num_threads(previous_threads)
-
-    network = NetworkBlock(
-        num_frequencies=config.NUM_FREQUENCIES,
-        frequency_base=config.FREQUENCY_BASE,
-        omega0=config.OMEGA0,
-        output=OUTPUT_IDENTITY if field == "sdf" else OUTPUT_ABS,
-        bits=cfg.bits,
-        out_features=[layer.out_features for layer in best_layers],
-        steps=steps,
-        levels=levels,
-    )
-    geometry = GeometryChunk(
-        field_type=FIELD_SDF if field == "sdf" else FIELD_UDF,
-        truncation=config.TRUNCATION,
-        center=(float(center32[0]), float(center32[1]), float(center32[2])),
-        scale=scale32,
-        network=network,
-    )
-    data_bytes = write_nfc(NfcFile(geometry))
-    return EncodeResult(data_bytes, field, field_reason, time.perf_counter() - start, best_loss)

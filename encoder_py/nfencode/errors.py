@@ -20,6 +20,11 @@ class InputError(NfcError):
     """An input file or value the tool cannot use (missing, unreadable, empty, NaN, degenerate...)."""
 
 
+class DeviceError(InputError):
+    """The requested device is not available on this machine (e.g. `--device cuda` without a GPU):
+    unlike other input errors, it depends on where the command runs, not on the input."""
+
+
 class FormatError(NfcError):
     """A `.nfc` byte stream a reader must reject. `kind` is one of FORMAT.md's error classes."""
 

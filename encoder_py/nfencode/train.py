@@ -101,8 +101,8 @@ def fit(
     bar = tqdm(range(epochs), desc=desc, unit="epoch", disable=True if quiet else None, leave=False,
                dynamic_ncols=True)
     for _ in bar:
-        order = torch.from_numpy(draw_epoch(pool, rng))
-        running = 0.0
+        order = torch.from_numpy(draw_epoch(pool, rng)).to(data.encoded.device)
+        running = torch.zeros((), dtype=torch.float64, device=data.encoded.device)  # no per-step sync on CUDA
         for batch in order.split(batch_size):
             if cosine:
                 for group in optimizer.param_groups:
@@ -112,9 +112,9 @@ def fit(
             optimizer.zero_grad(set_to_none=True)
             (loss + config.L1_WEIGHT * l1_penalty(model)).backward()
             optimizer.step()
-            running += float(loss.detach()) * len(batch)
+            running += loss.detach().to(torch.float64) * len(batch)
             step += 1
-        epoch_loss = running / len(order)
+        epoch_loss = float(running) / len(order)
         bar.set_postfix(loss=f"{epoch_loss:.3e}")
     bar.close()
     return epoch_loss

@@ -1,0 +1,249 @@
+"""`nfc encode-batch` without Ray (`--workers 1`, in this process) and `--device`: rows, resume by
+options hash, isolation of bad assets and manifest lines, atomic outputs, exit status."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+import trimesh
+from nfencode import batch, config
+from nfencode.batch import ROW_KEYS, encode_batch, write_atomic
+from nfencode.bitstream import read_nfc
+from nfencode.cli import main
+from nfencode.devices import resolve_device
+from nfencode.errors import InputError
+
+ENCODE = ["--width", "8", "--epochs", "1", "--quiet"]
+
+
+@pytest.fixture(autouse=True)
+def small_epochs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """5k instead of 100k surface points per epoch: these tests check orchestration, not quality."""
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 5_000)
+
+
+def write_library(root: Path) -> Path:
+    """Two small closed meshes, a broken file and a file that is not a shape."""
+    lib = root / "lib"
+    lib.mkdir()
+    trimesh.creation.icosphere(subdivisions=2).export(lib / "sphere.obj")
+    trimesh.creation.box().export(lib / "box.ply")
+    (lib / "broken.obj").write_text("this is no mesh\n")
+    (lib / "README.txt").write_text("ignored: not a shape file\n")
+    return lib
+
+
+def run(*args: str | Path) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main([str(a) for a in args])
+        except SystemExit as e:
+            code = int(e.code or 0)
+    return code, out.getvalue(), err.getvalue()
+
+
+def rows(outdir: Path) -> dict[str, dict]:
+    lines = (outdir / "results.jsonl").read_text().splitlines()
+    return {Path(r["input"]).name: r for r in map(json.loads, lines)}
+
+
+def test_in_process_batch_rows_isolation_resume_and_no_ray(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    lib, out = write_library(tmp_path), tmp_path / "out"
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails: --workers 1 must not need it
+    code, stdout, stderr = run("encode-batch", lib, "-o", out, "--workers", "1", *ENCODE)
+    assert code == 1  # one asset failed
+    assert stderr.splitlines() == [f"nfc: error: {lib / 'broken.obj'}: contains no vertices"]
+    assert "2 encoded, 0 skipped (up to date), 1 failed of 3" in stdout
+    first = rows(out)
+    assert sorted(first) == ["box.ply", "broken.obj", "sphere.obj"]  # README.txt is no shape
+    for name in ("box.ply", "sphere.obj"):
+        r = first[name]
+        assert list(r)[: len(ROW_KEYS)] == list(ROW_KEYS)
+        assert r["status"] == "ok" and r["error"] is None and r["field"] == "sdf" and r["width"] == 8
+        data = Path(r["output"]).read_bytes()
+        assert len(data) == r["bytes"] and r["seconds"] > 0
+        assert read_nfc(data).geometry.network.out_features == [8, 8, 1]
+    assert first["broken.obj"]["status"] == "error" and first["broken.obj"]["output"] is None
+    assert first["broken.obj"]["options_hash"]  # a final failure: these bytes and options always fail
+    assert sorted(p.name for p in out.iterdir()) == ["box.nfc", "results.jsonl", "sphere.nfc"]  # no temporaries
+    mtimes = {p.name: p.stat().st_mtime_ns for p in out.glob("*.nfc")}
+
+    # Rerun: finished assets are skipped (files untouched); the broken one, unchanged, fails again
+    # from its recorded row, without loading or encoding anything (torch must not be needed).
+    encode_group = batch.encode_group
+    monkeypatch.setattr(batch, "encode_group", None)  # calling it would raise
+    code, stdout, stderr = run("encode-batch", lib, "-o", out, "--workers", "1", *ENCODE)
+    monkeypatch.setattr(batch, "encode_group", encode_group)
+    again = rows(out)
+    assert code == 1 and "0 encoded, 2 skipped" in stdout and "contains no vertices" in stderr
+    assert [again[n]["status"] for n in ("box.ply", "broken.obj", "sphere.obj")] == ["skipped", "error", "skipped"]
+    assert again["box.ply"]["bytes"] == first["box.ply"]["bytes"]
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.nfc")} == mtimes
+    # Execution settings (device, threads) are not part of the hash: still up to date.
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", *ENCODE, "--device", "cpu", "--threads", "1")
+    assert code == 1 and "0 encoded, 2 skipped" in stdout
+
+    # Another option (seed) or another input file content means another file: re-encoded.
+    (lib / "broken.obj").unlink()
+    trimesh.creation.icosphere(subdivisions=1).export(lib / "sphere.obj")
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", *ENCODE)
+    third = rows(out)
+    assert code == 0 and "1 encoded, 1 skipped" in stdout
+    assert third["sphere.obj"]["status"] == "ok" and third["box.ply"]["status"] == "skipped"
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", *ENCODE, "--seed", "3")
+    assert code == 0 and "2 encoded, 0 skipped" in stdout
+
+
+def test_manifest_per_asset_options_and_bad_lines(tmp_path: Path) -> None:
+    lib = write_library(tmp_path)
+    manifest = tmp_path / "assets.jsonl"
+    manifest.write_text("\n".join([
+        json.dumps({"path": "lib/sphere.obj", "width": 12, "name": "ball"}),
+        json.dumps({"path": str(lib / "box.ply")}),  # absolute path, command-line options
+        "# a comment, then a blank line",
+        "",
+        "{not json",
+        json.dumps({"path": "lib/box.ply", "widht": 4}),
+        json.dumps({"path": "lib/box.ply", "width": "wide"}),
+        json.dumps({"width": 4}),
+        json.dumps({"path": "lib/missing.ply"}),
+        json.dumps({"path": "lib/box.ply", "name": "ball"}),  # the output name is taken
+        json.dumps({"path": "lib/sphere.obj", "name": "tiny", "bits": 1}),  # rejected by the encoder
+    ]) + "\n")
+    code, stdout, stderr = run("encode-batch", manifest, "-o", tmp_path / "out", "--workers", "1", *ENCODE)
+    assert code == 1 and "2 encoded, 0 skipped (up to date), 7 failed of 9" in stdout
+    table = [json.loads(line) for line in (tmp_path / "out" / "results.jsonl").read_text().splitlines()]
+    by_status = {s: [r for r in table if r["status"] == s] for s in ("ok", "error")}
+    ok = {Path(r["output"]).name: r for r in by_status["ok"]}
+    assert sorted(ok) == ["ball.nfc", "box.nfc"] and ok["ball.nfc"]["width"] == 12
+    assert read_nfc((tmp_path / "out" / "ball.nfc").read_bytes()).geometry.network.out_features == [12, 12, 1]
+    errors = " | ".join(r["error"] for r in by_status["error"])
+    for expected in (":5: not JSON", ":6: unknown key 'widht'", ":7: width must be int", ':8: missing "path"',
+                     "missing.ply: no such file", "ball.nfc already used by", "bit width 1 outside"):
+        assert expected in errors, (expected, errors)
+    assert len(stderr.splitlines()) == 7 and all(line.startswith("nfc: error: ") for line in stderr.splitlines())
+
+
+def test_interrupted_run_leaves_whole_files_and_resumes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    lib, out = write_library(tmp_path), tmp_path / "out"
+    (lib / "broken.obj").unlink()
+    real = batch.encode_asset
+    calls: list[str] = []
+
+    def interrupt_second(input: str, options: dict, threads: int | None) -> dict:
+        calls.append(input)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(input, options, threads)
+
+    monkeypatch.setattr(batch, "encode_asset", interrupt_second)
+    with pytest.raises(KeyboardInterrupt):
+        encode_batch(lib, out, {"width": 8, "epochs": 1}, workers=1, quiet=True)
+    assert sorted(p.name for p in out.iterdir()) == ["box.nfc", "results.jsonl"]  # no partial sphere.nfc
+    journal = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    assert [(Path(r["input"]).name, r["status"]) for r in journal] == [("box.ply", "ok")]
+    monkeypatch.setattr(batch, "encode_asset", real)
+    summary = encode_batch(lib, out, {"width": 8, "epochs": 1}, workers=1, quiet=True)
+    assert [(Path(r["input"]).name, r["status"]) for r in summary.rows] == [("box.ply", "skipped"), ("sphere.obj", "ok")]
+
+
+def test_write_atomic_keeps_the_old_file_when_the_write_fails(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    target = tmp_path / "a.nfc"
+    write_atomic(target, b"old")
+
+    def fail(src: object, dst: object) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", fail)
+    with pytest.raises(OSError):
+        write_atomic(target, b"new contents")
+    assert target.read_bytes() == b"old" and [p.name for p in tmp_path.iterdir()] == ["a.nfc"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["missing_dir"], "missing_dir: no such file or directory"),
+    (["notes.txt"], "must be a directory of shapes or a JSON-lines manifest"),
+    (["empty"], "no shape files"),
+    (["empty.jsonl"], "lists no shapes"),
+    (["empty", "--workers", "0"], "--workers must be >= 1"),
+    (["empty", "--cpus-per-task", "0"], "--cpus-per-task must be > 0"),
+])
+def test_bad_batch_input_is_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, args: list[str],
+                                     message: str) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "notes.txt").write_text("x")
+    (tmp_path / "empty.jsonl").write_text("\n")
+    code, _, stderr = run("encode-batch", "--workers", "1", *args, "-o", "out")
+    assert code == 1 and stderr.startswith("nfc: error: ") and len(stderr.splitlines()) == 1
+    assert message in stderr, stderr
+
+
+def test_device_resolution() -> None:
+    assert resolve_device("cpu").type == "cpu"
+    assert resolve_device("auto").type == ("cuda" if torch.cuda.is_available() else "cpu")
+    with pytest.raises(InputError, match="unknown device"):
+        resolve_device("tpu")
+    if not torch.cuda.is_available():
+        with pytest.raises(InputError, match="no CUDA GPU"):
+            resolve_device("cuda")
+
+
+def test_encode_device_cpu_is_deterministic_and_cuda_without_gpu_is_one_line(tmp_path: Path) -> None:
+    box = tmp_path / "box.ply"
+    trimesh.creation.box().export(box)
+    outputs = []
+    for name in ("a", "b"):
+        code, stdout, _ = run("encode", box, "-o", tmp_path / f"{name}.nfc", "--device", "cpu", "--threads", "1",
+                              *ENCODE)
+        assert code == 0 and "cpu)" in stdout
+        outputs.append((tmp_path / f"{name}.nfc").read_bytes())
+    assert outputs[0] == outputs[1]
+    if not torch.cuda.is_available():
+        code, _, stderr = run("encode", box, "-o", tmp_path / "c.nfc", "--device", "cuda", *ENCODE)
+        assert code == 1 and stderr == "nfc: error: --device cuda: torch sees no CUDA GPU (use --device cpu or auto)\n"
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA GPU: the CUDA encode path is checked on a GPU machine")
+def test_cuda_encode_is_deterministic_and_close_to_cpu(tmp_path: Path) -> None:
+    from nfencode.encoder import EncodeConfig, compress
+    from nfencode.io import load_shape
+
+    box = tmp_path / "box.ply"
+    trimesh.creation.box().export(box)
+    shape = load_shape(box)
+    cuda = [compress(shape, EncodeConfig(width=8, epochs=1, quiet=True, device="cuda")) for _ in range(2)]
+    cpu = compress(shape, EncodeConfig(width=8, epochs=1, quiet=True, device="cpu"))
+    assert cuda[0].data == cuda[1].data
+    assert np.isclose(cuda[0].final_loss, cpu.final_loss, rtol=0.5)
+
+
+def test_group_trains_assets_together_and_isolates_a_rejected_one(tmp_path: Path) -> None:
+    lib, out = write_library(tmp_path), tmp_path / "out"
+    points = trimesh.creation.icosphere(subdivisions=2).vertices
+    (lib / "cloud.ply").write_text(f"ply\nformat ascii 1.0\nelement vertex {len(points)}\nproperty float x\n"
+                                   "property float y\nproperty float z\nend_header\n"
+                                   + "".join(f"{x} {y} {z}\n" for x, y, z in points))
+    # One group of four: the broken file fails to load; the SDF meshes and the UDF cloud train together.
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", "--group", "4", *ENCODE)
+    table = rows(out)
+    assert code == 1 and "3 encoded, 0 skipped (up to date), 1 failed of 4" in stdout
+    assert {n: r["field"] for n, r in table.items()} == {"box.ply": "sdf", "broken.obj": None, "cloud.ply": "udf",
+                                                         "sphere.obj": "sdf"}
+    for name in ("box", "cloud", "sphere"):
+        assert read_nfc((out / f"{name}.nfc").read_bytes()).geometry.network.out_features == [8, 8, 1]
+    # --field sdf: the encoder rejects the point cloud, which fails the group's training; the group
+    # falls back to one shape at a time, so only the cloud fails.
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", "--group", "4", "--field", "sdf", *ENCODE)
+    table = rows(out)
+    assert code == 1 and "2 encoded, 0 skipped (up to date), 2 failed of 4" in stdout
+    assert "no inside" in table["cloud.ply"]["error"] and table["box.ply"]["status"] == "ok"
