@@ -98,12 +98,9 @@ void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel*
     *evaluated += evaluator.finish();
 }
 
-// The children of the cells of `level` that may contain the surface, in order.
-std::vector<uint32_t> refine(const SparseGrid& grid, const GridLevel& level) {
-    const float h = grid.step * float(1u << level.level);
+// The keep rule's verdict on each cell of `level`, and the count of their children on the grid.
+std::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, size_t* children) {
     const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
-    // Kept flags first, so that the child list is allocated once at its size: the finest level's
-    // list is the grid's largest array, and growing it by doubling would double the peak.
     std::vector<uint8_t> kept(level.cells.size());
     size_t count = 0;
     for (size_t i = 0; i < level.cells.size(); ++i) {
@@ -111,11 +108,23 @@ std::vector<uint32_t> refine(const SparseGrid& grid, const GridLevel& level) {
         unpack_coords(level.cells[i], c);
         float f[8];
         for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
-        kept[i] = cell_may_contain_surface(f, h);
-        count += kept[i];
+        kept[i] = cell_may_contain_surface(f, level.cell_size);
+        if (!kept[i]) continue;
+        for (const auto& o : mc::kCornerOffset)
+            count += 2 * c[0] + o[0] < child_cells && 2 * c[1] + o[1] < child_cells &&
+                     2 * c[2] + o[2] < child_cells;
     }
+    *children = count;
+    return kept;
+}
+
+// The children of the kept cells of `level`, in order: allocated once at their count, since the
+// finest level's list is the grid's largest array and growing it by doubling would double the peak.
+std::vector<uint32_t> children_of(const SparseGrid& grid, const GridLevel& level,
+                                  const std::vector<uint8_t>& kept, size_t count) {
+    const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
     std::vector<uint32_t> children;
-    children.reserve(8 * count);
+    children.reserve(count);
     for (size_t i = 0; i < level.cells.size(); ++i) {
         if (!kept[i]) continue;
         uint32_t c[3];
@@ -129,30 +138,12 @@ std::vector<uint32_t> refine(const SparseGrid& grid, const GridLevel& level) {
     return children;
 }
 
-// Gradients at every corner of every near cell of the finest level (GridOptions::udf_gradients).
-void evaluate_udf_gradients(const Network& net, unsigned threads, SparseGrid* grid) {
-    const GridLevel& fine = grid->levels.front();
-    VertexSet& wanted = grid->gradient_vertices;
-    wanted = VertexSet(fine.cells_per_axis + 1);
-    for (uint32_t packed : fine.cells) {
-        uint32_t c[3];
-        unpack_coords(packed, c);
-        float f[8];
-        for (int k = 0; k < 8; ++k) f[k] = fine.corner(c, k);
-        if (!udf_cell_is_near(f, grid->step)) continue;
-        for (const auto& o : mc::kCornerOffset) wanted.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
-    }
-    wanted.finish();
-    std::vector<float>& gradients = grid->gradients;
-    gradients.assign(size_t(3) * wanted.size(), 0.0f);
-    auto evaluator = make_evaluator(net, true, threads, [&gradients](uint32_t r, float, const float* g) {
-        std::copy(g, g + 3, &gradients[size_t(3) * r]);
-    });
-    wanted.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-        const float xyz[3] = {grid->coord(x), grid->coord(y), grid->coord(z)};
-        evaluator.push(r, xyz);
-    });
-    grid->stats.gradients_evaluated += evaluator.finish();
+// The points one ChunkedEvaluator over `points` points holds: its queue and results at a chunk.
+uint64_t evaluator_bytes(const Network& net, uint64_t points, bool gradients, unsigned threads) {
+    if (points == 0) return 0;
+    // slots_ and xyz_ are reserved at a full chunk; values_ and grad_ at the largest flush.
+    const uint64_t flush = std::min<uint64_t>(points, kEvalChunk);
+    return kEvalChunk * 16 + flush * (gradients ? 16 : 4) + evaluate_scratch_bytes(net, gradients, threads);
 }
 
 }  // namespace
@@ -193,6 +184,13 @@ uint32_t VertexSet::rank(uint32_t x, uint32_t y, uint32_t z) const {
     const Block& b = blocks_[table_[block_index(x, y, z)]];
     const uint64_t below = b.words[z & 7] & ((uint64_t(1) << ((x & 7) + 8 * (y & 7))) - 1);
     return b.prefix[z & 7] + uint32_t(__builtin_popcountll(below));
+}
+
+uint64_t VertexSet::bytes_bound(uint32_t side, uint64_t vertices) {
+    const uint64_t blocks_per_axis = (side + 7) / 8;
+    const uint64_t table = blocks_per_axis * blocks_per_axis * blocks_per_axis;
+    // blocks_ grows by push_back: its capacity stays under twice the blocks it holds.
+    return 4 * table + 2 * sizeof(Block) * std::min(table, vertices);
 }
 
 bool VertexSet::find(int64_t x, int64_t y, int64_t z, uint32_t* out_rank) const {
@@ -247,39 +245,114 @@ float GridLevel::corner(const uint32_t cell[3], int corner_index) const {
     return values[vertices.rank(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2])];
 }
 
+// ---- the builder ---------------------------------------------------------------------------
+
+GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads)
+    : network_(geometry.network), threads_(threads) {
+    grid_.resolution = resolution;
+    grid_.step = 2.0f / float(resolution);
+    grid_.field = geometry.field;
+    current_ = refinement_levels(resolution);
+    grid_.levels.resize(current_ + 1);
+}
+
+void GridBuilder::step() {
+    const auto t0 = std::chrono::steady_clock::now();
+    const uint32_t l = stepped_ ? current_ - 1 : current_;
+    GridLevel& level = grid_.levels[l];
+    level.level = l;
+    level.cells_per_axis = cells_at_level(grid_.resolution, l);
+    level.cell_size = grid_.step * float(1u << l);
+    const GridLevel* parent = stepped_ ? &grid_.levels[l + 1] : nullptr;
+    if (parent) {
+        level.cells = children_of(grid_, *parent, kept_, children_);
+        kept_ = std::vector<uint8_t>();
+    } else {
+        const uint32_t n = level.cells_per_axis;
+        level.cells.reserve(size_t(n) * n * n);
+        for (uint32_t z = 0; z < n; ++z)
+            for (uint32_t y = 0; y < n; ++y)
+                for (uint32_t x = 0; x < n; ++x) level.cells.push_back(pack_coords(x, y, z));
+    }
+    evaluate_level(network_, grid_, parent, threads_, &level, &grid_.stats.points_evaluated);
+    if (l > 0) kept_ = keep_cells(grid_, level, &children_);
+    current_ = l;
+    stepped_ = true;
+    grid_.stats.seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void GridBuilder::evaluate_udf_gradients() {
+    const auto t0 = std::chrono::steady_clock::now();
+    GridLevel& level = grid_.levels[current_];
+    VertexSet& wanted = level.gradient_vertices;
+    wanted = VertexSet(level.cells_per_axis + 1);
+    for (uint32_t packed : level.cells) {
+        uint32_t c[3];
+        unpack_coords(packed, c);
+        float f[8];
+        for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
+        if (!udf_cell_is_near(f, level.cell_size)) continue;
+        for (const auto& o : mc::kCornerOffset) wanted.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+    }
+    wanted.finish();
+    std::vector<float>& gradients = level.gradients;
+    gradients.assign(size_t(3) * wanted.size(), 0.0f);
+    auto evaluator = make_evaluator(network_, true, threads_, [&gradients](uint32_t r, float, const float* g) {
+        std::copy(g, g + 3, &gradients[size_t(3) * r]);
+    });
+    wanted.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        const float xyz[3] = {level.coord(x), level.coord(y), level.coord(z)};
+        evaluator.push(r, xyz);
+    });
+    grid_.stats.gradients_evaluated += evaluator.finish();
+    grid_.stats.seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void GridBuilder::drop_udf_gradients() {
+    GridLevel& level = grid_.levels[current_];
+    level.gradient_vertices = VertexSet();
+    level.gradients = std::vector<float>();
+}
+
+uint32_t GridBuilder::next_cells_per_axis() const {
+    return cells_at_level(grid_.resolution, stepped_ ? current_ - 1 : current_);
+}
+
+size_t GridBuilder::next_cells_bound() const {
+    const size_t n = next_cells_per_axis();
+    return stepped_ ? children_ : n * n * n;
+}
+
+uint64_t GridBuilder::next_step_bytes_bound() const {
+    if (done()) return 0;
+    const uint64_t cells = next_cells_bound();
+    const uint32_t side = next_cells_per_axis() + 1;
+    const uint64_t vertices = std::min<uint64_t>(8 * cells, uint64_t(side) * side * side);
+    const bool refines = (stepped_ ? current_ - 1 : current_) > 0;
+    return 4 * cells + VertexSet::bytes_bound(side, vertices) + 4 * vertices +
+           evaluator_bytes(network_, vertices, false, threads_) + (refines ? cells : 0);
+}
+
+uint64_t GridBuilder::next_gradients_bytes_bound() const {
+    if (done()) return 0;
+    const uint64_t cells = next_cells_bound();
+    const uint32_t side = next_cells_per_axis() + 1;
+    const uint64_t vertices = std::min<uint64_t>(8 * cells, uint64_t(side) * side * side);
+    return VertexSet::bytes_bound(side, vertices) + 12 * vertices +
+           evaluator_bytes(network_, vertices, true, threads_);
+}
+
 nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,
                           SparseGrid* out, unsigned threads) {
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
         return NFD_ERROR_LIMIT_EXCEEDED;
-    const auto t0 = std::chrono::steady_clock::now();
-    SparseGrid grid;
-    grid.resolution = resolution;
-    grid.step = 2.0f / float(resolution);
-    grid.field = geometry.field;
-
-    const uint32_t top = refinement_levels(resolution);
-    grid.levels.resize(top + 1);
-    GridLevel& coarse = grid.levels[top];
-    coarse.level = top;
-    coarse.cells_per_axis = cells_at_level(resolution, top);
-    const uint32_t n = coarse.cells_per_axis;
-    coarse.cells.reserve(size_t(n) * n * n);
-    for (uint32_t z = 0; z < n; ++z)
-        for (uint32_t y = 0; y < n; ++y)
-            for (uint32_t x = 0; x < n; ++x) coarse.cells.push_back(pack_coords(x, y, z));
-    evaluate_level(geometry.network, grid, nullptr, threads, &coarse, &grid.stats.points_evaluated);
-    for (uint32_t l = top; l-- > 0;) {
-        GridLevel& child = grid.levels[l];
-        child.level = l;
-        child.cells_per_axis = cells_at_level(resolution, l);
-        child.cells = refine(grid, grid.levels[l + 1]);
-        evaluate_level(geometry.network, grid, &grid.levels[l + 1], threads, &child,
-                       &grid.stats.points_evaluated);
-    }
-    if (options.udf_gradients) evaluate_udf_gradients(geometry.network, threads, &grid);
-    grid.stats.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    *out = std::move(grid);
+    GridBuilder builder(geometry, resolution, threads);
+    do builder.step();
+    while (!builder.done());
+    if (options.udf_gradients) builder.evaluate_udf_gradients();
+    *out = builder.take();
     return NFD_SUCCESS;
 }
 

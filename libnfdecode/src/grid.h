@@ -62,6 +62,9 @@ public:
     uint32_t size() const { return size_; }
     // The rank of vertex (x, y, z), which must be in the set.
     uint32_t rank(uint32_t x, uint32_t y, uint32_t z) const;
+    // An upper bound of the bytes a set of `side` vertices per axis holding at most `vertices`
+    // allocates (the block table, and the blocks at their largest capacity).
+    static uint64_t bytes_bound(uint32_t side, uint64_t vertices);
     // The rank of (x, y, z) if it is on the grid and in the set; coordinates may be out of range.
     bool find(int64_t x, int64_t y, int64_t z, uint32_t* rank) const;
     // fn(rank, x, y, z) for every vertex, in rank order.
@@ -89,10 +92,18 @@ private:
 struct GridLevel {
     uint32_t level = 0;           // l: 0 = finest; vertex v of this level is fine vertex v << l
     uint32_t cells_per_axis = 0;  // cells_at_level(resolution, l)
+    float cell_size = 0;          // h in the unit frame: step * 2^l; vertex v at -1 + v * h
     std::vector<uint32_t> cells;  // packed cell coordinates (their minimum corner)
     VertexSet vertices;           // the corners of `cells`
     std::vector<float> values;    // field at each vertex, by rank
+    // For the UDF mesher of this level (GridBuilder::evaluate_udf_gradients): the corners of its
+    // near cells and the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
+    VertexSet gradient_vertices;
+    std::vector<float> gradients;
     float corner(const uint32_t cell[3], int corner_index) const;  // mc::kCornerOffset numbering
+    // -1 + v * h equals the fine grid's -1 + (v << l) * step in f32: both products are the same
+    // real number times a power of two, rounded once.
+    float coord(uint32_t v) const { return -1.0f + float(v) * cell_size; }
 };
 
 struct GridOptions {
@@ -119,18 +130,52 @@ struct SparseGrid {
     float step = 0;                 // fine cell edge in the unit frame, 2.0f / resolution
     FieldType field = FieldType::Sdf;
     std::vector<GridLevel> levels;  // levels[l] is level l: levels[0] is the finest
-    // With GridOptions::udf_gradients: the corners of the finest level's near cells, and the
-    // field gradient at each (3 floats per rank). Empty otherwise.
-    VertexSet gradient_vertices;
-    std::vector<float> gradients;
     GridStats stats;
 
     const GridLevel& finest() const { return levels.front(); }
     float coord(uint32_t fine_index) const { return -1.0f + float(fine_index) * step; }
 };
 
-// CPU reference: coarse-to-fine evaluation with the keep rule above. `threads` as for
-// evaluate_cpu. NFD_ERROR_LIMIT_EXCEEDED outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION.
+// CPU reference of the coarse-to-fine evaluation, one level per step(): build_grid_cpu steps it
+// to the finest level; a progressive extraction (progressive.h) meshes the levels on the way.
+// A level's new corners are evaluated once; the corners it shares with its parent are copied.
+class GridBuilder {
+public:
+    // `resolution` within NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION; `threads` as for evaluate_cpu.
+    GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads);
+    // Evaluates the next level (the coarse one first: all its cells; then the children of the
+    // kept cells of the level before), then, unless it is the finest, the keep rule on its cells.
+    void step();
+    bool done() const { return stepped_ && current_ == 0; }
+    uint32_t current() const { return current_; }  // the level the last step() evaluated
+    // Gradients at the corners of the current level's near cells (GridLevel::gradients), and
+    // freeing them once its mesh is made (a finer level needs its own).
+    void evaluate_udf_gradients();
+    void drop_udf_gradients();
+    // Upper bounds of the host bytes that the next step(), and evaluate_udf_gradients() after it,
+    // allocate at their peak over what exists before them (counted: every vector they create at
+    // its largest capacity, the evaluator's chunks and threads' scratch).
+    uint64_t next_step_bytes_bound() const;
+    uint64_t next_gradients_bytes_bound() const;
+    // The cells per axis and an upper bound of the cell count of the next level.
+    uint32_t next_cells_per_axis() const;
+    size_t next_cells_bound() const;
+
+    const SparseGrid& grid() const { return grid_; }
+    SparseGrid take() { return std::move(grid_); }
+
+private:
+    const Network& network_;
+    const unsigned threads_;
+    SparseGrid grid_;
+    uint32_t current_ = 0;
+    bool stepped_ = false;
+    std::vector<uint8_t> kept_;  // of the current level's cells, the keep rule's verdicts
+    size_t children_ = 0;        // the next level's cell count
+};
+
+// Coarse-to-fine evaluation to the finest level, with GridOptions. NFD_ERROR_LIMIT_EXCEEDED
+// outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION.
 nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,
                           SparseGrid* grid, unsigned threads = 0);
 

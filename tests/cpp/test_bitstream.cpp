@@ -2,28 +2,8 @@
 // prefix, every single-byte corruption under several bit patterns) of synthetic and golden files.
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
+#include "allocation_counter.h"
 #include "test_util.h"
-
-// Largest single heap request made while `g_track_allocations` is set: lets a test check that the
-// parser's allocations stay within what the caps imply, whatever a file announces.
-static std::atomic<bool> g_track_allocations{false};
-static std::atomic<size_t> g_largest_allocation{0};
-
-void* operator new(size_t size) {
-    if (g_track_allocations.load(std::memory_order_relaxed)) {
-        size_t seen = g_largest_allocation.load();
-        while (size > seen && !g_largest_allocation.compare_exchange_weak(seen, size)) {
-        }
-    }
-    if (void* p = std::malloc(size ? size : 1)) return p;
-    throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, size_t) noexcept { std::free(p); }
 
 namespace nfd::test {
 namespace {
