@@ -427,8 +427,15 @@ nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
     return guarded([&] {
         auto extraction = std::make_unique<nfd_extraction>();
         extraction->top = top;
-        // The Vulkan path's stepper is not written yet: every context runs the CPU reference.
-        extraction->impl = nfd::make_extraction_cpu(g, resolution, mask, context->cpu_threads);
+#if NFD_WITH_VULKAN
+        if (context->gpu) {
+            const nfd_result r =
+                nfd::gpu::make_extraction(*context->gpu, g, resolution, mask, &extraction->impl);
+            if (r != NFD_SUCCESS) return r;
+        } else
+#endif
+            extraction->impl =
+                nfd::make_extraction_cpu(g, resolution, mask, context->cpu_threads);
         *out_extraction = extraction.release();
         return NFD_SUCCESS;
     });

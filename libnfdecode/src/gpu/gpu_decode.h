@@ -9,6 +9,7 @@
 #include "../extract.h"
 #include "../mesh.h"
 #include "../network.h"
+#include "../progressive.h"
 #include "nfdecode/nfdecode.h"
 
 namespace nfd::gpu {
@@ -34,6 +35,11 @@ nfd_result evaluate_gradient(Device& device, const Network& network, const float
 // and topology (triangles and vertices in another order).
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
                         MeshData* mesh, ExtractStats* stats);
+
+// The GPU path of a progressive extraction (progressive.h); `mesh_mask` bit l meshes grid level
+// l. Device and geometry must outlive it.
+nfd_result make_extraction(Device& device, const Geometry& geometry, uint32_t resolution,
+                           uint32_t mesh_mask, std::unique_ptr<Extraction>* out);
 
 }  // namespace nfd::gpu
 
