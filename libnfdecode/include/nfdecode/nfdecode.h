@@ -348,9 +348,11 @@ typedef struct nfd_extraction_level {
  * The extraction borrows both: they must outlive it, and the context must not be used by another
  * call (this extraction's, another's, any nfd_* call taking it) while a step runs. One thread at a
  * time may call an extraction; different threads may call it one after the other.
+ * On a Vulkan context the network is uploaded and its pipelines made here.
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (NULL argument, mesh_levels without the final
  * level or with a bit past the ladder: a level not on the ladder); NFD_ERROR_LIMIT_EXCEEDED
- * (resolution outside the caps); NFD_ERROR_OUT_OF_MEMORY. */
+ * (resolution outside the caps); NFD_ERROR_UNSUPPORTED_FEATURE (Vulkan: a network beyond the
+ * shaders' caps, as nfd_mesh_extract); NFD_ERROR_DEVICE; NFD_ERROR_OUT_OF_MEMORY. */
 NFD_API nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
                                          const nfd_extraction_options* options,
                                          nfd_extraction** out_extraction);

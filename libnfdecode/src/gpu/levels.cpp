@@ -1,8 +1,8 @@
-// The sparse levels on the device, the GPU side of grid.cpp: the top level evaluated densely,
-// then per level the child grids of the kept cells (refine_count/points.comp + the field), the
-// keep rule on their children (refine_cells.comp), the child level's sorted kept list and corner
-// values (bitmap_compact, gather_corners.comp). The host only sizes buffers between kernels from
-// counts it reads back.
+// The sparse levels on the device, the GPU side of grid.cpp, one level per LevelBuilder::step:
+// the level above the coarsest evaluated densely, then per level the child grids of the kept
+// cells (refine_count/points.comp + the field), the keep rule on their children
+// (refine_cells.comp), the child level's sorted kept list and corner values (bitmap_compact,
+// gather_corners.comp). The host only sizes buffers between kernels from counts it reads back.
 #include <algorithm>
 #include <cstring>
 

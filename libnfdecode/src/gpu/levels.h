@@ -53,7 +53,8 @@ struct FinestLevel {
 };
 
 // Coarse-to-fine evaluation one level per step(), the GPU twin of grid.h's GridBuilder:
-// build_levels steps it to the finest level, a progressive extraction meshes the levels between.
+// extract_mesh (gpu_decode.cpp) steps it to the finest level, a progressive extraction
+// (progressive.cpp) meshes the levels between.
 // The top step evaluates the level above the coarsest densely with every cell kept, and the
 // coarsest as its child grids, so that every level, the coarsest included, is a FinestLevel.
 class LevelBuilder {
@@ -91,7 +92,6 @@ private:
 nfd_result record_list(Device& device, DeviceNetwork& net, const Level& parents,
                        const PointList& list, const Buffer& results, bool gradient,
                        const LevelPush& push, Buffers& scratch);
-
 
 // The bindings of extract.glsl's level (kept bits, prefix, cells), and with them its child grids
 // (the level's corners, the new points' masks, offsets and values).

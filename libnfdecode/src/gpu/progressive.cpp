@@ -12,8 +12,10 @@ public:
         : device_(device), geometry_(geometry), levels_(device, net_, geometry, resolution),
           mesh_mask_(mesh_mask) {}
 
+    // The network and its pipelines before the first step, so that a step's time is its level's.
     nfd_result prepare() {
         NFD_TRY(upload_network(device_, geometry_.network, &net_));
+        NFD_TRY(prepare_field(device_, net_, false));
         return geometry_.field == FieldType::Udf ? prepare_field(device_, net_, true) : NFD_SUCCESS;
     }
 
