@@ -2,7 +2,7 @@
 // prefix, every single-byte corruption under several bit patterns) of synthetic and golden files.
 #include <gtest/gtest.h>
 
-#include "allocation_counter.h"
+#include "alloc_tracking.h"
 #include "test_util.h"
 
 namespace nfd::test {

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "allocation_counter.h"
+#include "alloc_tracking.h"
 #include "test_util.h"
 
 namespace nfd::test {
