@@ -282,9 +282,14 @@ void GridBuilder::step() {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// A vertex with all-even coordinates where the level above has gradients (it was meshed, in a
+// progressive extraction) is the same f32 point as that level's vertex (x/2, y/2, z/2): its
+// gradient is copied, not evaluated again. Those gradients are freed then; this level's stay for
+// its mesh and the next level.
 void GridBuilder::evaluate_udf_gradients() {
     const auto t0 = std::chrono::steady_clock::now();
     GridLevel& level = grid_.levels[current_];
+    GridLevel* above = current_ + 1 < grid_.levels.size() ? &grid_.levels[current_ + 1] : nullptr;
     VertexSet& wanted = level.gradient_vertices;
     wanted = VertexSet(level.cells_per_axis + 1);
     for (uint32_t packed : level.cells) {
@@ -302,18 +307,22 @@ void GridBuilder::evaluate_udf_gradients() {
         std::copy(g, g + 3, &gradients[size_t(3) * r]);
     });
     wanted.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        uint32_t known;
+        if (above && ((x | y | z) & 1) == 0 &&
+            above->gradient_vertices.find(x / 2, y / 2, z / 2, &known)) {
+            std::copy_n(&above->gradients[size_t(3) * known], 3, &gradients[size_t(3) * r]);
+            return;
+        }
         const float xyz[3] = {level.coord(x), level.coord(y), level.coord(z)};
         evaluator.push(r, xyz);
     });
     grid_.stats.gradients_evaluated += evaluator.finish();
+    for (uint32_t l = current_ + 1; l < grid_.levels.size(); ++l) {
+        grid_.levels[l].gradient_vertices = VertexSet();
+        grid_.levels[l].gradients = std::vector<float>();
+    }
     grid_.stats.seconds +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-void GridBuilder::drop_udf_gradients() {
-    GridLevel& level = grid_.levels[current_];
-    level.gradient_vertices = VertexSet();
-    level.gradients = std::vector<float>();
 }
 
 uint32_t GridBuilder::next_cells_per_axis() const {

@@ -148,10 +148,9 @@ public:
     void step();
     bool done() const { return stepped_ && current_ == 0; }
     uint32_t current() const { return current_; }  // the level the last step() evaluated
-    // Gradients at the corners of the current level's near cells (GridLevel::gradients), and
-    // freeing them once its mesh is made (a finer level needs its own).
+    // Gradients at the corners of the current level's near cells (GridLevel::gradients): copied
+    // where the level above holds them at the same point (then freed), evaluated elsewhere.
     void evaluate_udf_gradients();
-    void drop_udf_gradients();
     // Upper bounds of the host bytes that the next step(), and evaluate_udf_gradients() after it,
     // allocate at their peak over what exists before them (counted: every vector they create at
     // its largest capacity, the evaluator's chunks and threads' scratch).

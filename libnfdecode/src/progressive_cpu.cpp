@@ -1,6 +1,6 @@
 // The CPU path of a progressive extraction (progressive.h): GridBuilder one level per step, and
-// mesh_level_cpu on the levels asked for. A UDF level's gradients serve only its own mesh: they are
-// freed before the next level, which evaluates its own.
+// mesh_level_cpu on the levels asked for. A UDF level's gradients serve its mesh and those of the
+// next level's corners that are its own (grid.h, GridBuilder::evaluate_udf_gradients).
 #include "progressive.h"
 
 namespace nfd {
@@ -20,7 +20,6 @@ public:
         if (meshes(l)) {
             const nfd_result m = mesh_level_cpu(geometry_, builder_, mesh, stats);
             if (m != NFD_SUCCESS) return m;
-            if (l > 0) builder_.drop_udf_gradients();
         }
         const GridStats& after = builder_.grid().stats;
         LevelReport r;

@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "alloc_tracking.h"
+#include "extract.h"
 #include "test_util.h"
 
 namespace nfd::test {
@@ -245,6 +246,43 @@ TEST_P(Progressive, RejectsInvalidOptions) {
     nfd_mesh_destroy(mesh);
     nfd_extraction_destroy(ex);
     nfd_extraction_destroy(nullptr);
+}
+
+// On the CPU a UDF level copies the gradients its even corners had on the level above (same f32
+// points) instead of evaluating them again: fewer gradient evaluations than the one-shot decodes
+// of its levels together, and the final level fewer than its one-shot, whose mesh it still equals
+// (EveryLevelEqualsTheOneShotDecode).
+TEST(ProgressiveCpu, UdfLevelsReuseTheGradientsAbove) {
+    const Bytes bytes = read_bytes(golden_path("tshirt_udf_w16", ".nfc"));
+    const Geometry g = parse_or_throw(bytes);
+    uint64_t one_shots = 0, final_one_shot = 0;
+    for (uint32_t r : {32u, 64u, 128u}) {
+        MeshData mesh;
+        ExtractStats stats;
+        ASSERT_EQ(extract_mesh_cpu(g, r, &mesh, &stats), NFD_SUCCESS);
+        one_shots += stats.gradients_evaluated;
+        final_one_shot = stats.gradients_evaluated;
+    }
+    Context ctx(NFD_DEVICE_CPU);
+    Asset asset(bytes);
+    nfd_extraction_options eo{};
+    eo.struct_size = sizeof eo;
+    eo.resolution = 128;
+    nfd_extraction* ex = nullptr;
+    ASSERT_EQ(nfd_extraction_create(ctx.handle, asset.handle, &eo, &ex), NFD_SUCCESS);
+    uint64_t progressive = 0;
+    nfd_extraction_level info{};
+    do {
+        info.struct_size = sizeof info;
+        nfd_mesh* mesh = nullptr;
+        ASSERT_EQ(nfd_extraction_step(ex, &mesh, &info), NFD_SUCCESS);
+        nfd_mesh_destroy(mesh);
+        progressive += info.gradients_evaluated;
+    } while (!info.done);
+    nfd_extraction_destroy(ex);
+    EXPECT_LT(progressive, one_shots);
+    EXPECT_LT(info.gradients_evaluated, final_one_shot);
+    EXPECT_GT(info.gradients_evaluated, final_one_shot / 2);
 }
 
 INSTANTIATE_TEST_SUITE_P(Devices, Progressive,
