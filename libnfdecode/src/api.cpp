@@ -147,8 +147,8 @@ constexpr size_t layout_end(Field T::*, size_t offset) { return offset + sizeof(
 constexpr size_t kContextOptions02 = NFD_LAYOUT_END(nfd_context_options, enable_validation);
 constexpr size_t kMeshOptions02 = NFD_LAYOUT_END(nfd_mesh_options, resolution);
 constexpr size_t kGridOptions02 = NFD_LAYOUT_END(nfd_grid_options, resolution);
-constexpr size_t kExtractionOptions03 = NFD_LAYOUT_END(nfd_extraction_options, mesh_levels);
-constexpr size_t kExtractionLevel03 = NFD_LAYOUT_END(nfd_extraction_level, next_device_bytes);
+constexpr size_t kExtractionOptions02 = NFD_LAYOUT_END(nfd_extraction_options, mesh_levels);
+constexpr size_t kExtractionLevel02 = NFD_LAYOUT_END(nfd_extraction_level, next_device_bytes);
 
 // The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
 uint32_t options_resolution(uint32_t requested) {
@@ -167,7 +167,7 @@ uint32_t grid_level_mask(uint32_t ladder_mask, uint32_t top) {
 
 // Writes the fields of `info` that the caller's struct_size covers (0: the first layout).
 void write_level_info(const nfd_extraction_level& info, nfd_extraction_level* out) {
-    const size_t size = out->struct_size ? out->struct_size : kExtractionLevel03;
+    const size_t size = out->struct_size ? out->struct_size : kExtractionLevel02;
     const uint32_t caller_size = out->struct_size;
     std::memcpy(out, &info, std::min(size, sizeof info));
     out->struct_size = caller_size;
@@ -414,7 +414,7 @@ nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
     *out_extraction = nullptr;
     if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
     nfd_extraction_options opts;
-    if (nfd::read_options(options, kExtractionOptions03, &opts) != NFD_SUCCESS)
+    if (nfd::read_options(options, kExtractionOptions02, &opts) != NFD_SUCCESS)
         return NFD_ERROR_INVALID_ARGUMENT;
     const uint32_t resolution = options_resolution(opts.resolution);
     if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
@@ -446,7 +446,7 @@ nfd_result nfd_extraction_step(nfd_extraction* extraction, nfd_mesh** out_mesh,
     if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
     *out_mesh = nullptr;
     if (!extraction || extraction->done || extraction->failed) return NFD_ERROR_INVALID_ARGUMENT;
-    if (out_info && out_info->struct_size && out_info->struct_size < kExtractionLevel03)
+    if (out_info && out_info->struct_size && out_info->struct_size < kExtractionLevel02)
         return NFD_ERROR_INVALID_ARGUMENT;
     const nfd_result r = guarded([&] {
         auto mesh = std::make_unique<nfd_mesh>();

@@ -70,9 +70,9 @@ constexpr float kUdfEdgeFactor = 1.5f;
 // NFD_ERROR_INTERNAL.
 nfd_result mesh_udf_cpu(const GridLevel& level, MeshData* mesh, uint64_t* active_cells);
 
-// An upper bound of the host bytes the mesher of either type allocates on a level of `cells`
-// cells and `cells_per_axis` (its temporaries and the mesh, vectors at their largest capacity).
-uint64_t mesh_bytes_bound(uint64_t cells, uint32_t cells_per_axis);
+// An upper bound of the host bytes the mesher of either type allocates on a level of that size
+// (its temporaries and the mesh, vectors at their largest capacity).
+uint64_t mesh_bytes_bound(const LevelSize& level);
 
 // The mesher of the geometry's field type on the builder's current level (its gradients
 // evaluated first for a UDF), positions mapped to the original frame (u * scale + center);

@@ -8,17 +8,15 @@
 
 namespace nfd {
 
-uint64_t mesh_bytes_bound(uint64_t cells, uint32_t cells_per_axis) {
+uint64_t mesh_bytes_bound(const LevelSize& level) {
     // march_cells (marching.h): the active cells and their cases (push_back: under twice their
     // count), a vertex set of their corners with a vertex slot per edge (3 per corner), the indices
     // reserved at the table's most triangles per cell, positions and normals growing by insert to
-    // under twice the vertices, which are at most one per corner edge.
-    const uint32_t side = cells_per_axis + 1;
-    const uint64_t corners = std::min<uint64_t>(8 * cells, uint64_t(side) * side * side);
+    // under twice the vertices, at most one per grid edge.
     const mc::Tables& t = mc::tables();
     const uint64_t most_triangles = *std::max_element(t.triangle_count, t.triangle_count + 256);
-    return 2 * 5 * cells + VertexSet::bytes_bound(side, corners) + 12 * corners +
-           12 * most_triangles * cells + 2 * 2 * 12 * 3 * corners;
+    return 2 * 5 * level.cells + VertexSet::bytes_bound(level.cells_per_axis + 1, level.blocks) +
+           12 * level.vertices + 12 * most_triangles * level.cells + 2 * 2 * 12 * level.edges;
 }
 
 nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshData* mesh,

@@ -98,11 +98,15 @@ void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel*
     *evaluated += evaluator.finish();
 }
 
-// The keep rule's verdict on each cell of `level`, and the count of their children on the grid.
-std::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, size_t* children) {
+// The keep rule's verdict on each cell of `level`, and the size of the level its kept cells'
+// children form: their count, and the vertex blocks their corners (a 3^3 grid per kept cell)
+// touch, marked in a bitmap of the child level's block table.
+std::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, LevelSize* next) {
     const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
+    const uint32_t blocks_per_axis = (child_cells + 1 + 7) / 8;
+    std::vector<uint64_t> touched((uint64_t(blocks_per_axis) * blocks_per_axis * blocks_per_axis + 63) / 64);
     std::vector<uint8_t> kept(level.cells.size());
-    size_t count = 0;
+    uint64_t count = 0, parents = 0;
     for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];
         unpack_coords(level.cells[i], c);
@@ -110,11 +114,28 @@ std::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, 
         for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
         kept[i] = cell_may_contain_surface(f, level.cell_size);
         if (!kept[i]) continue;
+        ++parents;
         for (const auto& o : mc::kCornerOffset)
             count += 2 * c[0] + o[0] < child_cells && 2 * c[1] + o[1] < child_cells &&
                      2 * c[2] + o[2] < child_cells;
+        uint32_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = 2 * c[a] >> 3;
+            hi[a] = std::min(2 * c[a] + 2, child_cells) >> 3;
+        }
+        for (uint32_t z = lo[2]; z <= hi[2]; ++z)
+            for (uint32_t y = lo[1]; y <= hi[1]; ++y)
+                for (uint32_t x = lo[0]; x <= hi[0]; ++x) {
+                    const uint64_t b = (uint64_t(z) * blocks_per_axis + y) * blocks_per_axis + x;
+                    touched[b >> 6] |= uint64_t(1) << (b & 63);
+                }
     }
-    *children = count;
+    next->cells_per_axis = child_cells;
+    next->cells = count;
+    next->vertices = std::min<uint64_t>(27 * parents, uint64_t(child_cells + 1) * (child_cells + 1) * (child_cells + 1));
+    next->edges = std::min<uint64_t>(54 * parents, 3 * next->vertices);
+    next->blocks = 0;
+    for (uint64_t w : touched) next->blocks += uint64_t(__builtin_popcountll(w));
     return kept;
 }
 
@@ -186,11 +207,10 @@ uint32_t VertexSet::rank(uint32_t x, uint32_t y, uint32_t z) const {
     return b.prefix[z & 7] + uint32_t(__builtin_popcountll(below));
 }
 
-uint64_t VertexSet::bytes_bound(uint32_t side, uint64_t vertices) {
+uint64_t VertexSet::bytes_bound(uint32_t side, uint64_t blocks) {
     const uint64_t blocks_per_axis = (side + 7) / 8;
-    const uint64_t table = blocks_per_axis * blocks_per_axis * blocks_per_axis;
     // blocks_ grows by push_back: its capacity stays under twice the blocks it holds.
-    return 4 * table + 2 * sizeof(Block) * std::min(table, vertices);
+    return 4 * blocks_per_axis * blocks_per_axis * blocks_per_axis + 2 * sizeof(Block) * blocks;
 }
 
 bool VertexSet::find(int64_t x, int64_t y, int64_t z, uint32_t* out_rank) const {
@@ -265,7 +285,7 @@ void GridBuilder::step() {
     level.cell_size = grid_.step * float(1u << l);
     const GridLevel* parent = stepped_ ? &grid_.levels[l + 1] : nullptr;
     if (parent) {
-        level.cells = children_of(grid_, *parent, kept_, children_);
+        level.cells = children_of(grid_, *parent, kept_, next_.cells);
         kept_ = std::vector<uint8_t>();
     } else {
         const uint32_t n = level.cells_per_axis;
@@ -275,7 +295,7 @@ void GridBuilder::step() {
                 for (uint32_t x = 0; x < n; ++x) level.cells.push_back(pack_coords(x, y, z));
     }
     evaluate_level(network_, grid_, parent, threads_, &level, &grid_.stats.points_evaluated);
-    if (l > 0) kept_ = keep_cells(grid_, level, &children_);
+    if (l > 0) kept_ = keep_cells(grid_, level, &next_);
     current_ = l;
     stepped_ = true;
     grid_.stats.seconds +=
@@ -325,32 +345,38 @@ void GridBuilder::evaluate_udf_gradients() {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-uint32_t GridBuilder::next_cells_per_axis() const {
-    return cells_at_level(grid_.resolution, stepped_ ? current_ - 1 : current_);
-}
-
-size_t GridBuilder::next_cells_bound() const {
-    const size_t n = next_cells_per_axis();
-    return stepped_ ? children_ : n * n * n;
+LevelSize GridBuilder::next_level_size() const {
+    if (stepped_) return next_;
+    LevelSize coarse;  // the first step: every cell and vertex of the coarse level
+    const uint64_t n = cells_at_level(grid_.resolution, current_), side = n + 1;
+    coarse.cells_per_axis = uint32_t(n);
+    coarse.cells = n * n * n;
+    coarse.vertices = side * side * side;
+    coarse.edges = 3 * coarse.vertices;
+    coarse.blocks = uint64_t((side + 7) / 8) * ((side + 7) / 8) * ((side + 7) / 8);
+    return coarse;
 }
 
 uint64_t GridBuilder::next_step_bytes_bound() const {
     if (done()) return 0;
-    const uint64_t cells = next_cells_bound();
-    const uint32_t side = next_cells_per_axis() + 1;
-    const uint64_t vertices = std::min<uint64_t>(8 * cells, uint64_t(side) * side * side);
-    const bool refines = (stepped_ ? current_ - 1 : current_) > 0;
-    return 4 * cells + VertexSet::bytes_bound(side, vertices) + 4 * vertices +
-           evaluator_bytes(network_, vertices, false, threads_) + (refines ? cells : 0);
+    const LevelSize next = next_level_size();
+    const uint32_t level = stepped_ ? current_ - 1 : current_;
+    // Its cells, its vertex set and values, the evaluator; unless it is the finest, the keep
+    // rule's verdicts on it and the bitmap of the blocks of the level after (keep_cells).
+    uint64_t refine = 0;
+    if (level > 0) {
+        const uint64_t blocks_per_axis = (cells_at_level(grid_.resolution, level - 1) + 8) / 8;
+        refine = next.cells + 8 * ((blocks_per_axis * blocks_per_axis * blocks_per_axis + 63) / 64);
+    }
+    return 4 * next.cells + VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) +
+           4 * next.vertices + evaluator_bytes(network_, next.vertices, false, threads_) + refine;
 }
 
 uint64_t GridBuilder::next_gradients_bytes_bound() const {
     if (done()) return 0;
-    const uint64_t cells = next_cells_bound();
-    const uint32_t side = next_cells_per_axis() + 1;
-    const uint64_t vertices = std::min<uint64_t>(8 * cells, uint64_t(side) * side * side);
-    return VertexSet::bytes_bound(side, vertices) + 12 * vertices +
-           evaluator_bytes(network_, vertices, true, threads_);
+    const LevelSize next = next_level_size();
+    return VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) + 12 * next.vertices +
+           evaluator_bytes(network_, next.vertices, true, threads_);
 }
 
 nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,

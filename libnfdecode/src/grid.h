@@ -34,6 +34,16 @@ constexpr float kLipschitzMargin = 2.0f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
 bool cell_may_contain_surface(const float corner_values[8], float h);
 
+// Upper bounds of a level's size, known before it is evaluated (GridBuilder::next_level_size):
+// what its vertex sets, values and meshes can allocate.
+struct LevelSize {
+    uint32_t cells_per_axis = 0;
+    uint64_t cells = 0;     // exact
+    uint64_t vertices = 0;  // corners of the cells: 27 per parent (its children's 3^3 grid)
+    uint64_t edges = 0;     // grid edges between them: 54 per parent
+    uint64_t blocks = 0;    // 8^3-vertex blocks (VertexSet) they touch: exact
+};
+
 // Cell and vertex coordinates of any level are <= 1024: 11 bits each, x lowest.
 inline uint32_t pack_coords(uint32_t x, uint32_t y, uint32_t z) { return x | y << 11 | z << 22; }
 inline void unpack_coords(uint32_t packed, uint32_t xyz[3]) {
@@ -62,9 +72,9 @@ public:
     uint32_t size() const { return size_; }
     // The rank of vertex (x, y, z), which must be in the set.
     uint32_t rank(uint32_t x, uint32_t y, uint32_t z) const;
-    // An upper bound of the bytes a set of `side` vertices per axis holding at most `vertices`
+    // An upper bound of the bytes a set of `side` vertices per axis in at most `blocks` blocks
     // allocates (the block table, and the blocks at their largest capacity).
-    static uint64_t bytes_bound(uint32_t side, uint64_t vertices);
+    static uint64_t bytes_bound(uint32_t side, uint64_t blocks);
     // The rank of (x, y, z) if it is on the grid and in the set; coordinates may be out of range.
     bool find(int64_t x, int64_t y, int64_t z, uint32_t* rank) const;
     // fn(rank, x, y, z) for every vertex, in rank order.
@@ -156,9 +166,7 @@ public:
     // its largest capacity, the evaluator's chunks and threads' scratch).
     uint64_t next_step_bytes_bound() const;
     uint64_t next_gradients_bytes_bound() const;
-    // The cells per axis and an upper bound of the cell count of the next level.
-    uint32_t next_cells_per_axis() const;
-    size_t next_cells_bound() const;
+    LevelSize next_level_size() const;
 
     const SparseGrid& grid() const { return grid_; }
     SparseGrid take() { return std::move(grid_); }
@@ -170,7 +178,7 @@ private:
     uint32_t current_ = 0;
     bool stepped_ = false;
     std::vector<uint8_t> kept_;  // of the current level's cells, the keep rule's verdicts
-    size_t children_ = 0;        // the next level's cell count
+    LevelSize next_;             // of the next level, from the verdicts
 };
 
 // Coarse-to-fine evaluation to the finest level, with GridOptions. NFD_ERROR_LIMIT_EXCEEDED

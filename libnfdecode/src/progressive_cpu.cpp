@@ -36,8 +36,7 @@ public:
                 const uint64_t gradients = geometry_.field == FieldType::Udf
                                                ? builder_.next_gradients_bytes_bound()
                                                : 0;
-                r.next_host_bytes += gradients + mesh_bytes_bound(builder_.next_cells_bound(),
-                                                                  builder_.next_cells_per_axis());
+                r.next_host_bytes += gradients + mesh_bytes_bound(builder_.next_level_size());
             }
         }
         *report = r;

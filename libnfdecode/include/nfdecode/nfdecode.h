@@ -303,9 +303,9 @@ NFD_API nfd_result nfd_points_write_ply(const float* points, const float* normal
  * where r / 2^k is rounded up (130's 33 and 65) is no decode's own: it is marching cubes on that
  * level's cells as sampled for r, with cells 2^k * 2 / r wide, its last cells reaching up to one
  * cell past the unit cube. SDF and UDF alike; a UDF level's mesh needs the field's gradients at
- * the corners of its near cells, evaluated for that level (gradients_evaluated), while the values
- * of every level are evaluated once: the points_evaluated of all steps add up to the one-shot
- * decode's at r.
+ * the corners of its near cells, evaluated for that level (gradients_evaluated; on the CPU those at
+ * corners it shares with the level above are copied from there), while the values of every level
+ * are evaluated once: the points_evaluated of all steps add up to the one-shot decode's at r.
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_extraction nfd_extraction;
 
@@ -321,7 +321,7 @@ NFD_API nfd_result nfd_extraction_ladder(uint32_t resolution, uint32_t* out_reso
 
 /* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
 typedef struct nfd_extraction_options {
-    uint32_t struct_size; /* 0.3: sizeof(nfd_extraction_options), or 0 */
+    uint32_t struct_size; /* 0.2: sizeof(nfd_extraction_options), or 0 */
     uint32_t resolution;  /* the final level, as nfd_mesh_options.resolution */
     uint32_t mesh_levels; /* bit i: mesh ladder level i (bit 0: the coarsest); 0 = every level.
                              Must include the final level; no bit past the ladder */
@@ -329,7 +329,7 @@ typedef struct nfd_extraction_options {
 
 /* What a step did, and what the next one will allocate. */
 typedef struct nfd_extraction_level {
-    uint32_t struct_size;         /* set by the caller (sizeof, or 0 for the 0.3 layout): the
+    uint32_t struct_size;         /* set by the caller (sizeof, or 0 for the 0.2 layout): the
                                      library writes the fields it covers */
     uint32_t resolution;          /* cells per axis of the level just completed */
     uint32_t index;               /* its place in the ladder, 0 = coarsest */
@@ -338,8 +338,10 @@ typedef struct nfd_extraction_level {
     uint64_t gradients_evaluated; /* value + gradient evaluations of this step (UDF meshes) */
     /* Upper bounds of the bytes the NEXT step allocates at its peak, above what is allocated when
      * it starts (the mesh it returns included), from what this step found (the cells it kept):
-     * host memory, and device memory on a Vulkan context (0 on the CPU). 0 when done. Bounds, not
-     * estimates: typically a few times the real figure. */
+     * host memory, and device memory on a Vulkan context (0 on the CPU). 0 when done. Worst-case
+     * bounds, not estimates: the next level's vertices are bounded by its kept parents' child
+     * grids and its mesh as if every grid edge crossed the surface, so they exceed the real peak
+     * several times (the bunny on the CPU: 3x-6x up to 128, 12x-15x at 256). */
     uint64_t next_host_bytes;
     uint64_t next_device_bytes;
 } nfd_extraction_level;
