@@ -285,6 +285,25 @@ TEST(ProgressiveCpu, UdfLevelsReuseTheGradientsAbove) {
     EXPECT_GT(info.gradients_evaluated, final_one_shot / 2);
 }
 
+// The Vulkan path's top step evaluates only the vertices of the coarsest level, as the CPU does,
+// also where that level's cell count is odd (33 of 33, 66 and 130) and the level above it has
+// vertices past it: the same count of values on both.
+TEST_P(Progressive, CountsValuesAsTheCpuDoes) {
+    Context cpu(NFD_DEVICE_CPU);
+    Asset asset(read_bytes(golden_path("bunny_sdf_w16", ".nfc")));
+    for (uint32_t r : {33u, 66u, 130u, 256u}) {
+        nfd_mesh* here = one_shot(ctx(), asset.handle, r);
+        nfd_mesh* reference = one_shot(cpu.handle, asset.handle, r);
+        nfd_decode_stats a, b;
+        nfd_mesh_get_stats(here, &a);
+        nfd_mesh_get_stats(reference, &b);
+        EXPECT_EQ(a.points_evaluated, b.points_evaluated) << r;
+        EXPECT_EQ(a.active_cells, b.active_cells) << r;
+        nfd_mesh_destroy(here);
+        nfd_mesh_destroy(reference);
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Devices, Progressive,
 #if NFD_WITH_VULKAN
                          ::testing::Values(NFD_DEVICE_CPU, NFD_DEVICE_VULKAN),
