@@ -360,8 +360,9 @@ NFD_API nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* 
                                          nfd_extraction** out_extraction);
 
 /* Does the next level's work, bounded by that level: evaluates its new points, and, if the level
- * is in mesh_levels, meshes it into *out_mesh (the caller's to destroy; NULL otherwise). The
- * mesh's nfd_decode_stats count all steps so far (on the final level, the one-shot decode's).
+ * is in mesh_levels, meshes it into *out_mesh (the caller's to destroy; NULL otherwise). In the
+ * mesh's nfd_decode_stats, points_evaluated and seconds_field count all steps so far (on the final
+ * level, points_evaluated is the one-shot decode's); active_cells and seconds_mesh are the level's.
  * out_info (may be NULL) receives what the step did.
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (extraction or out_mesh NULL, out_info's
  * struct_size below its first layout, a step after the final level or after a failed step);
