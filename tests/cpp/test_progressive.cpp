@@ -10,6 +10,9 @@
 
 #include "alloc_tracking.h"
 #include "extract.h"
+#if NFD_WITH_VULKAN
+#include "gpu/gpu_decode.h"
+#endif
 #include "test_util.h"
 
 namespace nfd::test {
@@ -354,6 +357,44 @@ TEST(ProgressiveMemory, NextStepBoundHoldsOnTheCpu) {
         nfd_extraction_destroy(ex);
     }
 }
+
+#if NFD_WITH_VULKAN
+// The device bound of the next step against the device memory the Vulkan path's buffers hold at
+// the step's peak, SDF and UDF, every level meshed.
+TEST(ProgressiveMemory, NextStepDeviceBoundHoldsOnVulkan) {
+    std::unique_ptr<gpu::Device> device;
+    if (gpu::create_device(nullptr, false, &device) != NFD_SUCCESS) {
+        const char* required = std::getenv("NFD_REQUIRE_VULKAN");
+        if (required && *required && *required != '0') FAIL() << "no Vulkan device";
+        GTEST_SKIP() << "no Vulkan device";
+    }
+    for (const std::string name : {"bunny_sdf_w32", "tshirt_udf_w16"}) {
+        SCOPED_TRACE(name);
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        std::unique_ptr<Extraction> ex;
+        ASSERT_EQ(gpu::make_extraction(*device, g, 256, 0b1111, &ex), NFD_SUCCESS);
+        std::vector<MeshData> meshes;
+        uint64_t bound = 0;
+        for (int i = 0;; ++i) {
+            gpu::reset_device_memory_peak(*device);
+            const uint64_t before = gpu::device_memory(*device).live;
+            meshes.emplace_back();
+            ExtractStats stats;
+            LevelReport report;
+            ASSERT_EQ(ex->step(&meshes.back(), &stats, &report), NFD_SUCCESS);
+            const uint64_t used = gpu::device_memory(*device).peak - before;
+            if (i > 0) {
+                EXPECT_LE(used, bound) << "level " << report.cells_per_axis;
+                ::testing::Test::RecordProperty(name + "_device_bound_over_peak_r" +
+                                                    std::to_string(report.cells_per_axis),
+                                                std::to_string(double(bound) / double(used)));
+            }
+            if (report.done) break;
+            bound = report.next_device_bytes;
+        }
+    }
+}
+#endif
 
 }  // namespace
 }  // namespace nfd::test
