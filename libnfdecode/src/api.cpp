@@ -19,6 +19,7 @@
 #include "network.h"
 #include "nfdecode/nfdecode.h"
 #include "options.h"
+#include "progressive.h"
 #include "sample_points.h"
 #include "stream.h"
 #if NFD_WITH_VULKAN
@@ -46,6 +47,14 @@ struct nfd_stream {
 struct nfd_mesh {
     nfd::MeshData data;
     nfd::ExtractStats stats;
+};
+
+// The ladder (nfdecode.h) is the grid's levels coarsest first: ladder index i is grid level
+// `top - i`. A failed step leaves the implementation mid-level: only destroy is allowed after it.
+struct nfd_extraction {
+    std::unique_ptr<nfd::Extraction> impl;
+    uint32_t top = 0;
+    bool done = false, failed = false;
 };
 
 // The finest level in the public layout, built once so that nfd_grid_get_voxels hands out stable
@@ -145,6 +154,8 @@ constexpr size_t kContextOptions02 = NFD_LAYOUT_END(nfd_context_options, enable_
 constexpr size_t kMeshOptions02 = NFD_LAYOUT_END(nfd_mesh_options, resolution);
 constexpr size_t kGridOptions02 = NFD_LAYOUT_END(nfd_grid_options, resolution);
 constexpr size_t kStreamOptions02 = NFD_LAYOUT_END(nfd_stream_options, struct_size);
+constexpr size_t kExtractionOptions02 = NFD_LAYOUT_END(nfd_extraction_options, mesh_levels);
+constexpr size_t kExtractionLevel02 = NFD_LAYOUT_END(nfd_extraction_level, next_device_bytes);
 
 // The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
 uint32_t options_resolution(uint32_t requested) {
@@ -167,6 +178,23 @@ nfd_stream_progress progress_of(const nfd_stream& stream) {
     if (parser.file().has_colour) p.flags |= NFD_STREAM_COLOUR_SEEN;
     if (parser.complete()) p.flags |= NFD_STREAM_COMPLETE;
     return p;
+}
+
+// Ladder mask bit i (0 = coarsest) -> grid level top - i; 0 = every level.
+uint32_t grid_level_mask(uint32_t ladder_mask, uint32_t top) {
+    if (!ladder_mask) return (2u << top) - 1;
+    uint32_t mask = 0;
+    for (uint32_t i = 0; i <= top; ++i)
+        if (ladder_mask >> i & 1) mask |= 1u << (top - i);
+    return mask;
+}
+
+// Writes the fields of `info` that the caller's struct_size covers (0: the first layout).
+void write_level_info(const nfd_extraction_level& info, nfd_extraction_level* out) {
+    const size_t size = out->struct_size ? out->struct_size : kExtractionLevel02;
+    const uint32_t caller_size = out->struct_size;
+    std::memcpy(out, &info, std::min(size, sizeof info));
+    out->struct_size = caller_size;
 }
 
 }  // namespace
@@ -444,6 +472,86 @@ nfd_result nfd_points_write_ply(const float* points, const float* normals, size_
     if (!path || (count > 0 && !points)) return NFD_ERROR_INVALID_ARGUMENT;
     return guarded([&] { return nfd::write_points_ply(points, normals, count, path); });
 }
+
+nfd_result nfd_extraction_ladder(uint32_t resolution, uint32_t* out_resolutions, uint32_t capacity,
+                                 uint32_t* out_count) {
+    if (!out_count || (capacity > 0 && !out_resolutions)) return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t r = options_resolution(resolution);
+    if (!r) return NFD_ERROR_LIMIT_EXCEEDED;
+    const uint32_t top = nfd::refinement_levels(r);
+    static_assert(NFD_MAX_RESOLUTION / 32 < 1u << NFD_MAX_LADDER_LEVELS, "the ladder's cap");
+    *out_count = top + 1;
+    for (uint32_t i = 0; i <= top && i < capacity; ++i)
+        out_resolutions[i] = nfd::cells_at_level(r, top - i);
+    return capacity > top ? NFD_SUCCESS : NFD_ERROR_INVALID_ARGUMENT;
+}
+
+nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
+                                 const nfd_extraction_options* options,
+                                 nfd_extraction** out_extraction) {
+    if (!out_extraction) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_extraction = nullptr;
+    if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
+    nfd_extraction_options opts;
+    if (nfd::read_options(options, kExtractionOptions02, &opts) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t resolution = options_resolution(opts.resolution);
+    if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
+    const uint32_t top = nfd::refinement_levels(resolution);
+    const uint32_t final_bit = 1u << top;
+    if (opts.mesh_levels && (!(opts.mesh_levels & final_bit) || (opts.mesh_levels >> top) > 1u))
+        return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t mask = grid_level_mask(opts.mesh_levels, top);
+    const nfd::Geometry& g = asset->file.geometry;
+    return guarded([&] {
+        auto extraction = std::make_unique<nfd_extraction>();
+        extraction->top = top;
+#if NFD_WITH_VULKAN
+        if (context->gpu) {
+            const nfd_result r =
+                nfd::gpu::make_extraction(*context->gpu, g, resolution, mask, &extraction->impl);
+            if (r != NFD_SUCCESS) return r;
+        } else
+#endif
+            extraction->impl =
+                nfd::make_extraction_cpu(g, resolution, mask, context->cpu_threads);
+        *out_extraction = extraction.release();
+        return NFD_SUCCESS;
+    });
+}
+
+nfd_result nfd_extraction_step(nfd_extraction* extraction, nfd_mesh** out_mesh,
+                               nfd_extraction_level* out_info) {
+    if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_mesh = nullptr;
+    if (!extraction || extraction->done || extraction->failed) return NFD_ERROR_INVALID_ARGUMENT;
+    if (out_info && out_info->struct_size && out_info->struct_size < kExtractionLevel02)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    const nfd_result r = guarded([&] {
+        auto mesh = std::make_unique<nfd_mesh>();
+        nfd::LevelReport report;
+        const nfd_result s = extraction->impl->step(&mesh->data, &mesh->stats, &report);
+        if (s != NFD_SUCCESS) return s;
+        extraction->done = report.done;
+        if (out_info) {
+            nfd_extraction_level info{};
+            info.resolution = report.cells_per_axis;
+            info.index = extraction->top - report.level;
+            info.done = report.done ? 1 : 0;
+            info.points_evaluated = report.points_evaluated;
+            info.gradients_evaluated = report.gradients_evaluated;
+            info.next_host_bytes = report.next_host_bytes;
+            info.next_device_bytes = report.next_device_bytes;
+            write_level_info(info, out_info);
+        }
+        if (report.meshed) *out_mesh = mesh.release();
+        return NFD_SUCCESS;
+    });
+    extraction->failed = r != NFD_SUCCESS;
+    return r;
+}
+
+void nfd_extraction_destroy(nfd_extraction* extraction) { delete extraction; }
 
 nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
                             const nfd_grid_options* options, nfd_grid** out_grid) {

@@ -32,7 +32,8 @@ struct ExtractStats {
 // or one-sided where only one neighbour was evaluated (domain boundary, a cell outside the band),
 // or 0 where neither was. All in units of 1 / cell. Where the gradient vanishes: the direction of
 // the edge from its inside to its outside end.
-nfd_result mesh_sdf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active_cells);
+// `level` is the grid's finest, or a coarser one meshed as if it were (progressive.h).
+nfd_result mesh_sdf_cpu(const GridLevel& level, MeshData* mesh, uint64_t* active_cells);
 
 // ---- UDF (MeshUDF-style, fully parallel per cell) -------------------------------------------------
 // A UDF f >= 0 has no sign to mesh; MeshUDF (Guillard et al., ECCV 2022) recovers one locally from
@@ -65,11 +66,21 @@ nfd_result mesh_sdf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active
 //     winding and normals agree with each other cell by cell, not globally.
 //  7. Order: triangles in cell order then table order, vertices numbered by first use, as for SDF.
 constexpr float kUdfEdgeFactor = 1.5f;
-// The grid must hold gradients (GridOptions::udf_gradients), else NFD_ERROR_INTERNAL.
-nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active_cells);
+// The level must hold its gradients (GridBuilder::evaluate_udf_gradients), else
+// NFD_ERROR_INTERNAL.
+nfd_result mesh_udf_cpu(const GridLevel& level, MeshData* mesh, uint64_t* active_cells);
 
-// Grid (with gradients for a UDF) then the mesher of the asset's field type, positions mapped to
-// the original frame (u * scale + center). `threads` as for evaluate_cpu.
+// An upper bound of the host bytes the mesher of either type allocates on a level of that size
+// (its temporaries and the mesh, vectors at their largest capacity).
+uint64_t mesh_bytes_bound(const LevelSize& level);
+
+// The mesher of the geometry's field type on the builder's current level (its gradients
+// evaluated first for a UDF), positions mapped to the original frame (u * scale + center);
+// `stats` gets the grid's counts so far and the mesher's.
+nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshData* mesh,
+                          ExtractStats* stats);
+
+// Grid then mesh_level_cpu on its finest level. `threads` as for evaluate_cpu.
 nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshData* mesh,
                             ExtractStats* stats, unsigned threads = 0);
 

@@ -1,36 +1,59 @@
 // The CPU path end to end (extract.h): the sparse grid, then the mesher of the field type, then
 // the original frame.
+#include <algorithm>
 #include <chrono>
 
 #include "extract.h"
+#include "mc_tables.h"
 
 namespace nfd {
 
-nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshData* mesh,
-                            ExtractStats* stats, unsigned threads) {
-    const bool udf = geometry.field == FieldType::Udf;
-    GridOptions options;
-    options.udf_gradients = udf;
-    SparseGrid grid;
-    const nfd_result r = build_grid_cpu(geometry, resolution, options, &grid, threads);
-    if (r != NFD_SUCCESS) return r;
+uint64_t mesh_bytes_bound(const LevelSize& level) {
+    // march_cells (marching.h): the active cells and their cases (push_back: under twice their
+    // count), a vertex set of their corners with a vertex slot per edge (3 per corner), the indices
+    // reserved at the table's most triangles per cell, positions and normals growing by insert to
+    // under twice the vertices, at most one per grid edge.
+    const mc::Tables& t = mc::tables();
+    const uint64_t most_triangles = *std::max_element(t.triangle_count, t.triangle_count + 256);
+    return 2 * 5 * level.cells + VertexSet::bytes_bound(level.cells_per_axis + 1, level.blocks) +
+           12 * level.vertices + 12 * most_triangles * level.cells + 2 * 2 * 12 * level.edges;
+}
 
+nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshData* mesh,
+                          ExtractStats* stats) {
+    const bool udf = geometry.field == FieldType::Udf;
+    if (udf) builder.evaluate_udf_gradients();
+    const GridLevel& level = builder.grid().levels[builder.current()];
     const auto t_mesh = std::chrono::steady_clock::now();
     MeshData out;
     ExtractStats st;
-    const nfd_result m = udf ? mesh_udf_cpu(grid, &out, &st.active_cells)
-                             : mesh_sdf_cpu(grid, &out, &st.active_cells);
+    const nfd_result m = udf ? mesh_udf_cpu(level, &out, &st.active_cells)
+                             : mesh_sdf_cpu(level, &out, &st.active_cells);
     if (m != NFD_SUCCESS) return m;
     for (size_t i = 0; i < out.positions.size(); ++i)
         out.positions[i] = out.positions[i] * geometry.scale + geometry.center[i % 3];
     st.seconds_mesh =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_mesh).count();
-    st.seconds_field = grid.stats.seconds;
-    st.points_evaluated = grid.stats.points_evaluated;
-    st.gradients_evaluated = grid.stats.gradients_evaluated;
+    const GridStats& grid = builder.grid().stats;
+    st.seconds_field = grid.seconds;
+    st.points_evaluated = grid.points_evaluated;
+    st.gradients_evaluated = grid.gradients_evaluated;
     *mesh = std::move(out);
-    if (stats) *stats = st;
+    *stats = st;
     return NFD_SUCCESS;
+}
+
+nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshData* mesh,
+                            ExtractStats* stats, unsigned threads) {
+    if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
+        return NFD_ERROR_LIMIT_EXCEEDED;
+    GridBuilder builder(geometry, resolution, threads);
+    do builder.step();
+    while (!builder.done());
+    ExtractStats st;
+    const nfd_result r = mesh_level_cpu(geometry, builder, mesh, &st);
+    if (r == NFD_SUCCESS && stats) *stats = st;
+    return r;
 }
 
 }  // namespace nfd

@@ -98,24 +98,54 @@ void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel*
     *evaluated += evaluator.finish();
 }
 
-// The children of the cells of `level` that may contain the surface, in order.
-std::vector<uint32_t> refine(const SparseGrid& grid, const GridLevel& level) {
-    const float h = grid.step * float(1u << level.level);
+// The keep rule's verdict on each cell of `level`, and the size of the level its kept cells'
+// children form: their count, and the vertex blocks their corners (a 3^3 grid per kept cell)
+// touch, marked in a bitmap of the child level's block table.
+std::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, LevelSize* next) {
     const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
-    // Kept flags first, so that the child list is allocated once at its size: the finest level's
-    // list is the grid's largest array, and growing it by doubling would double the peak.
+    const uint32_t blocks_per_axis = (child_cells + 1 + 7) / 8;
+    std::vector<uint64_t> touched((uint64_t(blocks_per_axis) * blocks_per_axis * blocks_per_axis + 63) / 64);
     std::vector<uint8_t> kept(level.cells.size());
-    size_t count = 0;
+    uint64_t count = 0, parents = 0;
     for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];
         unpack_coords(level.cells[i], c);
         float f[8];
         for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
-        kept[i] = cell_may_contain_surface(f, h);
-        count += kept[i];
+        kept[i] = cell_may_contain_surface(f, level.cell_size);
+        if (!kept[i]) continue;
+        ++parents;
+        for (const auto& o : mc::kCornerOffset)
+            count += 2 * c[0] + o[0] < child_cells && 2 * c[1] + o[1] < child_cells &&
+                     2 * c[2] + o[2] < child_cells;
+        uint32_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = 2 * c[a] >> 3;
+            hi[a] = std::min(2 * c[a] + 2, child_cells) >> 3;
+        }
+        for (uint32_t z = lo[2]; z <= hi[2]; ++z)
+            for (uint32_t y = lo[1]; y <= hi[1]; ++y)
+                for (uint32_t x = lo[0]; x <= hi[0]; ++x) {
+                    const uint64_t b = (uint64_t(z) * blocks_per_axis + y) * blocks_per_axis + x;
+                    touched[b >> 6] |= uint64_t(1) << (b & 63);
+                }
     }
+    next->cells_per_axis = child_cells;
+    next->cells = count;
+    next->vertices = std::min<uint64_t>(27 * parents, uint64_t(child_cells + 1) * (child_cells + 1) * (child_cells + 1));
+    next->edges = std::min<uint64_t>(54 * parents, 3 * next->vertices);
+    next->blocks = 0;
+    for (uint64_t w : touched) next->blocks += uint64_t(__builtin_popcountll(w));
+    return kept;
+}
+
+// The children of the kept cells of `level`, in order: allocated once at their count, since the
+// finest level's list is the grid's largest array and growing it by doubling would double the peak.
+std::vector<uint32_t> children_of(const SparseGrid& grid, const GridLevel& level,
+                                  const std::vector<uint8_t>& kept, size_t count) {
+    const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
     std::vector<uint32_t> children;
-    children.reserve(8 * count);
+    children.reserve(count);
     for (size_t i = 0; i < level.cells.size(); ++i) {
         if (!kept[i]) continue;
         uint32_t c[3];
@@ -129,30 +159,12 @@ std::vector<uint32_t> refine(const SparseGrid& grid, const GridLevel& level) {
     return children;
 }
 
-// Gradients at every corner of every near cell of the finest level (GridOptions::udf_gradients).
-void evaluate_udf_gradients(const Network& net, unsigned threads, SparseGrid* grid) {
-    const GridLevel& fine = grid->levels.front();
-    VertexSet& wanted = grid->gradient_vertices;
-    wanted = VertexSet(fine.cells_per_axis + 1);
-    for (uint32_t packed : fine.cells) {
-        uint32_t c[3];
-        unpack_coords(packed, c);
-        float f[8];
-        for (int k = 0; k < 8; ++k) f[k] = fine.corner(c, k);
-        if (!udf_cell_is_near(f, grid->step)) continue;
-        for (const auto& o : mc::kCornerOffset) wanted.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
-    }
-    wanted.finish();
-    std::vector<float>& gradients = grid->gradients;
-    gradients.assign(size_t(3) * wanted.size(), 0.0f);
-    auto evaluator = make_evaluator(net, true, threads, [&gradients](uint32_t r, float, const float* g) {
-        std::copy(g, g + 3, &gradients[size_t(3) * r]);
-    });
-    wanted.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-        const float xyz[3] = {grid->coord(x), grid->coord(y), grid->coord(z)};
-        evaluator.push(r, xyz);
-    });
-    grid->stats.gradients_evaluated += evaluator.finish();
+// The points one ChunkedEvaluator over `points` points holds: its queue and results at a chunk.
+uint64_t evaluator_bytes(const Network& net, uint64_t points, bool gradients, unsigned threads) {
+    if (points == 0) return 0;
+    // slots_ and xyz_ are reserved at a full chunk; values_ and grad_ at the largest flush.
+    const uint64_t flush = std::min<uint64_t>(points, kEvalChunk);
+    return kEvalChunk * 16 + flush * (gradients ? 16 : 4) + evaluate_scratch_bytes(net, gradients, threads);
 }
 
 }  // namespace
@@ -193,6 +205,12 @@ uint32_t VertexSet::rank(uint32_t x, uint32_t y, uint32_t z) const {
     const Block& b = blocks_[table_[block_index(x, y, z)]];
     const uint64_t below = b.words[z & 7] & ((uint64_t(1) << ((x & 7) + 8 * (y & 7))) - 1);
     return b.prefix[z & 7] + uint32_t(__builtin_popcountll(below));
+}
+
+uint64_t VertexSet::bytes_bound(uint32_t side, uint64_t blocks) {
+    const uint64_t blocks_per_axis = (side + 7) / 8;
+    // blocks_ grows by push_back: its capacity stays under twice the blocks it holds.
+    return 4 * blocks_per_axis * blocks_per_axis * blocks_per_axis + 2 * sizeof(Block) * blocks;
 }
 
 bool VertexSet::find(int64_t x, int64_t y, int64_t z, uint32_t* out_rank) const {
@@ -247,39 +265,129 @@ float GridLevel::corner(const uint32_t cell[3], int corner_index) const {
     return values[vertices.rank(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2])];
 }
 
+// ---- the builder ---------------------------------------------------------------------------
+
+GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads)
+    : network_(geometry.network), threads_(threads) {
+    grid_.resolution = resolution;
+    grid_.step = 2.0f / float(resolution);
+    grid_.field = geometry.field;
+    current_ = refinement_levels(resolution);
+    grid_.levels.resize(current_ + 1);
+}
+
+void GridBuilder::step() {
+    const auto t0 = std::chrono::steady_clock::now();
+    const uint32_t l = stepped_ ? current_ - 1 : current_;
+    GridLevel& level = grid_.levels[l];
+    level.level = l;
+    level.cells_per_axis = cells_at_level(grid_.resolution, l);
+    level.cell_size = grid_.step * float(1u << l);
+    const GridLevel* parent = stepped_ ? &grid_.levels[l + 1] : nullptr;
+    if (parent) {
+        level.cells = children_of(grid_, *parent, kept_, next_.cells);
+        kept_ = std::vector<uint8_t>();
+    } else {
+        const uint32_t n = level.cells_per_axis;
+        level.cells.reserve(size_t(n) * n * n);
+        for (uint32_t z = 0; z < n; ++z)
+            for (uint32_t y = 0; y < n; ++y)
+                for (uint32_t x = 0; x < n; ++x) level.cells.push_back(pack_coords(x, y, z));
+    }
+    evaluate_level(network_, grid_, parent, threads_, &level, &grid_.stats.points_evaluated);
+    if (l > 0) kept_ = keep_cells(grid_, level, &next_);
+    current_ = l;
+    stepped_ = true;
+    grid_.stats.seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// A vertex with all-even coordinates where the level above has gradients (it was meshed, in a
+// progressive extraction) is the same f32 point as that level's vertex (x/2, y/2, z/2): its
+// gradient is copied, not evaluated again. Those gradients are freed then; this level's stay for
+// its mesh and the next level.
+void GridBuilder::evaluate_udf_gradients() {
+    const auto t0 = std::chrono::steady_clock::now();
+    GridLevel& level = grid_.levels[current_];
+    GridLevel* above = current_ + 1 < grid_.levels.size() ? &grid_.levels[current_ + 1] : nullptr;
+    VertexSet& wanted = level.gradient_vertices;
+    wanted = VertexSet(level.cells_per_axis + 1);
+    for (uint32_t packed : level.cells) {
+        uint32_t c[3];
+        unpack_coords(packed, c);
+        float f[8];
+        for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
+        if (!udf_cell_is_near(f, level.cell_size)) continue;
+        for (const auto& o : mc::kCornerOffset) wanted.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+    }
+    wanted.finish();
+    std::vector<float>& gradients = level.gradients;
+    gradients.assign(size_t(3) * wanted.size(), 0.0f);
+    auto evaluator = make_evaluator(network_, true, threads_, [&gradients](uint32_t r, float, const float* g) {
+        std::copy(g, g + 3, &gradients[size_t(3) * r]);
+    });
+    wanted.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        uint32_t known;
+        if (above && ((x | y | z) & 1) == 0 &&
+            above->gradient_vertices.find(x / 2, y / 2, z / 2, &known)) {
+            std::copy_n(&above->gradients[size_t(3) * known], 3, &gradients[size_t(3) * r]);
+            return;
+        }
+        const float xyz[3] = {level.coord(x), level.coord(y), level.coord(z)};
+        evaluator.push(r, xyz);
+    });
+    grid_.stats.gradients_evaluated += evaluator.finish();
+    for (uint32_t l = current_ + 1; l < grid_.levels.size(); ++l) {
+        grid_.levels[l].gradient_vertices = VertexSet();
+        grid_.levels[l].gradients = std::vector<float>();
+    }
+    grid_.stats.seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+LevelSize GridBuilder::next_level_size() const {
+    if (stepped_) return next_;
+    LevelSize coarse;  // the first step: every cell and vertex of the coarse level
+    const uint64_t n = cells_at_level(grid_.resolution, current_), side = n + 1;
+    coarse.cells_per_axis = uint32_t(n);
+    coarse.cells = n * n * n;
+    coarse.vertices = side * side * side;
+    coarse.edges = 3 * coarse.vertices;
+    coarse.blocks = uint64_t((side + 7) / 8) * ((side + 7) / 8) * ((side + 7) / 8);
+    return coarse;
+}
+
+uint64_t GridBuilder::next_step_bytes_bound() const {
+    if (done()) return 0;
+    const LevelSize next = next_level_size();
+    const uint32_t level = stepped_ ? current_ - 1 : current_;
+    // Its cells, its vertex set and values, the evaluator; unless it is the finest, the keep
+    // rule's verdicts on it and the bitmap of the blocks of the level after (keep_cells).
+    uint64_t refine = 0;
+    if (level > 0) {
+        const uint64_t blocks_per_axis = (cells_at_level(grid_.resolution, level - 1) + 8) / 8;
+        refine = next.cells + 8 * ((blocks_per_axis * blocks_per_axis * blocks_per_axis + 63) / 64);
+    }
+    return 4 * next.cells + VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) +
+           4 * next.vertices + evaluator_bytes(network_, next.vertices, false, threads_) + refine;
+}
+
+uint64_t GridBuilder::next_gradients_bytes_bound() const {
+    if (done()) return 0;
+    const LevelSize next = next_level_size();
+    return VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) + 12 * next.vertices +
+           evaluator_bytes(network_, next.vertices, true, threads_);
+}
+
 nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,
                           SparseGrid* out, unsigned threads) {
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
         return NFD_ERROR_LIMIT_EXCEEDED;
-    const auto t0 = std::chrono::steady_clock::now();
-    SparseGrid grid;
-    grid.resolution = resolution;
-    grid.step = 2.0f / float(resolution);
-    grid.field = geometry.field;
-
-    const uint32_t top = refinement_levels(resolution);
-    grid.levels.resize(top + 1);
-    GridLevel& coarse = grid.levels[top];
-    coarse.level = top;
-    coarse.cells_per_axis = cells_at_level(resolution, top);
-    const uint32_t n = coarse.cells_per_axis;
-    coarse.cells.reserve(size_t(n) * n * n);
-    for (uint32_t z = 0; z < n; ++z)
-        for (uint32_t y = 0; y < n; ++y)
-            for (uint32_t x = 0; x < n; ++x) coarse.cells.push_back(pack_coords(x, y, z));
-    evaluate_level(geometry.network, grid, nullptr, threads, &coarse, &grid.stats.points_evaluated);
-    for (uint32_t l = top; l-- > 0;) {
-        GridLevel& child = grid.levels[l];
-        child.level = l;
-        child.cells_per_axis = cells_at_level(resolution, l);
-        child.cells = refine(grid, grid.levels[l + 1]);
-        evaluate_level(geometry.network, grid, &grid.levels[l + 1], threads, &child,
-                       &grid.stats.points_evaluated);
-    }
-    if (options.udf_gradients) evaluate_udf_gradients(geometry.network, threads, &grid);
-    grid.stats.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    *out = std::move(grid);
+    GridBuilder builder(geometry, resolution, threads);
+    do builder.step();
+    while (!builder.done());
+    if (options.udf_gradients) builder.evaluate_udf_gradients();
+    *out = builder.take();
     return NFD_SUCCESS;
 }
 

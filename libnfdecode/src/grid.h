@@ -34,6 +34,16 @@ constexpr float kLipschitzMargin = 2.0f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
 bool cell_may_contain_surface(const float corner_values[8], float h);
 
+// Upper bounds of a level's size, known before it is evaluated (GridBuilder::next_level_size):
+// what its vertex sets, values and meshes can allocate.
+struct LevelSize {
+    uint32_t cells_per_axis = 0;
+    uint64_t cells = 0;     // exact
+    uint64_t vertices = 0;  // corners of the cells: 27 per parent (its children's 3^3 grid)
+    uint64_t edges = 0;     // grid edges between them: 54 per parent
+    uint64_t blocks = 0;    // 8^3-vertex blocks (VertexSet) they touch: exact
+};
+
 // Cell and vertex coordinates of any level are <= 1024: 11 bits each, x lowest.
 inline uint32_t pack_coords(uint32_t x, uint32_t y, uint32_t z) { return x | y << 11 | z << 22; }
 inline void unpack_coords(uint32_t packed, uint32_t xyz[3]) {
@@ -62,6 +72,9 @@ public:
     uint32_t size() const { return size_; }
     // The rank of vertex (x, y, z), which must be in the set.
     uint32_t rank(uint32_t x, uint32_t y, uint32_t z) const;
+    // An upper bound of the bytes a set of `side` vertices per axis in at most `blocks` blocks
+    // allocates (the block table, and the blocks at their largest capacity).
+    static uint64_t bytes_bound(uint32_t side, uint64_t blocks);
     // The rank of (x, y, z) if it is on the grid and in the set; coordinates may be out of range.
     bool find(int64_t x, int64_t y, int64_t z, uint32_t* rank) const;
     // fn(rank, x, y, z) for every vertex, in rank order.
@@ -89,10 +102,18 @@ private:
 struct GridLevel {
     uint32_t level = 0;           // l: 0 = finest; vertex v of this level is fine vertex v << l
     uint32_t cells_per_axis = 0;  // cells_at_level(resolution, l)
+    float cell_size = 0;          // h in the unit frame: step * 2^l; vertex v at -1 + v * h
     std::vector<uint32_t> cells;  // packed cell coordinates (their minimum corner)
     VertexSet vertices;           // the corners of `cells`
     std::vector<float> values;    // field at each vertex, by rank
+    // For the UDF mesher of this level (GridBuilder::evaluate_udf_gradients): the corners of its
+    // near cells and the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
+    VertexSet gradient_vertices;
+    std::vector<float> gradients;
     float corner(const uint32_t cell[3], int corner_index) const;  // mc::kCornerOffset numbering
+    // -1 + v * h equals the fine grid's -1 + (v << l) * step in f32: both products are the same
+    // real number times a power of two, rounded once.
+    float coord(uint32_t v) const { return -1.0f + float(v) * cell_size; }
 };
 
 struct GridOptions {
@@ -119,18 +140,49 @@ struct SparseGrid {
     float step = 0;                 // fine cell edge in the unit frame, 2.0f / resolution
     FieldType field = FieldType::Sdf;
     std::vector<GridLevel> levels;  // levels[l] is level l: levels[0] is the finest
-    // With GridOptions::udf_gradients: the corners of the finest level's near cells, and the
-    // field gradient at each (3 floats per rank). Empty otherwise.
-    VertexSet gradient_vertices;
-    std::vector<float> gradients;
     GridStats stats;
 
     const GridLevel& finest() const { return levels.front(); }
     float coord(uint32_t fine_index) const { return -1.0f + float(fine_index) * step; }
 };
 
-// CPU reference: coarse-to-fine evaluation with the keep rule above. `threads` as for
-// evaluate_cpu. NFD_ERROR_LIMIT_EXCEEDED outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION.
+// CPU reference of the coarse-to-fine evaluation, one level per step(): build_grid_cpu steps it
+// to the finest level; a progressive extraction (progressive.h) meshes the levels on the way.
+// A level's new corners are evaluated once; the corners it shares with its parent are copied.
+class GridBuilder {
+public:
+    // `resolution` within NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION; `threads` as for evaluate_cpu.
+    GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads);
+    // Evaluates the next level (the coarse one first: all its cells; then the children of the
+    // kept cells of the level before), then, unless it is the finest, the keep rule on its cells.
+    void step();
+    bool done() const { return stepped_ && current_ == 0; }
+    uint32_t current() const { return current_; }  // the level the last step() evaluated
+    // Gradients at the corners of the current level's near cells (GridLevel::gradients): copied
+    // where the level above holds them at the same point (then freed), evaluated elsewhere.
+    void evaluate_udf_gradients();
+    // Upper bounds of the host bytes that the next step(), and evaluate_udf_gradients() after it,
+    // allocate at their peak over what exists before them (counted: every vector they create at
+    // its largest capacity, the evaluator's chunks and threads' scratch).
+    uint64_t next_step_bytes_bound() const;
+    uint64_t next_gradients_bytes_bound() const;
+    LevelSize next_level_size() const;
+
+    const SparseGrid& grid() const { return grid_; }
+    SparseGrid take() { return std::move(grid_); }
+
+private:
+    const Network& network_;
+    const unsigned threads_;
+    SparseGrid grid_;
+    uint32_t current_ = 0;
+    bool stepped_ = false;
+    std::vector<uint8_t> kept_;  // of the current level's cells, the keep rule's verdicts
+    LevelSize next_;             // of the next level, from the verdicts
+};
+
+// Coarse-to-fine evaluation to the finest level, with GridOptions. NFD_ERROR_LIMIT_EXCEEDED
+// outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION.
 nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,
                           SparseGrid* grid, unsigned threads = 0);
 

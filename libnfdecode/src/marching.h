@@ -11,7 +11,7 @@
 
 namespace nfd {
 
-// A crossed grid edge: from vertex v (finest-level coordinates) along `axis`, with the corner
+// A crossed grid edge: from vertex v (coordinates of the level meshed) along `axis`, with the corner
 // values at its two ends.
 struct CrossedEdge {
     uint32_t v[3];
@@ -19,15 +19,15 @@ struct CrossedEdge {
     float fa, fb;
 };
 
+// The cells of `level` (the finest, or a coarser one meshed as if it were: progressive.h).
 // classify(cell, f, &case_index) -> bool: whether the cell is meshed, and its case (bit c: corner
 // c inside). edge_valid(edge) -> bool: whether a triangle may use the edge (all three edges of a
 // triangle must be valid). place(edge, u, n): the vertex in the unit frame and its normal.
 // Vertices and normals go to `mesh` in the unit frame; returns the number of cells that emitted
-// a triangle.
+// a triangle. mesh_bytes_bound (extract.h) bounds what it allocates.
 template <class Classify, class EdgeValid, class Place>
-uint64_t march_cells(const SparseGrid& grid, Classify&& classify, EdgeValid&& edge_valid,
+uint64_t march_cells(const GridLevel& level, Classify&& classify, EdgeValid&& edge_valid,
                      Place&& place, MeshData* mesh) {
-    const GridLevel& level = grid.finest();
     const mc::Tables& t = mc::tables();
     // Pass 1: the cells with triangles and their cases. Welding then needs a slot per grid edge of
     // these cells only (a few percent of the band's vertices), not of the whole finest level.
@@ -96,9 +96,9 @@ uint64_t march_cells(const SparseGrid& grid, Classify&& classify, EdgeValid&& ed
 }
 
 // The unit-frame position of the point at t along a crossed edge.
-inline void edge_point(const SparseGrid& grid, const CrossedEdge& edge, float t, float u[3]) {
-    for (int j = 0; j < 3; ++j) u[j] = grid.coord(edge.v[j]);
-    u[edge.axis] += t * (grid.coord(edge.v[edge.axis] + 1) - u[edge.axis]);
+inline void edge_point(const GridLevel& level, const CrossedEdge& edge, float t, float u[3]) {
+    for (int j = 0; j < 3; ++j) u[j] = level.coord(edge.v[j]);
+    u[edge.axis] += t * (level.coord(edge.v[edge.axis] + 1) - u[edge.axis]);
 }
 
 }  // namespace nfd

@@ -51,10 +51,9 @@ void edge_normal(const GridLevel& level, const CrossedEdge& e, float t, float n[
 
 }  // namespace
 
-nfd_result mesh_sdf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active_cells) {
-    const GridLevel& level = grid.finest();
+nfd_result mesh_sdf_cpu(const GridLevel& level, MeshData* mesh, uint64_t* active_cells) {
     *active_cells = march_cells(
-        grid,
+        level,
         [](const uint32_t*, const float* f, int* index) {
             for (int k = 0; k < 8; ++k) *index |= int(f[k] < 0.0f) << k;
             return true;
@@ -63,7 +62,7 @@ nfd_result mesh_sdf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active
         [&](const CrossedEdge& e, float u[3], float n[3]) {
             float t = e.fa / (e.fa - e.fb);              // fa, fb differ in sign
             if (!(t >= 0.0f && t <= 1.0f)) t = 0.5f;     // an infinite corner
-            edge_point(grid, e, t, u);
+            edge_point(level, e, t, u);
             edge_normal(level, e, t, n);
         },
         mesh);

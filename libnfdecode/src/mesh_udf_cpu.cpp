@@ -26,11 +26,12 @@ bool canonical_direction(const float v[3], float out[3]) {
 
 }  // namespace
 
-nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active_cells) {
-    if (grid.gradients.size() != size_t(3) * grid.gradient_vertices.size())
-        return NFD_ERROR_INTERNAL;  // built without GridOptions::udf_gradients
+nfd_result mesh_udf_cpu(const GridLevel& level, MeshData* mesh, uint64_t* active_cells) {
+    if (level.gradient_vertices.side() != level.cells_per_axis + 1 ||
+        level.gradients.size() != size_t(3) * level.gradient_vertices.size())
+        return NFD_ERROR_INTERNAL;  // the level's gradients were not evaluated
     auto gradient = [&](uint32_t x, uint32_t y, uint32_t z) {
-        return grid.gradients.data() + size_t(3) * grid.gradient_vertices.rank(x, y, z);
+        return level.gradients.data() + size_t(3) * level.gradient_vertices.rank(x, y, z);
     };
     auto edge_gradients = [&](const CrossedEdge& e, const float** ga, const float** gb) {
         uint32_t w[3] = {e.v[0], e.v[1], e.v[2]};
@@ -38,11 +39,11 @@ nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active
         ++w[e.axis];
         *gb = gradient(w[0], w[1], w[2]);
     };
-    const float max_edge_sum = kUdfEdgeFactor * grid.step;
+    const float max_edge_sum = kUdfEdgeFactor * level.cell_size;
     *active_cells = march_cells(
-        grid,
+        level,
         [&](const uint32_t* c, const float* f, int* index) {
-            if (!udf_cell_is_near(f, grid.step)) return false;  // step 1
+            if (!udf_cell_is_near(f, level.cell_size)) return false;  // step 1
             int nearest = 0;
             for (int k = 1; k < 8; ++k)
                 if (f[k] < f[nearest]) nearest = k;
@@ -59,7 +60,7 @@ nfd_result mesh_udf_cpu(const SparseGrid& grid, MeshData* mesh, uint64_t* active
         [&](const CrossedEdge& e) { return e.fa + e.fb <= max_edge_sum; },  // step 5
         [&](const CrossedEdge& e, float u[3], float n[3]) {
             const float sum = e.fa + e.fb;
-            edge_point(grid, e, sum > 0.0f ? e.fa / sum : 0.5f, u);  // step 4
+            edge_point(level, e, sum > 0.0f ? e.fa / sum : 0.5f, u);  // step 4
             const float *ga, *gb;
             edge_gradients(e, &ga, &gb);
             const float d[3] = {ga[0] - gb[0], ga[1] - gb[1], ga[2] - gb[2]};

@@ -129,11 +129,16 @@ void evaluate_block(const Network& net, const float* xyz, size_t count, float* o
     }
 }
 
+size_t widest(const Network& net) {
+    size_t width = net.input_width();
+    for (const Layer& layer : net.layers) width = std::max<size_t>(width, layer.out);
+    return width;
+}
+
 template <size_t C>
 void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float* out,
                      float* out_gradients, unsigned threads) {
-    size_t width = net.input_width();
-    for (const Layer& layer : net.layers) width = std::max<size_t>(width, layer.out);
+    const size_t width = widest(net);
     // Below ~4k points a thread costs more than it saves.
     parallel_for(n, 4096, threads, [&](size_t begin, size_t end) {
         Scratch s{std::vector<float>(width * C * kBlock), std::vector<float>(width * C * kBlock)};
@@ -146,6 +151,12 @@ void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float*
 }
 
 }  // namespace
+
+size_t evaluate_scratch_bytes(const Network& network, bool gradients, unsigned threads) {
+    // Per thread two activation buffers, its std::thread state and exception slot (1 KB covers).
+    const size_t per_thread = 2 * widest(network) * (gradients ? 4 : 1) * kBlock * sizeof(float);
+    return resolve_thread_count(threads) * (per_thread + 1024);
+}
 
 void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float* out,
                   unsigned threads) {

@@ -49,4 +49,8 @@ void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float
 void evaluate_gradient_cpu(const Network& network, const float* unit_xyz, size_t n,
                            float* out_values, float* out_gradients, unsigned threads = 0);
 
+// An upper bound of the bytes one evaluate_cpu (or, with `gradients`, evaluate_gradient_cpu) call
+// allocates: its threads' activation scratch and their bookkeeping.
+size_t evaluate_scratch_bytes(const Network& network, bool gradients, unsigned threads);
+
 }  // namespace nfd

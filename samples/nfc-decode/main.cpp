@@ -3,11 +3,13 @@
 //
 //   nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N]
 //              [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]] [--stats]
+//   nfc-decode IN.nfc -o OUT.{glb,ply} --levels R1,R2,... [--write-levels] [--stats[=json]]
 //
 // Errors are one line on stderr ("nfc-decode: error: ...") and a non-zero exit status: 2 for a
 // bad command line, 1 for anything that failed while decoding.
 #include <nfdecode/nfdecode.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
@@ -15,6 +17,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <memory>
 #include <string>
 #include <thread>
@@ -36,7 +39,11 @@ const char kUsage[] =
     "                  meshing starts from the asset the stream yields\n"
     "  --bandwidth R   with --stream-chunk: pace the pieces as if the file arrived at R, a\n"
     "                  positive number then B/s, KB/s or MB/s (1 KB = 1024 B), e.g. 256KB/s\n"
-    "  --stats         print sizes, per-stage timings and counts\n";
+    "  --stats         print sizes, per-stage timings and counts\n"
+    "  --levels LIST   decode progressively through the ladder levels LIST (ascending, e.g.\n"
+    "                  32,64,128,256: levels of the last one's ladder), write the last\n"
+    "  --write-levels  with --levels, also write each level as OUT.<resolution>.<ext>\n"
+    "  --stats=json    with --levels, one JSON object per level, then a summary line\n";
 
 struct Failure {
     int status;
@@ -57,6 +64,9 @@ struct Options {
     size_t stream_chunk = 0;  // 0: read the whole file, then nfd_asset_create
     double bandwidth = 0;     // bytes per second; 0: as fast as the file reads
     bool stats = false;
+    // Progressive decoding (decode_progressive).
+    std::vector<uint32_t> levels;  // ascending resolutions of the last one's ladder
+    bool write_levels = false, stats_json = false;
 };
 
 unsigned long long parse_count(const char* flag, const char* text, unsigned long long min,
@@ -91,6 +101,42 @@ bool ends_with(const std::string& s, const char* suffix) {
     return true;
 }
 
+// --levels: ascending resolutions, each on the ladder of the last (nfd_extraction_ladder).
+std::vector<uint32_t> parse_levels(const char* text) {
+    std::vector<uint32_t> levels;
+    const std::string list = text;
+    for (size_t begin = 0; begin <= list.size();) {
+        const size_t comma = std::min(list.find(',', begin), list.size());
+        const std::string item = list.substr(begin, comma - begin);
+        levels.push_back(
+            uint32_t(parse_count("--levels", item.c_str(), NFD_MIN_RESOLUTION, NFD_MAX_RESOLUTION)));
+        if (levels.size() > 1 && levels.back() <= levels[levels.size() - 2])
+            fail(2, "--levels must be ascending, got '" + list + "'");
+        begin = comma + 1;
+    }
+    uint32_t ladder[NFD_MAX_LADDER_LEVELS], count = 0;
+    check(nfd_extraction_ladder(levels.back(), ladder, NFD_MAX_LADDER_LEVELS, &count), "--levels");
+    std::string rungs;
+    for (uint32_t i = 0; i < count; ++i) rungs += (i ? "," : "") + std::to_string(ladder[i]);
+    for (uint32_t r : levels)
+        if (std::find(ladder, ladder + count, r) == ladder + count)
+            fail(2, "--levels: " + std::to_string(r) + " is not a level of " +
+                        std::to_string(levels.back()) + " (its levels: " + rungs + ")");
+    return levels;
+}
+
+void check_progressive_options(Options* o) {
+    if (o->levels.empty()) {
+        if (o->write_levels || o->stats_json) fail(2, "--write-levels and --stats=json need --levels");
+        return;
+    }
+    if (o->resolution && o->resolution != o->levels.back())
+        fail(2, "--resolution differs from the last of --levels");
+    if (o->points || ends_with(o->output, ".vdb"))
+        fail(2, "--levels writes meshes: no --points, and the output must be .glb or .ply");
+    o->resolution = o->levels.back();
+}
+
 Options parse_args(int argc, char** argv) {
     Options o;
     for (int i = 1; i < argc; ++i) {
@@ -121,6 +167,12 @@ Options parse_args(int argc, char** argv) {
             o.bandwidth = parse_bandwidth(value());
         } else if (arg == "--stats") {
             o.stats = true;
+        } else if (arg == "--stats=json") {
+            o.stats_json = true;
+        } else if (arg == "--levels") {
+            o.levels = parse_levels(value());
+        } else if (arg == "--write-levels") {
+            o.write_levels = true;
         } else if (!arg.empty() && arg[0] == '-') {
             fail(2, "unknown option '" + arg + "' (see --help)");
         } else if (o.input.empty()) {
@@ -138,6 +190,7 @@ Options parse_args(int argc, char** argv) {
         fail(2, "--points writes a point cloud: the output must be .ply");
     if (o.bandwidth > 0 && !o.stream_chunk)
         fail(2, "--bandwidth paces the pieces of --stream-chunk: give both");
+    check_progressive_options(&o);
     return o;
 }
 
@@ -163,6 +216,9 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
+// CPU time of the whole process (every thread: the CPU path's workers, lavapipe's): what a decode
+// costs however busy the machine is, where wall time also counts waiting for a core.
+double process_cpu_ms() { return 1e3 * double(std::clock()) / CLOCKS_PER_SEC; }
 
 // Owns the handles so that every exit path releases them.
 struct Handles {
@@ -309,9 +365,99 @@ Input stream_asset(const Options& o, nfd_asset** asset) {
     return in;
 }
 
+Input acquire_asset(const Options& o, nfd_asset** asset) {
+    return o.stream_chunk ? stream_asset(o, asset) : read_asset(o, asset);
+}
+
+// OUT.<resolution>.<ext>: bunny.glb -> bunny.64.glb.
+std::string level_path(const std::string& output, uint32_t resolution) {
+    const size_t dot = output.size() - 4;  // ".glb" or ".ply"
+    return output.substr(0, dot) + "." + std::to_string(resolution) + output.substr(dot);
+}
+
+void write_mesh(const nfd_mesh* mesh, const std::string& path) {
+    check(ends_with(path, ".glb") ? nfd_mesh_write_glb(mesh, path.c_str())
+                                  : nfd_mesh_write_ply(mesh, path.c_str()),
+          path);
+}
+
+// --levels: the context first (as an engine's exists before a file arrives), then the clock
+// from the first byte read (fed piece by piece with --stream-chunk), one extraction step per
+// ladder level. Files are
+// written after the last level so that writing does not count in the levels' times.
+void decode_progressive(const Options& o, Handles* h) {
+    nfd_context_options co = {};
+    co.struct_size = sizeof co;
+    co.device = o.device;
+    check(nfd_context_create(&co, &h->context), "device");
+
+    const auto t0 = Clock::now();
+    const double cpu0 = process_cpu_ms();
+    const Input in = acquire_asset(o, &h->asset);
+    const double ms_asset = ms_since(t0);
+    uint32_t ladder[NFD_MAX_LADDER_LEVELS], count = 0;
+    check(nfd_extraction_ladder(o.resolution, ladder, NFD_MAX_LADDER_LEVELS, &count), "--levels");
+    nfd_extraction_options eo = {};
+    eo.struct_size = sizeof eo;
+    eo.resolution = o.resolution;
+    for (uint32_t i = 0; i < count; ++i)
+        if (std::find(o.levels.begin(), o.levels.end(), ladder[i]) != o.levels.end())
+            eo.mesh_levels |= 1u << i;
+    struct Extraction {
+        nfd_extraction* handle = nullptr;
+        std::vector<nfd_mesh*> meshes;
+        ~Extraction() {
+            for (nfd_mesh* m : meshes) nfd_mesh_destroy(m);
+            nfd_extraction_destroy(handle);
+        }
+    } ex;
+    check(nfd_extraction_create(h->context, h->asset, &eo, &ex.handle), o.input);
+    const double ms_prepare = ms_since(t0) - ms_asset;
+    if (o.stats && !o.stats_json)
+        std::printf("asset       %9.2f ms\nprepare     %9.2f ms\n", ms_asset, ms_prepare);
+    uint64_t points = 0, gradients = 0;
+    nfd_extraction_level info = {};
+    do {
+        info.struct_size = sizeof info;
+        nfd_mesh* mesh = nullptr;
+        check(nfd_extraction_step(ex.handle, &mesh, &info), o.input + ": a progressive step");
+        const double elapsed = ms_since(t0);
+        points += info.points_evaluated;
+        gradients += info.gradients_evaluated;
+        if (!mesh) continue;
+        ex.meshes.push_back(mesh);
+        nfd_mesh_data data;
+        check(nfd_mesh_get_data(mesh, &data), "mesh");
+        if (o.stats_json)
+            std::printf("{\"resolution\":%u,\"elapsed_ms\":%.3f,\"triangles\":%zu,"
+                        "\"points_evaluated\":%llu}\n",
+                        info.resolution, elapsed, data.triangle_count,
+                        static_cast<unsigned long long>(info.points_evaluated));
+        else if (o.stats)
+            std::printf("level %-5u %9.2f ms  %zu triangles, %llu new points\n", info.resolution,
+                        elapsed, data.triangle_count,
+                        static_cast<unsigned long long>(info.points_evaluated));
+    } while (!info.done);
+    const double total = ms_since(t0), cpu = process_cpu_ms() - cpu0;
+    if (o.stats_json)
+        std::printf("{\"summary\":true,\"device\":\"%s\",\"resolution\":%u,\"levels\":%zu,"
+                    "\"elapsed_ms\":%.3f,\"cpu_ms\":%.3f,\"asset_ms\":%.3f,\"geometry_ms\":%.3f,"
+                    "\"prepare_ms\":%.3f,\"points_evaluated\":%llu,\"gradients_evaluated\":%llu}\n",
+                    nfd_context_device_name(h->context), o.resolution, ex.meshes.size(), total,
+                    cpu, ms_asset, in.ms_geometry >= 0 ? in.ms_geometry : ms_asset, ms_prepare,
+                    static_cast<unsigned long long>(points),
+                    static_cast<unsigned long long>(gradients));
+
+    write_mesh(ex.meshes.back(), o.output);
+    if (o.write_levels)
+        for (size_t i = 0; i < ex.meshes.size(); ++i)
+            write_mesh(ex.meshes[i], level_path(o.output, o.levels[i]));
+}
+
 void run(const Options& o) {
     Handles h;
-    const Input in = o.stream_chunk ? stream_asset(o, &h.asset) : read_asset(o, &h.asset);
+    if (!o.levels.empty()) return decode_progressive(o, &h);
+    const Input in = acquire_asset(o, &h.asset);
     nfd_asset_info info;
     check(nfd_asset_get_info(h.asset, &info), o.input);
 

@@ -23,7 +23,66 @@ struct mesh_options {
     uint32_t struct_size;
     uint32_t resolution;
 };
+struct extraction_options {
+    uint32_t struct_size;
+    uint32_t resolution;
+    uint32_t mesh_levels;
+};
+struct extraction_level {
+    uint32_t struct_size;
+    uint32_t resolution;
+    uint32_t index;
+    int done;
+    uint64_t points_evaluated;
+    uint64_t gradients_evaluated;
+    uint64_t next_host_bytes;
+    uint64_t next_device_bytes;
+};
 }  // namespace v0_2
+
+// The extraction's option struct is read by struct_size, and its output struct written only as
+// far as the caller's struct_size says: a newer caller's extra fields are left alone.
+TEST(Abi, ExtractionStructsKeepTheirLayouts) {
+    nfd_context_options co{};
+    co.struct_size = sizeof co;
+    co.device = NFD_DEVICE_CPU;
+    nfd_context* ctx = nullptr;
+    ASSERT_EQ(nfd_context_create(&co, &ctx), NFD_SUCCESS);
+    const Bytes b = geom_file(closed_blob());
+    nfd_asset* asset = nullptr;
+    ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &asset), NFD_SUCCESS);
+    const v0_2::extraction_options old_options{sizeof(v0_2::extraction_options), 64, 0b10};
+    nfd_extraction* ex = nullptr;
+    ASSERT_EQ(nfd_extraction_create(ctx, asset,
+                                    reinterpret_cast<const nfd_extraction_options*>(&old_options),
+                                    &ex),
+              NFD_SUCCESS);
+    struct {
+        v0_2::extraction_level known;
+        uint32_t unknown[2];
+    } newer{};
+    newer.known.struct_size = sizeof newer;
+    newer.unknown[0] = newer.unknown[1] = 0xABCD;
+    nfd_mesh* mesh = nullptr;
+    ASSERT_EQ(nfd_extraction_step(ex, &mesh, reinterpret_cast<nfd_extraction_level*>(&newer)),
+              NFD_SUCCESS);
+    EXPECT_EQ(mesh, nullptr);  // 32 is not asked for
+    EXPECT_EQ(newer.known.struct_size, sizeof newer);
+    EXPECT_EQ(newer.known.resolution, 32u);
+    EXPECT_GT(newer.known.points_evaluated, 0u);
+    EXPECT_EQ(newer.unknown[0], 0xABCDu);
+    EXPECT_EQ(newer.unknown[1], 0xABCDu);
+    v0_2::extraction_level old_level{sizeof(v0_2::extraction_level), 0, 0, 0, 0, 0, 0, 0};
+    ASSERT_EQ(nfd_extraction_step(ex, &mesh, reinterpret_cast<nfd_extraction_level*>(&old_level)),
+              NFD_SUCCESS);
+    EXPECT_NE(mesh, nullptr);
+    EXPECT_EQ(old_level.resolution, 64u);
+    EXPECT_NE(old_level.done, 0);
+    nfd_mesh_destroy(mesh);
+    nfd_extraction_destroy(ex);
+    nfd_asset_destroy(asset);
+    nfd_context_destroy(ctx);
+}
 
 TEST(Abi, RuntimeVersionIsTheHeaders) {
     EXPECT_EQ(nfd_version(), uint32_t(NFD_VERSION));

@@ -1,5 +1,5 @@
-// The nfc-decode sample as a user meets it: a decode with --stats, and one-line errors with a
-// non-zero exit status for bad command lines and bad files.
+// The nfc-decode sample as a user meets it: a decode with --stats, a progressive one (--levels),
+// and one-line errors with a non-zero exit status for bad command lines and bad files.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "test_util.h"
 
@@ -158,6 +160,60 @@ TEST(Cli, StreamErrors) {
                               2, "--bandwidth");
     expect_one_line_error(run_cli(good + out + " --bandwidth 1MB/s"), 2, "--stream-chunk");
     for (const std::string& p : {good, truncated, corrupt}) std::remove(p.c_str());
+}
+
+// --levels writes the one-shot decode's file at its last level, --write-levels every level, and
+// --stats=json one object per level then a summary whose counts add up.
+TEST(Cli, ProgressiveLevelsMatchTheOneShotFile) {
+    const std::string in = golden_path("bunny_sdf_w16", ".nfc");
+    const std::string base = (std::filesystem::temp_directory_path() /
+                              ("nfd_cli_" + std::to_string(::getpid()) + "_levels"))
+                                 .string();
+    for (const char* device : {"cpu", "auto"}) {
+        SCOPED_TRACE(device);
+        const std::string one = base + "_one.glb", prog = base + ".glb";
+        ASSERT_EQ(run_cli(in + " -o " + one + " --resolution 128 --device " + device).status, 0);
+        const CliRun r = run_cli(in + " -o " + prog + " --levels 32,64,128 --write-levels " +
+                                 "--stats=json --device " + device);
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_EQ(read_bytes(prog), read_bytes(one));
+        for (uint32_t res : {32u, 64u, 128u})
+            EXPECT_TRUE(std::filesystem::exists(base + "." + std::to_string(res) + ".glb")) << res;
+        EXPECT_EQ(read_bytes(base + ".128.glb"), read_bytes(one));
+
+        std::istringstream lines(r.out);
+        std::string line;
+        std::vector<nlohmann::json> objects;
+        while (std::getline(lines, line)) objects.push_back(nlohmann::json::parse(line));
+        ASSERT_EQ(objects.size(), 4u) << r.out;
+        uint64_t points = 0;
+        double elapsed = 0;
+        for (size_t i = 0; i < 3; ++i) {
+            const nlohmann::json& o = objects[i];
+            EXPECT_EQ(o.at("resolution").get<uint32_t>(), 32u << i);
+            EXPECT_GE(o.at("elapsed_ms").get<double>(), elapsed);
+            elapsed = o.at("elapsed_ms").get<double>();
+            EXPECT_GT(o.at("triangles").get<uint64_t>(), 0u);
+            points += o.at("points_evaluated").get<uint64_t>();
+        }
+        const nlohmann::json& summary = objects.back();
+        EXPECT_TRUE(summary.at("summary").get<bool>());
+        EXPECT_EQ(summary.at("points_evaluated").get<uint64_t>(), points);
+        EXPECT_GE(summary.at("elapsed_ms").get<double>(), elapsed);
+        for (const std::string& p : {one, prog, base + ".32.glb", base + ".64.glb", base + ".128.glb"})
+            std::remove(p.c_str());
+    }
+}
+
+TEST(Cli, BadLevelListsAreOneLineErrors) {
+    const std::string in = golden_path("bunny_sdf_w16", ".nfc");
+    expect_one_line_error(run_cli(in + " -o x.glb --levels 32,100"), 2, "not a level of 100");
+    expect_one_line_error(run_cli(in + " -o x.glb --levels 64,32,128"), 2, "ascending");
+    expect_one_line_error(run_cli(in + " -o x.glb --levels 32,,64"), 2, "--levels");
+    expect_one_line_error(run_cli(in + " -o x.glb --levels 32,64 --resolution 128"), 2,
+                          "--resolution");
+    expect_one_line_error(run_cli(in + " -o x.vdb --levels 32,64"), 2, "--levels");
+    expect_one_line_error(run_cli(in + " -o x.glb --write-levels"), 2, "need --levels");
 }
 
 }  // namespace

@@ -411,6 +411,97 @@ NFD_API nfd_result nfd_points_write_ply(const float* points, const float* normal
                                 const char* path);
 
 /* ---------------------------------------------------------------------------------------------
+ * Progressive extraction: a mesh per level of detail, coarse to fine
+ *
+ * nfd_mesh_extract samples the field coarse to fine and meshes the finest level. An extraction
+ * runs the same sampling one level per nfd_extraction_step and can mesh each level on the way,
+ * each level evaluating only the grid points its coarser level did not hold: a caller shows the
+ * coarse mesh early, and stops (destroys the extraction) at any level.
+ *
+ * The ladder of a resolution r: the levels of its sampling, coarsest first, r / 2^k cells per axis
+ * rounded up for k = K, K-1, ..., 0, where K is the largest with ceil(r / 2^K) >= 32 (0 under
+ * 64). E.g. 256: 32, 64, 128, 256; 200: 50, 100, 200; 130: 33, 65, 130; 48: 48 alone. At most
+ * NFD_MAX_LADDER_LEVELS levels.
+ *
+ * The meshes: the final level's mesh is byte-identical (positions, normals, indices) to
+ * nfd_mesh_extract's at r on the same device kind. A level whose resolution r / 2^k is exact is
+ * byte-identical to nfd_mesh_extract's at r / 2^k (256's 32, 64, 128; all of 200's). A level
+ * where r / 2^k is rounded up (130's 33 and 65) is no decode's own: it is marching cubes on that
+ * level's cells as sampled for r, with cells 2^k * 2 / r wide, its last cells reaching up to one
+ * cell past the unit cube. SDF and UDF alike; a UDF level's mesh needs the field's gradients at
+ * the corners of its near cells, evaluated for that level (gradients_evaluated; on the CPU those at
+ * corners it shares with the level above are copied from there), while the values of every level
+ * are evaluated once: the points_evaluated of all steps add up to the one-shot decode's at r.
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_extraction nfd_extraction;
+
+#define NFD_MAX_LADDER_LEVELS 8u
+
+/* Writes the ladder of `resolution` (0 = NFD_DEFAULT_RESOLUTION), coarsest first, to
+ * out_resolutions (capacity entries; may be NULL when capacity is 0) and its length to out_count.
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (out_count NULL, or capacity under the length
+ * with out_resolutions written up to capacity); NFD_ERROR_LIMIT_EXCEEDED (resolution outside
+ * NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION). Thread-safe. */
+NFD_API nfd_result nfd_extraction_ladder(uint32_t resolution, uint32_t* out_resolutions,
+                                         uint32_t capacity, uint32_t* out_count);
+
+/* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
+typedef struct nfd_extraction_options {
+    uint32_t struct_size; /* 0.2: sizeof(nfd_extraction_options), or 0 */
+    uint32_t resolution;  /* the final level, as nfd_mesh_options.resolution */
+    uint32_t mesh_levels; /* bit i: mesh ladder level i (bit 0: the coarsest); 0 = every level.
+                             Must include the final level; no bit past the ladder */
+} nfd_extraction_options;
+
+/* What a step did, and what the next one will allocate. */
+typedef struct nfd_extraction_level {
+    uint32_t struct_size;         /* set by the caller (sizeof, or 0 for the 0.2 layout): the
+                                     library writes the fields it covers */
+    uint32_t resolution;          /* cells per axis of the level just completed */
+    uint32_t index;               /* its place in the ladder, 0 = coarsest */
+    int done;                     /* non-zero: it was the final level */
+    uint64_t points_evaluated;    /* field values evaluated by this step (new points only) */
+    uint64_t gradients_evaluated; /* value + gradient evaluations of this step (UDF meshes) */
+    /* Upper bounds of the bytes the NEXT step allocates at its peak, above what is allocated when
+     * it starts (the mesh it returns included), from what this step found (the cells it kept):
+     * host memory, and device memory on a Vulkan context (0 on the CPU). 0 when done. Worst-case
+     * bounds, not estimates: the next level's vertices are bounded by its kept parents' child
+     * grids and its mesh as if every grid edge crossed the surface, so they exceed the real peak
+     * several times (golden bunny and T-shirt at 256: host on the CPU 3x-6x up to 128 and
+     * 12x-15x at 256; device on lavapipe 16x-21x). */
+    uint64_t next_host_bytes;
+    uint64_t next_device_bytes;
+} nfd_extraction_level;
+
+/* Prepares a progressive extraction of `asset` on `context`; evaluates nothing yet.
+ * The extraction borrows both: they must outlive it, and the context must not be used by another
+ * call (this extraction's, another's, any nfd_* call taking it) while a step runs. One thread at a
+ * time may call an extraction; different threads may call it one after the other.
+ * On a Vulkan context the network is uploaded and its pipelines made here.
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (NULL argument, mesh_levels without the final
+ * level or with a bit past the ladder: a level not on the ladder); NFD_ERROR_LIMIT_EXCEEDED
+ * (resolution outside the caps); NFD_ERROR_UNSUPPORTED_FEATURE (Vulkan: a network beyond the
+ * shaders' caps, as nfd_mesh_extract); NFD_ERROR_DEVICE; NFD_ERROR_OUT_OF_MEMORY. */
+NFD_API nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
+                                         const nfd_extraction_options* options,
+                                         nfd_extraction** out_extraction);
+
+/* Does the next level's work, bounded by that level: evaluates its new points, and, if the level
+ * is in mesh_levels, meshes it into *out_mesh (the caller's to destroy; NULL otherwise). In the
+ * mesh's nfd_decode_stats, points_evaluated and seconds_field count all steps so far (on the final
+ * level, points_evaluated is the one-shot decode's); active_cells and seconds_mesh are the level's.
+ * out_info (may be NULL) receives what the step did.
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (extraction or out_mesh NULL, out_info's
+ * struct_size below its first layout, a step after the final level or after a failed step);
+ * NFD_ERROR_OUT_OF_MEMORY, NFD_ERROR_DEVICE, NFD_ERROR_LIMIT_EXCEEDED (a level beyond what the
+ * device path can mesh): the extraction then only accepts destroy. */
+NFD_API nfd_result nfd_extraction_step(nfd_extraction* extraction, nfd_mesh** out_mesh,
+                                       nfd_extraction_level* out_info);
+
+/* Stops wherever it is and frees everything; NULL is accepted. */
+NFD_API void nfd_extraction_destroy(nfd_extraction* extraction);
+
+/* ---------------------------------------------------------------------------------------------
  * Sparse grid: the field on a narrow band around the surface
  *
  * The coarse-to-fine sampling that meshes are extracted from, as a product of its own: the

@@ -206,4 +206,9 @@ void destroy_device(Device* device) { delete device; }
 
 const char* device_name(const Device& device) { return device.vk->name().c_str(); }
 
+DeviceMemory device_memory(const Device& device) {
+    return {device.vk->live_bytes(), device.vk->peak_bytes()};
+}
+void reset_device_memory_peak(Device& device) { device.vk->reset_peak(); }
+
 }  // namespace nfd::gpu

@@ -6,6 +6,21 @@
 
 namespace nfd::gpu {
 
+nfd_result mesh_level(Device& device, DeviceNetwork& net, FieldType field, FinestLevel& level,
+                      MeshData* mesh, ExtractStats* stats) {
+    MeshData out;
+    const uint32_t parents = level.parents.kept;
+    if (parents >= 1u << 26) return NFD_ERROR_LIMIT_EXCEEDED;  // mc_emit's k << 6 | edge records
+    if (parents > 0) {
+        const auto t_mesh = Clock::now();
+        NFD_TRY(field == FieldType::Udf ? mesh_udf(device, net, level, &out, stats)
+                                        : mesh_sdf(device, level, &out, stats));
+        stats->seconds_mesh = seconds_since(t_mesh);
+    }
+    *mesh = std::move(out);
+    return NFD_SUCCESS;
+}
+
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
                         MeshData* mesh, ExtractStats* stats) {
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
@@ -15,22 +30,12 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
     DeviceNetwork net;
     NFD_TRY(upload_network(device, geometry.network, &net));
     if (geometry.field == FieldType::Udf) NFD_TRY(prepare_field(device, net, true));
-    FinestLevel finest(*device.vk);
-    NFD_TRY(build_levels(device, net, geometry, resolution, &finest));
-    st.points_evaluated = finest.points_evaluated;
+    LevelBuilder levels(device, net, geometry, resolution);
+    do NFD_TRY(levels.step());
+    while (!levels.done());
+    st.points_evaluated = levels.level().points_evaluated;
     st.seconds_field = seconds_since(t_field);
-
-    MeshData out;
-    const uint32_t parents = finest.parents.kept;
-    if (parents >= 1u << 26) return NFD_ERROR_LIMIT_EXCEEDED;  // mc_emit's k << 6 | edge records
-    if (parents > 0) {
-        const auto t_mesh = Clock::now();
-        NFD_TRY(geometry.field == FieldType::Udf
-                    ? mesh_udf(device, net, finest, &out, &st)
-                    : mesh_sdf(device, finest, &out, &st));
-        st.seconds_mesh = seconds_since(t_mesh);
-    }
-    *mesh = std::move(out);
+    NFD_TRY(mesh_level(device, net, geometry.field, levels.level(), mesh, &st));
     if (stats) *stats = st;
     return NFD_SUCCESS;
 }

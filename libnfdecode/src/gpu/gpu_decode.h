@@ -9,6 +9,7 @@
 #include "../extract.h"
 #include "../mesh.h"
 #include "../network.h"
+#include "../progressive.h"
 #include "nfdecode/nfdecode.h"
 
 namespace nfd::gpu {
@@ -21,6 +22,13 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
                          std::unique_ptr<Device>* out);
 void destroy_device(Device* device);  // also what the unique_ptr's deleter calls
 const char* device_name(const Device& device);
+// The device memory its buffers hold, and the peak since the last reset: what the progressive
+// extraction's bounds of the next step (LevelReport::next_device_bytes) are checked against.
+struct DeviceMemory {
+    uint64_t live = 0, peak = 0;
+};
+DeviceMemory device_memory(const Device& device);
+void reset_device_memory_peak(Device& device);
 
 // Field values at n unit-frame points (xyz interleaved): the GPU twin of evaluate_cpu.
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,
@@ -34,6 +42,11 @@ nfd_result evaluate_gradient(Device& device, const Network& network, const float
 // and topology (triangles and vertices in another order).
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
                         MeshData* mesh, ExtractStats* stats);
+
+// The GPU path of a progressive extraction (progressive.h); `mesh_mask` bit l meshes grid level
+// l. Device and geometry must outlive it.
+nfd_result make_extraction(Device& device, const Geometry& geometry, uint32_t resolution,
+                           uint32_t mesh_mask, std::unique_ptr<Extraction>* out);
 
 }  // namespace nfd::gpu
 

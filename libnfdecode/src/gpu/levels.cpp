@@ -1,8 +1,9 @@
-// The sparse levels on the device, the GPU side of grid.cpp: the top level evaluated densely,
-// then per level the child grids of the kept cells (refine_count/points.comp + the field), the
-// keep rule on their children (refine_cells.comp), the child level's sorted kept list and corner
-// values (bitmap_compact, gather_corners.comp). The host only sizes buffers between kernels from
-// counts it reads back.
+// The sparse levels on the device, the GPU side of grid.cpp, one level per LevelBuilder::step:
+// the level above the coarsest evaluated densely, then per level the child grids of the kept
+// cells (refine_count/points.comp + the field), the keep rule on their children
+// (refine_cells.comp), the child level's sorted kept list and corner values (bitmap_compact,
+// gather_corners.comp). The host only sizes buffers between kernels from counts it reads back.
+#include <algorithm>
 #include <cstring>
 
 #include "../mc_tables.h"
@@ -10,67 +11,6 @@
 
 namespace nfd::gpu {
 namespace {
-
-// The top level, evaluated densely; its cells are tested on the host (a few thousand), with
-// grid.h's own cell_may_contain_surface. With no refinement level (resolution < 64) every cell
-// of level 1 is kept, so that the finest level is visited entirely, as on the CPU.
-nfd_result top_level(Device& d, DeviceNetwork& net, uint32_t resolution, uint32_t top, bool test,
-                     Level* level, uint64_t* evaluated) {
-    const float step = 2.0f / float(resolution);
-    const uint32_t n = cells_at_level(resolution, top), side = n + 1;
-    const uint32_t count = side * side * side;
-    Buffers scratch(*d.vk);
-    Buffer *points, *values;
-    NFD_TRY(scratch.make(VkDeviceSize(count) * 12, &points));
-    NFD_TRY(scratch.make(VkDeviceSize(count) * 4, &values));
-    float* p = points->as<float>();
-    for (uint32_t z = 0; z < side; ++z)
-        for (uint32_t y = 0; y < side; ++y)
-            for (uint32_t x = 0; x < side; ++x) {
-                *p++ = -1.0f + float(x << top) * step;
-                *p++ = -1.0f + float(y << top) * step;
-                *p++ = -1.0f + float(z << top) * step;
-            }
-    NFD_TRY(d.vk->begin());
-    NFD_TRY(record_field(d, net, *points, *values, count, false));
-    NFD_TRY(d.vk->submit());
-    *evaluated += count;
-
-    const float h = step * float(1u << top);
-    const float* f = values->as<float>();
-    std::vector<uint32_t> kept;
-    std::vector<float> corners;
-    for (uint32_t z = 0; z < n; ++z)
-        for (uint32_t y = 0; y < n; ++y)
-            for (uint32_t x = 0; x < n; ++x) {
-                float v[8];
-                for (int c = 0; c < 8; ++c) {
-                    const uint8_t* o = mc::kCornerOffset[c];
-                    v[c] = f[((z + o[2]) * side + y + o[1]) * side + x + o[0]];
-                }
-                if (test && !cell_may_contain_surface(v, h)) continue;
-                kept.push_back(x + n * (y + n * z));
-                corners.insert(corners.end(), v, v + 8);
-            }
-    level->cells = n;
-    level->kept = uint32_t(kept.size());
-    const uint32_t words = level->words();
-    NFD_TRY(level->buffers.make(VkDeviceSize(words) * 4, &level->bits));
-    NFD_TRY(level->buffers.make(VkDeviceSize(words) * 4, &level->prefix));
-    NFD_TRY(level->buffers.make(VkDeviceSize(kept.size()) * 4, &level->list));
-    NFD_TRY(level->buffers.make(VkDeviceSize(corners.size()) * 4, &level->corners));
-    uint32_t* bits = level->bits->as<uint32_t>();
-    std::memset(bits, 0, size_t(words) * 4);
-    for (uint32_t c : kept) bits[c >> 5] |= 1u << (c & 31);
-    uint32_t total = 0;
-    for (uint32_t w = 0; w < words; ++w) {
-        level->prefix->as<uint32_t>()[w] = total;
-        total += uint32_t(__builtin_popcount(bits[w]));
-    }
-    std::memcpy(level->list->data, kept.data(), kept.size() * 4);
-    std::memcpy(level->corners->data, corners.data(), corners.size() * 4);
-    return NFD_SUCCESS;
-}
 
 std::vector<Bind> with(std::vector<Bind> b, std::initializer_list<Bind> more) {
     b.insert(b.end(), more);
@@ -98,43 +38,6 @@ nfd_result evaluate_child_grids(Device& d, DeviceNetwork& net, const Level& pare
     NFD_TRY(buffers.make(VkDeviceSize(g->count) * 4, &g->values));
     NFD_TRY(d.vk->begin());
     return record_list(d, net, parent, *g, *g->values, false, push, scratch);
-}
-
-nfd_result refine_level(Device& d, DeviceNetwork& net, const Level& parent, const LevelPush& push,
-                        Level* child, uint64_t* evaluated) {
-    Buffers step_buffers(*d.vk), scratch(*d.vk);
-    PointList g;
-    NFD_TRY(evaluate_child_grids(d, net, parent, push, step_buffers, scratch, &g));
-    *evaluated += g.count;
-    child->cells = push.child_cells;
-    const uint32_t words = child->words();
-    NFD_TRY(child->buffers.make(VkDeviceSize(words) * 4, &child->bits));
-    NFD_TRY(child->buffers.make(VkDeviceSize(words) * 4, &child->prefix));
-    d.vk->fill(*child->bits, 0);
-    NFD_TRY(d.vk->dispatch(d[Kernel::RefineCells],
-                           with(child_grid_bindings(parent, g), {{NFD_B_CHILD_BITS, *child->bits}}),
-                           &push, parent.kept));
-    NFD_TRY(record_scan(d, scratch, *child->bits, *child->prefix, words, true));
-    NFD_TRY(d.vk->submit());
-    child->kept = word(*child->prefix, words - 1) +
-                  uint32_t(__builtin_popcount(word(*child->bits, words - 1)));
-    NFD_TRY(child->buffers.make(VkDeviceSize(child->kept) * 4, &child->list));
-    NFD_TRY(child->buffers.make(VkDeviceSize(child->kept) * 32, &child->corners));
-    if (child->kept == 0) return NFD_SUCCESS;
-    LevelPush gather = push;
-    gather.count = child->kept;
-    NFD_TRY(d.vk->begin());
-    NFD_TRY(d.vk->dispatch(d[Kernel::BitmapCompact],
-                           {{NFD_B_KEPT_BITS, *child->bits},
-                            {NFD_B_KEPT_PREFIX, *child->prefix},
-                            {NFD_B_KEPT_CELLS, *child->list}},
-                           &words, words));
-    NFD_TRY(d.vk->dispatch(d[Kernel::GatherCorners],
-                           with(child_grid_bindings(parent, g),
-                                {{NFD_B_CHILD_CELLS, *child->list},
-                                 {NFD_B_CHILD_CORNERS, *child->corners}}),
-                           &gather, child->kept));
-    return d.vk->submit();
 }
 
 }  // namespace
@@ -190,40 +93,187 @@ std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
     return b;
 }
 
-nfd_result build_levels(Device& device, DeviceNetwork& net, const Geometry& geometry,
-                        uint32_t resolution, FinestLevel* out) {
-    const uint32_t levels = refinement_levels(resolution);
-    const uint32_t top = std::max(levels, 1u);
-    const float step = 2.0f / float(resolution);
-    Level& level = out->parents;
-    NFD_TRY(top_level(device, net, resolution, top, levels > 0, &level, &out->points_evaluated));
+LevelBuilder::LevelBuilder(Device& device, DeviceNetwork& net, const Geometry& geometry,
+                           uint32_t resolution)
+    : device_(device), net_(net), resolution_(resolution), top_(refinement_levels(resolution)),
+      step_(2.0f / float(resolution)), current_(top_), level_(*device.vk), kept_(*device.vk) {
+    base_.step = step_;
+    base_.scale = geometry.scale;
+    for (int a = 0; a < 3; ++a) base_.center[a] = geometry.center[a];
+}
 
-    LevelPush& push = out->push;
-    push.step = step;
-    push.scale = geometry.scale;
-    for (int a = 0; a < 3; ++a) push.center[a] = geometry.center[a];
-    for (uint32_t l = top; l-- > 1 && level.kept > 0;) {  // parent level l + 1, children l
-        push.parent_cells = level.cells;
-        push.child_cells = cells_at_level(resolution, l);
-        push.child_level = l;
-        push.count = level.kept;
-        push.threshold = kLipschitzMargin * (step * float(1u << l)) * kHalfDiagonal;
-        Level child(*device.vk);
-        NFD_TRY(refine_level(device, net, level, push, &child, &out->points_evaluated));
-        level = std::move(child);
+LevelPush LevelBuilder::refine_push(uint32_t child_level, uint32_t parent_cells,
+                                    uint32_t count) const {
+    LevelPush push = base_;
+    push.parent_cells = parent_cells;
+    push.child_cells = cells_at_level(resolution_, child_level);
+    push.child_level = child_level;
+    push.count = count;
+    push.threshold = kLipschitzMargin * (step_ * float(1u << child_level)) * kHalfDiagonal;
+    return push;
+}
+
+// The level above the coarsest, evaluated densely, every cell kept. Only its vertices that are
+// vertices of the coarsest level are evaluated (2 v <= its cells per axis): a last cell whose
+// children past the grid are dropped has corners nothing reads, left 0.
+nfd_result LevelBuilder::evaluate_dense_top() {
+    const uint32_t l = top_ + 1, n = cells_at_level(resolution_, l);
+    const uint32_t side = cells_at_level(resolution_, top_) / 2 + 1;  // <= n + 1
+    const uint32_t count = side * side * side;
+    Buffers scratch(*device_.vk);
+    Buffer *points, *values;
+    NFD_TRY(scratch.make(VkDeviceSize(count) * 12, &points));
+    NFD_TRY(scratch.make(VkDeviceSize(count) * 4, &values));
+    float* p = points->as<float>();
+    for (uint32_t z = 0; z < side; ++z)
+        for (uint32_t y = 0; y < side; ++y)
+            for (uint32_t x = 0; x < side; ++x) {
+                *p++ = -1.0f + float(x << l) * step_;
+                *p++ = -1.0f + float(y << l) * step_;
+                *p++ = -1.0f + float(z << l) * step_;
+            }
+    NFD_TRY(device_.vk->begin());
+    NFD_TRY(record_field(device_, net_, *points, *values, count, false));
+    NFD_TRY(device_.vk->submit());
+    level_.points_evaluated += count;
+
+    Level& level = level_.parents;
+    level.cells = n;
+    level.kept = n * n * n;
+    const uint32_t words = level.words();
+    NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.bits));
+    NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.prefix));
+    NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 4, &level.list));
+    NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 32, &level.corners));
+    uint32_t* bits = level.bits->as<uint32_t>();
+    std::memset(bits, 0, size_t(words) * 4);
+    for (uint32_t c = 0; c < level.kept; ++c) {
+        bits[c >> 5] |= 1u << (c & 31);
+        level.list->as<uint32_t>()[c] = c;
     }
-    // Level 1's kept cells are the parents of the finest cells: their child grids' values.
-    push.parent_cells = level.cells;
-    push.child_cells = resolution;
-    push.child_level = 0;
-    push.count = level.kept;
-    push.threshold = 0;
-    if (level.kept == 0) return NFD_SUCCESS;
-    Buffers scratch(*device.vk);
-    NFD_TRY(evaluate_child_grids(device, net, level, push, out->buffers, scratch, &out->grid));
-    NFD_TRY(device.vk->submit());
-    out->points_evaluated += out->grid.count;
+    for (uint32_t w = 0; w < words; ++w) level.prefix->as<uint32_t>()[w] = 32 * w;
+    const float* f = values->as<float>();
+    float* corners = level.corners->as<float>();
+    for (uint32_t z = 0; z < n; ++z)
+        for (uint32_t y = 0; y < n; ++y)
+            for (uint32_t x = 0; x < n; ++x)
+                for (int c = 0; c < 8; ++c) {
+                    const uint8_t* o = mc::kCornerOffset[c];
+                    const uint32_t vx = x + o[0], vy = y + o[1], vz = z + o[2];
+                    const bool evaluated = vx < side && vy < side && vz < side;
+                    *corners++ = evaluated ? f[(vz * side + vy) * side + vx] : 0.0f;
+                }
     return NFD_SUCCESS;
+}
+
+// The previous level's kept list and corners (from its child grids), which become the parents of
+// the next; the previous parents and child grids go.
+nfd_result LevelBuilder::gather_kept() {
+    Level& child = kept_;
+    NFD_TRY(child.buffers.make(VkDeviceSize(child.kept) * 4, &child.list));
+    NFD_TRY(child.buffers.make(VkDeviceSize(child.kept) * 32, &child.corners));
+    if (child.kept > 0) {
+        LevelPush gather = refine_push(current_, level_.parents.cells, child.kept);
+        const uint32_t words = child.words();
+        NFD_TRY(device_.vk->begin());
+        NFD_TRY(device_.vk->dispatch(device_[Kernel::BitmapCompact],
+                                     {{NFD_B_KEPT_BITS, *child.bits},
+                                      {NFD_B_KEPT_PREFIX, *child.prefix},
+                                      {NFD_B_KEPT_CELLS, *child.list}},
+                                     &words, words));
+        NFD_TRY(device_.vk->dispatch(device_[Kernel::GatherCorners],
+                                     with(child_grid_bindings(level_.parents, level_.grid),
+                                          {{NFD_B_CHILD_CELLS, *child.list},
+                                           {NFD_B_CHILD_CORNERS, *child.corners}}),
+                                     &gather, child.kept));
+        NFD_TRY(device_.vk->submit());
+    }
+    level_.buffers.release();
+    level_.grid = PointList();
+    level_.parents = std::move(kept_);
+    kept_ = Level(*device_.vk);
+    return NFD_SUCCESS;
+}
+
+nfd_result LevelBuilder::step() {
+    if (stepped_) {
+        NFD_TRY(gather_kept());
+        --current_;
+    } else {
+        NFD_TRY(evaluate_dense_top());
+    }
+    stepped_ = true;
+    const uint32_t l = current_;
+    const Level& parents = level_.parents;
+    LevelPush& view = level_.push;
+    view = base_;
+    view.parent_cells = parents.cells;
+    view.child_cells = cells_at_level(resolution_, l);
+    view.count = parents.kept;
+    view.step = step_ * float(1u << l);
+    level_.keep = l > 0;
+    if (parents.kept == 0) return NFD_SUCCESS;  // nothing kept above: this level is empty
+
+    const LevelPush push = refine_push(l, parents.cells, parents.kept);
+    Buffers scratch(*device_.vk);
+    NFD_TRY(evaluate_child_grids(device_, net_, parents, push, level_.buffers, scratch,
+                                 &level_.grid));
+    level_.points_evaluated += level_.grid.count;
+    if (l == 0) return device_.vk->submit();
+    // The keep rule on this level's cells, recorded with their values.
+    Level& child = kept_;
+    child.cells = push.child_cells;
+    const uint32_t words = child.words();
+    NFD_TRY(child.buffers.make(VkDeviceSize(words) * 4, &child.bits));
+    NFD_TRY(child.buffers.make(VkDeviceSize(words) * 4, &child.prefix));
+    device_.vk->fill(*child.bits, 0);
+    NFD_TRY(device_.vk->dispatch(device_[Kernel::RefineCells],
+                                 with(child_grid_bindings(parents, level_.grid),
+                                      {{NFD_B_CHILD_BITS, *child.bits}}),
+                                 &push, parents.kept));
+    NFD_TRY(record_scan(device_, scratch, *child.bits, *child.prefix, words, true));
+    NFD_TRY(device_.vk->submit());
+    child.kept = word(*child.prefix, words - 1) +
+                 uint32_t(__builtin_popcount(word(*child.bits, words - 1)));
+    return NFD_SUCCESS;
+}
+
+// The mesh's vertices and triangles per kept cell, at most (mc_emit's records): 64 vertex edges,
+// 8 children with the table's most triangles each.
+constexpr uint64_t kMostVerticesPerParent = 64;
+uint64_t most_triangles_per_parent() {
+    const mc::Tables& t = mc::tables();
+    return 8 * uint64_t(*std::max_element(t.triangle_count, t.triangle_count + 256));
+}
+
+uint64_t LevelBuilder::next_step_host_bytes(bool mesh) const {
+    if (done() || !mesh) return 0;
+    return (kMostVerticesPerParent * 24 + most_triangles_per_parent() * 12) * kept_.kept;
+}
+
+uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf) const {
+    if (done()) return 0;
+    // Per kept cell K of this level: its list entry and corners (36), its child grid's masks,
+    // offsets and counts (12) and at most 19 new values (76); the points buffer of a chunk; the
+    // scans' block sums (under 1/64 of what they scan, 8 bytes a block, twice for nesting).
+    const uint64_t k = kept_.kept, chunk = 1u << 20;
+    const uint64_t child_level = current_ - 1;
+    auto scan = [](uint64_t count) { return 16 * (count / 64 + 2); };
+    uint64_t bytes = 36 * k + 12 * k + 76 * k + 12 * std::min(19 * k, chunk) + scan(k);
+    if (child_level > 0) {
+        const uint64_t n = cells_at_level(resolution_, uint32_t(child_level));
+        const uint64_t words = (n * n * n + 31) / 32;
+        bytes += 8 * words + scan(words);
+    }
+    if (mesh) {
+        // Classified (40 per parent), the vertex edges (4 + 12 + 12 bytes each), the triangles.
+        bytes += 40 * k + 4 + 3 * scan(2 * k) + kMostVerticesPerParent * 28 * k +
+                 most_triangles_per_parent() * 12 * k;
+        // UDF: near masks, gradient masks, counts, offsets; value + gradient of at most 27
+        // points per parent; a points chunk.
+        if (udf) bytes += 16 * k + 16 * 27 * k + 12 * std::min(27 * k, chunk) + scan(k);
+    }
+    return bytes;
 }
 
 }  // namespace nfd::gpu

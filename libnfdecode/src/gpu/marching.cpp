@@ -62,8 +62,10 @@ nfd_result emit_mesh(Device& device, FinestLevel& finest, Classified& c, Kernel 
     NFD_TRY(device.vk->dispatch(device[vertices], place, &per_vertex, vertex_count));
     NFD_TRY(device.vk->submit());
     input_buffers.release();
-    finest.buffers.release();
-    finest.parents.buffers.release();
+    if (!finest.keep) {
+        finest.buffers.release();
+        finest.parents.buffers.release();
+    }
     device.vk->destroy(*edges);
 
     try {

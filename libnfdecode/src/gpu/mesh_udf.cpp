@@ -36,12 +36,14 @@ nfd_result mesh_udf(Device& device, DeviceNetwork& net, FinestLevel& finest, Mes
         NFD_TRY(device.vk->submit());
     }
     const uint32_t gradient_count = word(*offsets, k - 1) + word(*counts, k - 1);
-    stats->gradients_evaluated = gradient_count;
+    stats->gradients_evaluated += gradient_count;
     device.vk->destroy(*counts);
     // From here on the list holds every value the mesher reads (udf.glsl): the child grids' sparse
     // storage goes (at resolution 1024, ~200 MB for ~2M parents).
-    finest.buffers.release();
-    device.vk->destroy(*finest.parents.corners);
+    if (!finest.keep) {
+        finest.buffers.release();
+        device.vk->destroy(*finest.parents.corners);
+    }
 
     // Values and gradients at the list's points (child level 0).
     Buffer* gradients;

@@ -279,7 +279,12 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
     alloc.allocationSize = requirements.size;
     alloc.memoryTypeIndex = memory_type_;
     VkResult r = vkAllocateMemory(device_, &alloc, nullptr, &b.memory);
-    if (r == VK_SUCCESS) r = vkBindBufferMemory(device_, b.buffer, b.memory, 0);
+    if (r == VK_SUCCESS) {
+        b.allocated = alloc.allocationSize;
+        live_bytes_ += b.allocated;
+        peak_bytes_ = std::max(peak_bytes_, live_bytes_);
+        r = vkBindBufferMemory(device_, b.buffer, b.memory, 0);
+    }
     if (r == VK_SUCCESS) r = vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.data);
     if (r != VK_SUCCESS) {
         destroy(b);
@@ -292,6 +297,7 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
 void Context::destroy(Buffer& b) {
     if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
     if (b.memory) vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
+    live_bytes_ -= b.allocated;
     b = Buffer{};
 }
 

@@ -56,6 +56,7 @@ struct Buffer {
     VkDeviceMemory memory = VK_NULL_HANDLE;
     void* data = nullptr;
     VkDeviceSize size = 0;
+    VkDeviceSize allocated = 0;  // bytes of `memory`
     template <typename T>
     T* as() const { return static_cast<T*>(data); }
 };
@@ -108,6 +109,11 @@ public:
 
     nfd_result create_buffer(VkDeviceSize size, Buffer* out);  // storage + uniform + transfer
     void destroy(Buffer& buffer);
+    // Device memory of the live buffers, and its peak since reset_peak(): what memory bounds
+    // (nfd_extraction_level.next_device_bytes) are checked against.
+    VkDeviceSize live_bytes() const { return live_bytes_; }
+    VkDeviceSize peak_bytes() const { return peak_bytes_; }
+    void reset_peak() { peak_bytes_ = live_bytes_; }
     nfd_result create_pipeline(const PipelineDesc& desc, Pipeline* out);
     void destroy(Pipeline& pipeline);
 
@@ -158,6 +164,7 @@ private:
     VkPhysicalDeviceProperties properties_{};
     VkPhysicalDeviceMemoryProperties memory_{};
     uint32_t memory_type_ = UINT32_MAX;  // host-visible + coherent, device-local if possible
+    VkDeviceSize live_bytes_ = 0, peak_bytes_ = 0;
     std::string name_;
 
     VkPipelineCache cache_ = VK_NULL_HANDLE;

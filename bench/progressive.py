@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""Progressive decode benchmark: nfc-decode --levels against the one-shot decode, per device.
+
+Per file and device, medians over --runs interleaved runs of:
+  * the wall time to each ladder level from the moment the .nfc bytes are given to the library
+    (the context created before, as an engine's would be: --stats=json's elapsed_ms);
+  * the full progressive decode (every level meshed) against the same decode meshing only the
+    final level (--levels R: the one-shot's work through the same steps) in process CPU time,
+    which a busy machine does not inflate, and in wall time;
+  * the one-shot nfd_mesh_extract (parse + field + mesh of --stats) in wall time.
+
+    python3 bench/progressive.py /work/main/bench/out/nfc/bunny_fast_w32.nfc --levels 32,64,128,256
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import statistics
+import subprocess
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+NFC_DECODE = REPO / "build" / "samples" / "nfc-decode"
+
+
+def progressive(path: Path, levels: str, device: str) -> tuple[dict[int, float], dict]:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = subprocess.run([str(NFC_DECODE), str(path), "-o", f"{tmp}/out.ply", "--levels", levels,
+                              "--device", device, "--stats=json"],
+                             check=True, capture_output=True, text=True).stdout
+    objects = [json.loads(line) for line in out.splitlines()]
+    return {o["resolution"]: o["elapsed_ms"] for o in objects[:-1]}, objects[-1]
+
+
+def one_shot(path: Path, resolution: int, device: str) -> float:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = subprocess.run([str(NFC_DECODE), str(path), "-o", f"{tmp}/out.ply", "--resolution",
+                              str(resolution), "--device", device, "--stats"],
+                             check=True, capture_output=True, text=True).stdout
+    ms = {m[1]: float(m[2]) for m in re.finditer(r"^(parse|field|mesh)\s+([0-9.]+) ms", out, re.M)}
+    return ms["parse"] + ms["field"] + ms["mesh"]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("files", nargs="+", type=Path)
+    ap.add_argument("--levels", default="32,64,128,256")
+    ap.add_argument("--devices", nargs="+", default=["vulkan", "cpu"])
+    ap.add_argument("--runs", type=int, default=5)
+    args = ap.parse_args()
+    levels = [int(r) for r in args.levels.split(",")]
+    final = str(levels[-1])
+    print("| file | device | " + " | ".join(f"to {r} ms" for r in levels) +
+          " | extraction create ms | CPU ms: all levels / final only | wall ms: all levels /"
+          " final only / one-shot |")
+    print("|" + "---|" * (len(levels) + 5))
+    med = statistics.median
+    for path in args.files:
+        for device in args.devices:
+            full, last, shots = [], [], []
+            for _ in range(args.runs):
+                full.append(progressive(path, args.levels, device))
+                last.append(progressive(path, final, device)[1])
+                shots.append(one_shot(path, levels[-1], device))
+            to = [med(r[0][res] for r in full) for res in levels]
+            create = med(r[1]["prepare_ms"] for r in full)
+            cpu_full, cpu_last = med(r[1]["cpu_ms"] for r in full), med(r["cpu_ms"] for r in last)
+            wall_last, shot = med(r["elapsed_ms"] for r in last), med(shots)
+            print(f"| {path.name} | {device} | " + " | ".join(f"{t:.1f}" for t in to) +
+                  f" | {create:.1f} | {cpu_full:.0f} / {cpu_last:.0f} = {cpu_full / cpu_last:.3f}"
+                  f" | {to[-1]:.0f} / {wall_last:.0f} / {shot:.0f} = {to[-1] / shot:.3f} |")
+
+
+if __name__ == "__main__":
+    main()
