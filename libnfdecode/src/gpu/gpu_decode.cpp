@@ -6,6 +6,10 @@
 
 namespace nfd::gpu {
 
+uint64_t live_bytes(const Device& device) { return device.vk->live_bytes(); }
+uint64_t peak_bytes(const Device& device) { return device.vk->peak_bytes(); }
+void reset_peak_bytes(Device& device) { device.vk->reset_peak_bytes(); }
+
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
                         MeshData* mesh, ExtractStats* stats) {
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)

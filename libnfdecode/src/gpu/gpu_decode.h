@@ -21,6 +21,11 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
                          std::unique_ptr<Device>* out);
 void destroy_device(Device* device);  // also what the unique_ptr's deleter calls
 const char* device_name(const Device& device);
+// Bytes of the device's buffers alive now, and the most since the last reset_peak_bytes(): what
+// the queue's device budget is measured against (extract_work.cpp).
+uint64_t live_bytes(const Device& device);
+uint64_t peak_bytes(const Device& device);
+void reset_peak_bytes(Device& device);
 
 // Field values at n unit-frame points (xyz interleaved): the GPU twin of evaluate_cpu.
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,

@@ -285,11 +285,15 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
         destroy(b);
         return to_result(r);
     }
+    b.allocation_size = requirements.size;
+    live_bytes_ += b.allocation_size;
+    peak_bytes_ = std::max(peak_bytes_, live_bytes_);
     *out = b;
     return NFD_SUCCESS;
 }
 
 void Context::destroy(Buffer& b) {
+    live_bytes_ -= b.allocation_size;
     if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
     if (b.memory) vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
     b = Buffer{};

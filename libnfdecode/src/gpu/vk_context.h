@@ -48,6 +48,7 @@ struct Buffer {
     VkDeviceMemory memory = VK_NULL_HANDLE;
     void* data = nullptr;
     VkDeviceSize size = 0;
+    VkDeviceSize allocation_size = 0;  // the memory bound to it, counted in Context::live_bytes()
     template <typename T>
     T* as() const { return static_cast<T*>(data); }
 };
@@ -100,6 +101,11 @@ public:
 
     nfd_result create_buffer(VkDeviceSize size, Buffer* out);  // storage + uniform + transfer
     void destroy(Buffer& buffer);
+    // Bytes of the buffers alive now, and the most since the last reset_peak_bytes(): what the
+    // queue's device budget is measured against (extract_work.cpp).
+    VkDeviceSize live_bytes() const { return live_bytes_; }
+    VkDeviceSize peak_bytes() const { return peak_bytes_; }
+    void reset_peak_bytes() { peak_bytes_ = live_bytes_; }
     nfd_result create_pipeline(const PipelineDesc& desc, Pipeline* out);
     void destroy(Pipeline& pipeline);
 
@@ -158,6 +164,7 @@ private:
     VkFence fence_ = VK_NULL_HANDLE;
     VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
     bool recording_ = false;
+    VkDeviceSize live_bytes_ = 0, peak_bytes_ = 0;
 };
 
 }  // namespace nfd::gpu
