@@ -129,10 +129,11 @@ Bytes blob(float scale) {
     return geom_file(closed_blob(scale, center));
 }
 
-// A job whose extraction takes long enough to be seen RUNNING by a test that polls for it (the
-// UDF golden vector at 256 on the CPU: about a second; it never completes between two polls).
+// A job whose extraction takes long enough to be seen RUNNING, and then cancelled, by a test that
+// polls for it: the UDF golden vector at 128 on one CPU thread takes 0.4 s or more (40 s under
+// ThreadSanitizer), while a poll and the cancel that follows it are microseconds apart.
 Bytes slow_asset() { return read_bytes(golden_path("tshirt_udf_w16", ".nfc")); }
-constexpr uint32_t kSlowResolution = 256;
+constexpr uint32_t kSlowResolution = 128;
 
 // Waits (polling, no deadline) until the job leaves the statuses before `status`.
 nfd_job_status poll_until_at_least(nfd_job* job, nfd_job_status status) {
@@ -299,7 +300,7 @@ TEST(Queue, CancelQueuedJob) {
 // Running: the step completes, the job ends CANCELLED at that boundary and its mesh is freed
 // (the ASan run checks that nothing leaks); the queue carries on with the next job.
 TEST(Queue, CancelRunningJob) {
-    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
     nfd_asset* slow = make_asset(slow_asset());
     nfd_asset* small = make_asset(blob(1.0f));
     nfd_queue* q = make_queue(ctx, 1);
@@ -381,7 +382,7 @@ TEST(Queue, DestroyJobInEveryStatus) {
 
 // Destroying the queue cancels what has not run; handles stay valid until destroyed.
 TEST(Queue, DestroyQueueWithJobsPending) {
-    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
     nfd_asset* slow = make_asset(slow_asset());
     nfd_queue* q = make_queue(ctx, 1);
     const nfd_mesh_options big = mesh_options(kSlowResolution);

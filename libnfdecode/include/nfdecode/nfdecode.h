@@ -380,10 +380,11 @@ NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, co
  * of reservations never exceeds the budget: a job whose step does not fit waits
  * (NFD_JOB_WAITING_FOR_MEMORY) until running jobs release memory. A step larger than the whole
  * budget can never fit: its job fails with NFD_ERROR_LIMIT_EXCEEDED instead of waiting forever.
- * The bound in this version is conservative (about 20-40 MiB plus about 2 KiB per resolution^2 for
- * the CPU path: 160 MiB at 256; libnfdecode/src/queue_work.cpp states how it was set). A finished
- * mesh is not counted: it is the caller's to take, and collecting it late must not stall other
- * jobs.
+ * The bound in this version is conservative and depends on the resolution r only: CPU path, host
+ * 32 MiB + 3 KiB * r^2 (235 MB at 256); Vulkan, host 8 MiB + 1 KiB * r^2 and device
+ * 32 MiB + 3 KiB * r^2 (libnfdecode/src/extract_work.cpp states how it was measured; the real
+ * peaks of the test and bench assets are 2 to 10 times lower). A finished mesh is not counted:
+ * it is the caller's to take, and collecting it late must not stall other jobs.
  *
  * Threads: every queue and job function may be called from any thread. None of them waits for
  * work in progress (they take a short internal lock that is never held while a step or a
