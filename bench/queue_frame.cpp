@@ -21,6 +21,9 @@
 #include <thread>
 #include <vector>
 
+#include <sys/resource.h>
+#include <time.h>
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -34,14 +37,33 @@ struct Source {
 };
 
 // Sums the time spent inside libnfdecode calls of one frame.
+// Sums the time spent inside libnfdecode calls of one frame: wall time, and the thread's CPU
+// time (which excludes time the thread was descheduled, whether preempted by other threads of a
+// loaded machine or asleep waiting). Voluntary context switches inside a call count the calls
+// that slept: waited on a lock, which the queue's caller-side calls should never do for long.
 struct FrameTimer {
-    double frame_seconds = 0, slowest_call = 0;
+    double frame_seconds = 0, frame_cpu_seconds = 0, slowest_call = 0;
     const char* slowest_name = "";
+    long sleeps = 0;
+    static double thread_cpu() {
+        timespec t;
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+        return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+    }
+    static long voluntary_switches() {
+        rusage u;
+        getrusage(RUSAGE_THREAD, &u);
+        return u.ru_nvcsw;
+    }
     template <class Fn>
     auto operator()(const char* name, Fn&& fn) {
+        const long switches = voluntary_switches();
+        const double cpu = thread_cpu();
         const auto t0 = Clock::now();
         auto r = fn();
         const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+        frame_cpu_seconds += thread_cpu() - cpu;
+        sleeps += voluntary_switches() - switches;
         frame_seconds += s;
         if (s > slowest_call) slowest_call = s, slowest_name = name;
         return r;
@@ -118,7 +140,8 @@ int main(int argc, char** argv) {
 
     const auto frame = std::chrono::microseconds(16667);
     const auto start = Clock::now();
-    std::vector<double> frames;  // seconds inside libnfdecode, per frame
+    std::vector<double> frames, frames_cpu;  // seconds inside libnfdecode, per frame
+    long sleeps = 0;
     double slowest_call = 0, all_done = 0;
     const char* slowest_name = "";
     size_t collected = 0, triangles = 0, failures = 0;
@@ -159,6 +182,8 @@ int main(int argc, char** argv) {
             ++collected;
         }
         frames.push_back(timed.frame_seconds);
+        frames_cpu.push_back(timed.frame_cpu_seconds);
+        sleeps += timed.sleeps;
         if (timed.slowest_call > slowest_call)
             slowest_call = timed.slowest_call, slowest_name = timed.slowest_name;
         all_done = std::chrono::duration<double>(Clock::now() - start).count();
@@ -167,20 +192,29 @@ int main(int argc, char** argv) {
     nfd_queue_get_stats(queue, &st);
     nfd_queue_destroy(queue);
 
-    std::vector<double> sorted = frames;
-    std::sort(sorted.begin(), sorted.end());
-    double mean = 0;
-    for (double f : frames) mean += f;
-    mean /= double(frames.size());
-    const double p99 = sorted[std::min(sorted.size() - 1, size_t(0.99 * double(sorted.size())))];
-    std::printf("| device | res | files | workers | budget MB | frames | max ms/frame | p99 ms/frame "
-                "| mean ms/frame | slowest call ms | all done s | triangles | peak reserved MB |\n");
-    std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|\n");
-    std::printf("| %s | %u | %zu | %u | %s | %zu | %.3f | %.3f | %.4f | %.3f %s | %.2f | %zu | %.0f |\n",
+    struct Summary {
+        double max, p99, mean;
+    };
+    auto summarise = [](std::vector<double> v) {
+        std::sort(v.begin(), v.end());
+        double sum = 0;
+        for (double f : v) sum += f;
+        return Summary{v.back(), v[std::min(v.size() - 1, size_t(0.99 * double(v.size())))],
+                       sum / double(v.size())};
+    };
+    const Summary wall = summarise(frames), cpu = summarise(frames_cpu);
+    std::printf("| device | res | files | workers | budget MB | frames | ms/frame max / p99 / mean "
+                "| CPU ms/frame max / p99 / mean | slowest call ms | calls that slept | all done s "
+                "| triangles | peak reserved MB |\n");
+    std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|\n");
+    std::printf("| %s | %u | %zu | %u | %s | %zu | %.3f / %.3f / %.4f | %.3f / %.3f / %.4f "
+                "| %.3f %s | %ld | %.2f | %zu | %.0f |\n",
                 nfd_context_device_name(ctx), resolution, sources.size(), workers,
-                budget_mb ? std::to_string(budget_mb).c_str() : "-", frames.size(),
-                sorted.back() * 1e3, p99 * 1e3, mean * 1e3, slowest_call * 1e3, slowest_name, all_done, triangles,
-                double(std::max(st.peak_reserved_host_bytes, st.peak_reserved_device_bytes)) / (1 << 20));
+                budget_mb ? std::to_string(budget_mb).c_str() : "-", frames.size(), wall.max * 1e3,
+                wall.p99 * 1e3, wall.mean * 1e3, cpu.max * 1e3, cpu.p99 * 1e3, cpu.mean * 1e3,
+                slowest_call * 1e3, slowest_name, sleeps, all_done, triangles,
+                double(std::max(st.peak_reserved_host_bytes, st.peak_reserved_device_bytes)) /
+                    (1 << 20));
     nfd_context_destroy(ctx);
     return failures ? 1 : 0;
 }

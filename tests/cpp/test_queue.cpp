@@ -153,7 +153,7 @@ void ten_assets_match_mesh_extract(nfd_context* ctx, uint32_t workers) {
     GeomSpec positive = closed_blob();
     positive.levels.back() = 20000;  // f > 0 everywhere: an empty mesh
     files.push_back(geom_file(positive));
-    const uint32_t resolutions[10] = {64, 48, 64, 40, 64, 32, 64, 33, 96, 16};
+    const uint32_t resolutions[10] = {48, 40, 48, 40, 48, 32, 64, 33, 96, 16};
 
     std::vector<nfd_asset*> assets;
     std::vector<nfd_mesh*> expected;
@@ -414,10 +414,10 @@ TEST(Queue, BudgetHoldsAndAllJobsFinish) {
     nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
     const Bytes bytes = read_bytes(golden_path("bunny_sdf_w16", ".nfc"));
     nfd_asset* a = make_asset(bytes);
-    const uint64_t bound = cpu_bound(bytes, 64);
+    const uint64_t bound = cpu_bound(bytes, 40);
     const uint64_t budget = 2 * bound + bound / 2;
     nfd_queue* q = make_queue(ctx, 4, budget);
-    const nfd_mesh_options mo = mesh_options(64);
+    const nfd_mesh_options mo = mesh_options(40);
     std::vector<nfd_job*> jobs(12);
     for (nfd_job*& j : jobs) ASSERT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &j), NFD_SUCCESS);
     for (nfd_job* j : jobs) EXPECT_EQ(nfd_job_wait(j, kForever), NFD_JOB_DONE);

@@ -381,9 +381,10 @@ NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, co
  * (NFD_JOB_WAITING_FOR_MEMORY) until running jobs release memory. A step larger than the whole
  * budget can never fit: its job fails with NFD_ERROR_LIMIT_EXCEEDED instead of waiting forever.
  * The bound in this version is conservative and depends on the resolution r only: CPU path, host
- * 32 MiB + 3 KiB * r^2 (235 MB at 256); Vulkan, host 8 MiB + 1 KiB * r^2 and device
- * 32 MiB + 3 KiB * r^2 (libnfdecode/src/extract_work.cpp states how it was measured; the real
- * peaks of the test and bench assets are 2 to 10 times lower). A finished mesh is not counted:
+ * 32 MiB + 3 KiB * r^2 (235 MB at 256); Vulkan, host 64 MiB + 1 KiB * r^2 (the driver compiling
+ * a network's pipeline on its first job takes tens of MB) and device 16 MiB + 1.5 KiB * r^2
+ * (117 MB at 256). libnfdecode/src/extract_work.cpp states how it was measured: the largest peak
+ * of the test and bench assets is 2.2 to 2.8 times below it, typical ones 5 to 10 times. A finished mesh is not counted:
  * it is the caller's to take, and collecting it late must not stall other jobs.
  *
  * Threads: every queue and job function may be called from any thread. None of them waits for
