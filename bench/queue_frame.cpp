@@ -73,7 +73,8 @@ struct FrameTimer {
 int usage() {
     std::fprintf(stderr,
                  "usage: queue_frame [--device cpu|vulkan] [--resolution N] [--workers N]\n"
-                 "                   [--budget-mb N] [--rate-kbps N] [--cpu-threads N] file.nfc...\n");
+                 "                   [--budget-mb N] [--rate-kbps N] [--cpu-threads N]\n"
+                 "                   file.nfc...\n");
     return 2;
 }
 
@@ -156,9 +157,13 @@ int main(int argc, char** argv) {
                 s.received = arrived;
                 if (s.received < s.bytes.size()) continue;
                 nfd_asset* asset = nullptr;
-                r = timed("nfd_asset_create", [&] { return nfd_asset_create(s.bytes.data(), s.bytes.size(), &asset); });
+                r = timed("nfd_asset_create", [&] {
+                    return nfd_asset_create(s.bytes.data(), s.bytes.size(), &asset);
+                });
                 if (r == NFD_SUCCESS)
-                    r = timed("nfd_queue_submit", [&] { return nfd_queue_submit(queue, asset, &mo, nullptr, &s.job); });
+                    r = timed("nfd_queue_submit", [&] {
+                        return nfd_queue_submit(queue, asset, &mo, nullptr, &s.job);
+                    });
                 timed("nfd_asset_destroy", [&] { nfd_asset_destroy(asset); return 0; });
                 if (r != NFD_SUCCESS) {
                     std::fprintf(stderr, "%s: %s\n", s.path.c_str(), nfd_result_string(r));
@@ -172,8 +177,10 @@ int main(int argc, char** argv) {
             nfd_mesh* mesh = nullptr;
             r = timed("nfd_job_take_mesh", [&] { return nfd_job_take_mesh(s.job, &mesh); });
             nfd_mesh_data d{};
-            if (r == NFD_SUCCESS) timed("nfd_mesh_get_data", [&] { return nfd_mesh_get_data(mesh, &d); });
-            else ++failures;
+            if (r == NFD_SUCCESS)
+                timed("nfd_mesh_get_data", [&] { return nfd_mesh_get_data(mesh, &d); });
+            else
+                ++failures;
             triangles += d.triangle_count;
             // A renderer would upload the mesh here; this loop only releases it.
             timed("nfd_mesh_destroy", [&] { nfd_mesh_destroy(mesh); return 0; });

@@ -94,7 +94,7 @@ nfd_result run_step(JobWork& work, StepResult* out) noexcept {
 
 }  // namespace
 
-// ---- Job ------------------------------------------------------------------------------------------
+// ---- Job ----------------------------------------------------------------------------------------
 
 Job::Job(std::shared_ptr<Shared> shared, std::unique_ptr<JobWork> work, int32_t priority,
          std::function<void(nfd_job_status)> on_final)
@@ -153,7 +153,8 @@ void Job::release() {
             cancel_requested_ = true;  // the worker frees the work after the step in progress
         }
         // A callback of this job running on another thread may still use the handle: wait for
-        // it. From inside the callback itself (it may destroy its own job) there is nothing to wait.
+        // it. From inside the callback itself (it may destroy its own job) there is nothing to
+        // wait for.
         changed_.wait(lock, [this] {
             return !in_callback_ || callback_thread_ == std::this_thread::get_id();
         });
@@ -162,7 +163,7 @@ void Job::release() {
     }
 }
 
-// ---- Queue ----------------------------------------------------------------------------------------
+// ---- Queue --------------------------------------------------------------------------------------
 
 Queue::Queue(uint32_t workers, bool one_at_a_time, MemoryBytes budget)
     : shared_(std::make_shared<Job::Shared>()) {
@@ -281,7 +282,8 @@ void Queue::run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mut
         // A later step that does not fit waits here, on its worker, holding its reservation.
         // Today's jobs have one step; see extract_work.h for what a multi-step job must add.
         const MemoryBytes need = job->work_->next_step_bytes();
-        if (!s.fits_budget(need)) return s.finish(job, NFD_JOB_FAILED, NFD_ERROR_LIMIT_EXCEEDED, lock);
+        if (!s.fits_budget(need))
+            return s.finish(job, NFD_JOB_FAILED, NFD_ERROR_LIMIT_EXCEEDED, lock);
         s.work_changed.wait(lock, [&] {
             return s.fits_now(need, job->reserved_) || job->cancel_requested_ || s.stopping;
         });

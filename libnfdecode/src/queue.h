@@ -31,12 +31,12 @@ struct MeshResult {
 
 struct StepResult {
     bool finished = false;           // no step left: the job is DONE
-    std::optional<MeshResult> mesh;  // a mesh this step delivers (the newest replaces an untaken one)
+    std::optional<MeshResult> mesh;  // delivered by this step; replaces an untaken older one
 };
 
 // What a job does, cut into steps that each allocate a bounded amount and end at a point where
-// the job may stop (cancellation) or wait (budget). One worker runs a job's steps one at a time;
-// no two calls on one JobWork overlap, but successive steps may run on different workers.
+// the job may stop (cancellation) or wait (budget). The worker that starts a job runs all its
+// steps, one at a time; no two calls on one JobWork overlap.
 //
 // Today's only implementation (ExtractWork, extract_work.h) has one step: the whole extraction.
 // A progressive extraction has one step per grid level and delivers a mesh per level; a job fed

@@ -97,7 +97,8 @@ TEST(MemoryBound, VulkanExtractionStaysWithinTheBound) {
                 ASSERT_TRUE(step.finished && step.mesh);
             });
             const uint64_t device_peak = gpu::peak_bytes(*device) - device_before;
-            std::printf("vk  %-22s %4u  host %6.1f MB (bound %6.1f)  device %6.1f MB (bound %6.1f)\n",
+            std::printf("vk  %-22s %4u  host %6.1f MB (bound %6.1f)  device %6.1f MB "
+                        "(bound %6.1f)\n",
                         name.c_str(), r, peak / 1e6, bound.host / 1e6, device_peak / 1e6,
                         bound.device / 1e6);
             EXPECT_LE(peak, bound.host) << name << " at " << r;

@@ -13,7 +13,9 @@
 #include <thread>
 #include <vector>
 
+#include "extract.h"
 #include "extract_work.h"
+#include "queue.h"
 #include "test_util.h"
 
 namespace nfd::test {
@@ -94,7 +96,8 @@ nfd_asset* make_asset(const Bytes& bytes) {
     if (x.vertex_count != y.vertex_count || x.triangle_count != y.triangle_count)
         return ::testing::AssertionFailure() << x.vertex_count << "/" << x.triangle_count << " vs "
                                              << y.vertex_count << "/" << y.triangle_count;
-    const size_t v = 3 * x.vertex_count * sizeof(float), t = 3 * x.triangle_count * sizeof(uint32_t);
+    const size_t v = 3 * x.vertex_count * sizeof(float);
+    const size_t t = 3 * x.triangle_count * sizeof(uint32_t);
     if ((v && (std::memcmp(x.positions, y.positions, v) || std::memcmp(x.normals, y.normals, v))) ||
         (t && std::memcmp(x.indices, y.indices, t)))
         return ::testing::AssertionFailure() << "bytes differ";
@@ -147,7 +150,8 @@ nfd_job_status poll_until_at_least(nfd_job* job, nfd_job_status status) {
 // byte for byte, and every callback fires once, DONE, on a worker.
 void ten_assets_match_mesh_extract(nfd_context* ctx, uint32_t workers) {
     std::vector<Bytes> files;
-    for (const std::string& name : golden_names()) files.push_back(read_bytes(golden_path(name, ".nfc")));
+    for (const std::string& name : golden_names())
+        files.push_back(read_bytes(golden_path(name, ".nfc")));
     ASSERT_EQ(files.size(), 5u);
     for (float scale : {1.0f, 2.0f, 0.5f, 3.0f}) files.push_back(blob(scale));
     GeomSpec positive = closed_blob();
@@ -573,6 +577,56 @@ TEST(Queue, NullAndInvalidArguments) {
     nfd_queue_destroy(q);
     nfd_asset_destroy(a);
     nfd_context_destroy(ctx);
+}
+
+// The internal queue with a job of several steps, as the progressive extraction will be: a preview
+// at 32 cells, then the mesh at 64, each step a real extraction delivering its mesh. The queue
+// replaces the untaken preview by the final mesh, and moves the job's reservation from one step's
+// bound to the next (the peak is the larger one).
+class TwoResolutionWork final : public JobWork {
+public:
+    explicit TwoResolutionWork(const Geometry& g) : geometry_(g) {}
+    MemoryBytes next_step_bytes() const override {
+        return extract_bytes_bound(geometry_, resolutions_[next_], false);
+    }
+    nfd_result step(StepResult* out) override {
+        MeshResult mesh;
+        const nfd_result r =
+            extract_mesh_cpu(geometry_, resolutions_[next_], &mesh.data, &mesh.stats, 1);
+        if (r != NFD_SUCCESS) return r;
+        out->mesh = std::move(mesh);
+        out->finished = ++next_ == 2;
+        return NFD_SUCCESS;
+    }
+
+private:
+    Geometry geometry_;
+    const uint32_t resolutions_[2] = {32, 64};
+    int next_ = 0;
+};
+
+TEST(Queue, JobOfSeveralStepsDeliversItsLastMesh) {
+    const Geometry g = parse_or_throw(blob(1.0f));
+    MeshData expected;
+    ASSERT_EQ(extract_mesh_cpu(g, 64, &expected, nullptr, 1), NFD_SUCCESS);
+    const uint64_t budget = extract_bytes_bound(g, 64, false).host;
+    Queue queue(1, false, MemoryBytes{budget, 0});
+    std::atomic<int> callbacks{0};
+    std::shared_ptr<Job> job;
+    ASSERT_TRUE(queue.submit(std::make_unique<TwoResolutionWork>(g), 0,
+                             [&](nfd_job_status s) { callbacks += s == NFD_JOB_DONE; }, &job));
+    ASSERT_EQ(job->wait(kForever), NFD_JOB_DONE);
+    nfd_result result;
+    std::optional<MeshResult> mesh = job->take_mesh(&result);
+    EXPECT_EQ(result, NFD_SUCCESS);
+    ASSERT_TRUE(mesh);
+    EXPECT_EQ(mesh->data.indices, expected.indices);
+    EXPECT_EQ(mesh->data.positions, expected.positions);
+    EXPECT_EQ(callbacks.load(), 1);
+    const nfd_queue_stats st = queue.stats();
+    EXPECT_EQ(st.peak_reserved_host_bytes, budget);  // the second step's bound, the larger
+    EXPECT_EQ(st.reserved_host_bytes, 0u);
+    job->release();
 }
 
 }  // namespace

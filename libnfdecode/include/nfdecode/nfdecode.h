@@ -375,23 +375,26 @@ NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, co
  * order. The head of that order waits for memory rather than letting a later job overtake it, so
  * a large job is never starved by small ones.
  *
- * Memory budget: before a step runs, the queue reserves an upper bound of what the step may
- * allocate (host and device bytes, nfd_queue_stats), and releases it when the step ends. The sum
- * of reservations never exceeds the budget: a job whose step does not fit waits
- * (NFD_JOB_WAITING_FOR_MEMORY) until running jobs release memory. A step larger than the whole
- * budget can never fit: its job fails with NFD_ERROR_LIMIT_EXCEEDED instead of waiting forever.
- * The bound in this version is conservative and depends on the resolution r only: CPU path, host
- * 32 MiB + 3 KiB * r^2 (235 MB at 256); Vulkan, host 64 MiB + 1 KiB * r^2 (the driver compiling
- * a network's pipeline on its first job takes tens of MB) and device 16 MiB + 1.5 KiB * r^2
- * (117 MB at 256). libnfdecode/src/extract_work.cpp states how it was measured: the largest peak
- * of the test and bench assets is 2.2 to 2.8 times below it, typical ones 5 to 10 times. A finished mesh is not counted:
- * it is the caller's to take, and collecting it late must not stall other jobs.
+ * Memory budget: before a step runs, the queue reserves an upper bound of what the job holds
+ * during the step (host and device bytes, nfd_queue_stats); the reservation is replaced by the
+ * next step's and released when the job ends. The sum of reservations never exceeds the budget: a
+ * job whose first step does not fit waits (NFD_JOB_WAITING_FOR_MEMORY) until running jobs end. A
+ * step larger than the whole budget can never fit: its job fails with NFD_ERROR_LIMIT_EXCEEDED
+ * instead of waiting forever. The bound in this version is conservative and depends on the
+ * resolution r only: CPU path, host 32 MiB + 3 KiB * r^2 (235 MB at 256); Vulkan, host
+ * 64 MiB + 1 KiB * r^2 (a driver compiling a network's pipeline on its first job takes tens of MB)
+ * and device 16 MiB + 1.5 KiB * r^2 (117 MB at 256). libnfdecode/src/extract_work.cpp states how
+ * it was measured: the largest peak of the test and bench assets is 2.2 to 2.8 times below it,
+ * typical ones 5 to 10 times. A finished mesh is not counted: it is the caller's to take, and
+ * collecting it late must not stall other jobs.
  *
- * Threads: every queue and job function may be called from any thread. None of them waits for
- * work in progress (they take a short internal lock that is never held while a step or a
- * callback runs), except nfd_job_wait (by design), nfd_queue_destroy (joins the workers, so it
- * waits for steps in progress), and nfd_job_destroy while that job's callback is running on
- * another thread (it waits for the callback to return).
+ * Threads: every queue and job function may be called from any thread, concurrently, except
+ * that a destroy must not race with other calls on the same handle (nfd_queue_destroy with the
+ * queue's own callbacks excepted: it refuses their submissions). None of them waits for work in
+ * progress (they take a short internal lock that is never held while a step or a callback runs),
+ * except nfd_job_wait (by design), nfd_queue_destroy (joins the workers, so it waits for steps in
+ * progress), and nfd_job_destroy while that job's callback is running on another thread (it
+ * waits for the callback to return).
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_queue nfd_queue;
 typedef struct nfd_job nfd_job;
@@ -457,7 +460,8 @@ NFD_API void nfd_queue_destroy(nfd_queue* queue);
  * pending jobs plus a copy of the network's weights (at most the NFD_MAX_PARAMETERS cap, 4 MiB).
  * Outcomes: NFD_SUCCESS and *out_job (release with nfd_job_destroy); NFD_ERROR_INVALID_ARGUMENT
  * (NULL queue, asset or out_job, bad struct_size); NFD_ERROR_LIMIT_EXCEEDED (resolution outside
- * the caps); NFD_ERROR_OUT_OF_MEMORY. A job too large for the budget is accepted, then FAILED. */
+ * the caps); NFD_ERROR_CANCELLED (called from a callback while nfd_queue_destroy runs);
+ * NFD_ERROR_OUT_OF_MEMORY. A job too large for the budget is accepted, then FAILED. */
 NFD_API nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
                                     const nfd_mesh_options* mesh_options,
                                     const nfd_job_options* job_options, nfd_job** out_job);
@@ -475,17 +479,18 @@ NFD_API nfd_job_status nfd_job_poll(const nfd_job* job);
 NFD_API nfd_job_status nfd_job_wait(nfd_job* job, uint64_t timeout_ns);
 
 /* Cancels the job: a pending job becomes CANCELLED at once (its callback runs on this thread
- * before this returns), a running one at its next step boundary, a final one stays as it is.
- * Everything the job allocated is freed when it becomes CANCELLED. NFD_ERROR_INVALID_ARGUMENT for
- * NULL, else NFD_SUCCESS. */
+ * before this returns); a running one when its current step ends (the last one included: its mesh
+ * is dropped); a final one stays as it is. Everything the job allocated is freed when it becomes
+ * CANCELLED. NFD_ERROR_INVALID_ARGUMENT for NULL, else NFD_SUCCESS. */
 NFD_API nfd_result nfd_job_cancel(nfd_job* job);
 
 /* Hands the job's mesh to the caller, who destroys it with nfd_mesh_destroy; it outlives the job
- * and the queue. In this version a job delivers one mesh, when DONE.
+ * and the queue. In this version a job delivers one mesh, when DONE (its callback may take it).
  * Outcomes: NFD_SUCCESS and *out_mesh (DONE; a second call gives NFD_SUCCESS and NULL: the mesh
  * was taken); NFD_ERROR_NOT_READY (not final); NFD_ERROR_CANCELLED; the job's error (FAILED: what
  * nfd_mesh_extract would have returned, or NFD_ERROR_LIMIT_EXCEEDED for a step over the whole
- * budget); NFD_ERROR_INVALID_ARGUMENT (NULL arguments). *out_mesh is NULL unless a mesh is given. */
+ * budget); NFD_ERROR_INVALID_ARGUMENT (NULL arguments). *out_mesh is NULL unless a mesh is
+ * given. */
 NFD_API nfd_result nfd_job_take_mesh(nfd_job* job, nfd_mesh** out_mesh);
 
 /* Releases the handle in any status, cancelling the job if it has not finished (a running step
