@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <exception>
+#include <iterator>
 #include <limits>
 #include <new>
 #include <stdexcept>
@@ -205,7 +206,11 @@ bool Queue::submit(std::unique_ptr<JobWork> work, int32_t priority,
         std::lock_guard<std::mutex> lock(shared_->mutex);
         if (shared_->stopping) return false;
         job->order_.second = shared_->submitted++;
-        shared_->pending.emplace(job->order_, job);
+        const auto at = shared_->pending.emplace(job->order_, job).first;
+        // A job that goes before one waiting for memory takes its place: that one is queued again.
+        const auto behind = std::next(at);
+        if (at == shared_->pending.begin() && behind != shared_->pending.end())
+            behind->second->status_ = NFD_JOB_QUEUED;
         *out = std::move(job);
     }
     // All workers: the one woken may be waiting for memory that a higher-priority job may use.
