@@ -39,14 +39,17 @@ struct Job::Shared {
         peak.device = std::max(peak.device, reserved.device);
     }
 
-    // Makes `job` final: its memory is given back, then (lock released) its work is freed and its
-    // callback runs on this thread. Returns with the lock held again.
+    // Makes `job` final: its memory is given back, then (lock released) its work and, unless it is
+    // DONE, its mesh are freed (unmapping tens of MB takes milliseconds: not under the lock) and
+    // its callback runs on this thread. Returns with the lock held again.
     void finish(const std::shared_ptr<Job>& job, nfd_job_status status, nfd_result result,
                 std::unique_lock<std::mutex>& lock) {
         job->status_ = status;
         job->result_ = result;
         set_reservation(*job, MemoryBytes{});
         ++(status == NFD_JOB_DONE ? done : status == NFD_JOB_FAILED ? failed : cancelled);
+        std::optional<MeshResult> dropped;
+        if (status != NFD_JOB_DONE) dropped.swap(job->mesh_);
         std::unique_ptr<JobWork> work = std::move(job->work_);
         std::function<void(nfd_job_status)> callback = std::move(job->on_final_);
         job->on_final_ = nullptr;
@@ -58,6 +61,7 @@ struct Job::Shared {
         work_changed.notify_all();  // memory was released
         lock.unlock();
         work.reset();
+        dropped.reset();
         if (callback) callback(status);
         lock.lock();
         if (callback) {
@@ -277,11 +281,20 @@ void Queue::run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mut
         StepResult step;
         const nfd_result r = run_step(*job->work_, &step);
         lock.lock();
+        // Meshes are freed outside the lock: one this step replaced here, one nobody will take
+        // in finish().
+        if (step.mesh) {
+            job->mesh_.swap(step.mesh);
+            if (step.mesh) {
+                lock.unlock();
+                step.mesh.reset();
+                lock.lock();
+            }
+        }
         // A cancel that came during the step wins over its outcome, the last step's included:
-        // the caller no longer wants the mesh, which is freed with the step's result.
+        // the caller no longer wants the mesh.
         if (job->cancel_requested_ || s.stopping)
             return s.finish(job, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
-        if (step.mesh) job->mesh_ = std::move(step.mesh);
         if (r != NFD_SUCCESS) return s.finish(job, NFD_JOB_FAILED, r, lock);
         if (step.finished) return s.finish(job, NFD_JOB_DONE, NFD_SUCCESS, lock);
         // A later step that does not fit waits here, on its worker, holding its reservation.
