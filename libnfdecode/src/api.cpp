@@ -4,8 +4,10 @@
 #include <cstdint>
 #include <cstring>
 #include <exception>
+#include <functional>
 #include <memory>
 #include <new>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -18,8 +20,10 @@
 #include "mesh.h"
 #include "network.h"
 #include "nfdecode/nfdecode.h"
+#include "extract_work.h"
 #include "options.h"
 #include "progressive.h"
+#include "queue.h"
 #include "sample_points.h"
 #include "stream.h"
 #if NFD_WITH_VULKAN
@@ -55,6 +59,15 @@ struct nfd_extraction {
     std::unique_ptr<nfd::Extraction> impl;
     uint32_t top = 0;
     bool done = false, failed = false;
+};
+
+struct nfd_queue {
+    nfd_context* context;
+    std::unique_ptr<nfd::Queue> queue;
+};
+
+struct nfd_job {
+    std::shared_ptr<nfd::Job> job;
 };
 
 // The finest level in the public layout, built once so that nfd_grid_get_voxels hands out stable
@@ -156,6 +169,8 @@ constexpr size_t kGridOptions02 = NFD_LAYOUT_END(nfd_grid_options, resolution);
 constexpr size_t kStreamOptions02 = NFD_LAYOUT_END(nfd_stream_options, struct_size);
 constexpr size_t kExtractionOptions02 = NFD_LAYOUT_END(nfd_extraction_options, mesh_levels);
 constexpr size_t kExtractionLevel02 = NFD_LAYOUT_END(nfd_extraction_level, next_device_bytes);
+constexpr size_t kQueueOptions02 = NFD_LAYOUT_END(nfd_queue_options, device_budget_bytes);
+constexpr size_t kJobOptions02 = NFD_LAYOUT_END(nfd_job_options, user_data);
 
 // The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
 uint32_t options_resolution(uint32_t requested) {
@@ -210,6 +225,8 @@ const char* nfd_result_string(nfd_result result) {
         case NFD_ERROR_UNSUPPORTED_FEATURE: return "unsupported feature in this build or version";
         case NFD_ERROR_INVALID_ARGUMENT: return "invalid argument";
         case NFD_ERROR_LIMIT_EXCEEDED: return "request exceeds a documented limit";
+        case NFD_ERROR_CANCELLED: return "the job was cancelled";
+        case NFD_ERROR_NOT_READY: return "the job has no result yet";
         case NFD_ERROR_OUT_OF_MEMORY: return "out of memory";
         case NFD_ERROR_DEVICE_UNAVAILABLE: return "no usable Vulkan device";
         case NFD_ERROR_DEVICE: return "Vulkan device error";
@@ -593,6 +610,105 @@ nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char
     (void)source_name;
     return NFD_ERROR_UNSUPPORTED_FEATURE;
 #endif
+}
+
+
+nfd_result nfd_queue_create(nfd_context* context, const nfd_queue_options* options,
+                            nfd_queue** out_queue) {
+    if (!out_queue) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_queue = nullptr;
+    if (!context) return NFD_ERROR_INVALID_ARGUMENT;
+    nfd_queue_options opts;
+    if (nfd::read_options(options, kQueueOptions02, &opts) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        const nfd::MemoryBytes budget{opts.host_budget_bytes, opts.device_budget_bytes};
+        const bool vulkan = context->kind == NFD_DEVICE_VULKAN;
+        try {
+            *out_queue = new nfd_queue{
+                context, std::make_unique<nfd::Queue>(opts.worker_threads, vulkan, budget)};
+        } catch (const std::system_error&) {  // a thread could not be started
+            return NFD_ERROR_OUT_OF_MEMORY;
+        }
+        return NFD_SUCCESS;
+    });
+}
+
+void nfd_queue_destroy(nfd_queue* queue) { delete queue; }
+
+nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
+                            const nfd_mesh_options* mesh_options,
+                            const nfd_job_options* job_options, nfd_job** out_job) {
+    if (!out_job) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_job = nullptr;
+    if (!queue || !asset) return NFD_ERROR_INVALID_ARGUMENT;
+    nfd_mesh_options mo;
+    nfd_job_options jo;
+    if (nfd::read_options(mesh_options, kMeshOptions02, &mo) != NFD_SUCCESS ||
+        nfd::read_options(job_options, kJobOptions02, &jo) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t resolution = options_resolution(mo.resolution);
+    if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
+    return guarded([&] {
+        nfd_context& ctx = *queue->context;
+        nfd::gpu::Device* device = nullptr;
+#if NFD_WITH_VULKAN
+        device = ctx.gpu.get();
+#endif
+        auto work = std::make_unique<nfd::ExtractWork>(asset->file.geometry, resolution, device,
+                                                       ctx.cpu_threads);
+        auto handle = std::make_unique<nfd_job>();
+        std::function<void(nfd_job_status)> on_final;
+        if (jo.callback)
+            on_final = [job = handle.get(), callback = jo.callback, user = jo.user_data](
+                           nfd_job_status status) { callback(job, status, user); };
+        if (!queue->queue->submit(std::move(work), jo.priority, std::move(on_final), &handle->job))
+            return NFD_ERROR_CANCELLED;  // submitted from a callback while the queue is destroyed
+        *out_job = handle.release();
+        return NFD_SUCCESS;
+    });
+}
+
+nfd_result nfd_queue_get_stats(const nfd_queue* queue, nfd_queue_stats* out_stats) {
+    if (!queue || !out_stats) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_stats = queue->queue->stats();
+    return NFD_SUCCESS;
+}
+
+nfd_job_status nfd_job_poll(const nfd_job* job) {
+    return job ? job->job->status() : NFD_JOB_FAILED;
+}
+
+nfd_job_status nfd_job_wait(nfd_job* job, uint64_t timeout_ns) {
+    return job ? job->job->wait(timeout_ns) : NFD_JOB_FAILED;
+}
+
+nfd_result nfd_job_cancel(nfd_job* job) {
+    if (!job) return NFD_ERROR_INVALID_ARGUMENT;
+    job->job->cancel();
+    return NFD_SUCCESS;
+}
+
+nfd_result nfd_job_take_mesh(nfd_job* job, nfd_mesh** out_mesh) {
+    if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_mesh = nullptr;
+    if (!job) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        nfd_result result;
+        std::optional<nfd::MeshResult> taken = job->job->take_mesh(&result);
+        if (!taken) return result;  // DONE and taken before: NFD_SUCCESS with no mesh
+        auto mesh = std::make_unique<nfd_mesh>();
+        mesh->data = std::move(taken->data);
+        mesh->stats = taken->stats;
+        *out_mesh = mesh.release();
+        return NFD_SUCCESS;
+    });
+}
+
+void nfd_job_destroy(nfd_job* job) {
+    if (!job) return;
+    job->job->release();
+    delete job;
 }
 
 }  // extern "C"

@@ -93,6 +93,8 @@ typedef enum nfd_result {
 
     NFD_ERROR_INVALID_ARGUMENT = -20,   /* NULL where a pointer is required, bad option value */
     NFD_ERROR_LIMIT_EXCEEDED = -21,     /* request beyond a documented limit (e.g. resolution) */
+    NFD_ERROR_CANCELLED = -22,          /* the job was cancelled (nfd_job_cancel, queue destroyed) */
+    NFD_ERROR_NOT_READY = -23,          /* the job has no result yet */
 
     NFD_ERROR_OUT_OF_MEMORY = -40,      /* host or device allocation failed */
     NFD_ERROR_DEVICE_UNAVAILABLE = -41, /* no usable Vulkan driver/device (CPU still works) */
@@ -570,6 +572,149 @@ NFD_API nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* ou
  * the file is touched; NFD_ERROR_IO if the file cannot be created or fully written;
  * NFD_ERROR_OUT_OF_MEMORY. */
 NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char* source_name);
+
+
+/* ---------------------------------------------------------------------------------------------
+ * Asynchronous queue: decodes on worker threads, the caller's thread only submits and polls
+ *
+ *     nfd_queue* q;  nfd_queue_options qo = {0};  qo.host_budget_bytes = 512u << 20;
+ *     nfd_queue_create(ctx, &qo, &q);
+ *     nfd_job* job;  nfd_queue_submit(q, asset, &mesh_options, NULL, &job);
+ *     ... every frame: if (nfd_job_poll(job) == NFD_JOB_DONE) nfd_job_take_mesh(job, &mesh);
+ *     nfd_job_destroy(job);  nfd_queue_destroy(q);
+ *
+ * A queue owns worker threads that run jobs on the context given at creation. A job decodes an
+ * asset as a sequence of bounded steps (in this version one step: the whole nfd_mesh_extract);
+ * between steps it checks for cancellation. Results are those of nfd_mesh_extract on the same
+ * context, byte for byte.
+ *
+ * Order: the pending job of highest priority starts first, jobs of equal priority in submission
+ * order. The head of that order waits for memory rather than letting a later job overtake it, so
+ * a large job is never starved by small ones.
+ *
+ * Memory budget: before a step runs, the queue reserves an upper bound of what the job holds
+ * during the step (host and device bytes, nfd_queue_stats); the reservation is replaced by the
+ * next step's and released when the job ends. The sum of reservations never exceeds the budget: a
+ * job whose first step does not fit waits (NFD_JOB_WAITING_FOR_MEMORY) until running jobs end. A
+ * step larger than the whole budget can never fit: its job fails with NFD_ERROR_LIMIT_EXCEEDED
+ * instead of waiting forever. The bound in this version is conservative and depends on the
+ * resolution r only: CPU path, host 32 MiB + 3 KiB * r^2 (235 MB at 256); Vulkan, host
+ * 64 MiB + 1 KiB * r^2 (a driver compiling a network's pipeline on its first job takes tens of MB)
+ * and device 16 MiB + 1.5 KiB * r^2 (117 MB at 256). libnfdecode/src/extract_work.cpp states how
+ * it was measured: the largest peak of the test and bench assets is 2.2 to 2.8 times below it,
+ * typical ones 5 to 10 times. A finished mesh is not counted: it is the caller's to take, and
+ * collecting it late must not stall other jobs.
+ *
+ * Threads: every queue and job function may be called from any thread, concurrently, except
+ * that a destroy must not race with other calls on the same handle (nfd_queue_destroy with the
+ * queue's own callbacks excepted: it refuses their submissions). None of them waits for work in
+ * progress (they take a short internal lock that is never held while a step or a callback runs),
+ * except nfd_job_wait (by design), nfd_queue_destroy (joins the workers, so it waits for steps in
+ * progress), and nfd_job_destroy while that job's callback is running on another thread (it
+ * waits for the callback to return).
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_queue nfd_queue;
+typedef struct nfd_job nfd_job;
+
+typedef enum nfd_job_status {
+    NFD_JOB_QUEUED = 0,             /* waiting for a worker, by priority */
+    NFD_JOB_WAITING_FOR_MEMORY = 1, /* first in line; its next step does not fit the budget yet */
+    NFD_JOB_RUNNING = 2,            /* a worker runs its steps */
+    NFD_JOB_DONE = 3,               /* final: the mesh is ready (nfd_job_take_mesh) */
+    NFD_JOB_FAILED = 4,             /* final: nfd_job_take_mesh gives the error */
+    NFD_JOB_CANCELLED = 5           /* final: cancelled before it finished */
+} nfd_job_status;
+
+/* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
+typedef struct nfd_queue_options {
+    uint32_t struct_size;       /* 0.2: sizeof(nfd_queue_options), or 0 */
+    uint32_t worker_threads;    /* jobs that run at once; 0 = 1. Jobs on a Vulkan context run one
+                                   at a time whatever this says (the device runs one job at a time
+                                   in this version); CPU jobs run concurrently, each with the
+                                   context's cpu_threads. */
+    uint64_t host_budget_bytes;   /* 0 = unlimited */
+    uint64_t device_budget_bytes; /* Vulkan buffer memory; 0 = unlimited */
+} nfd_queue_options;
+
+/* Called once per job when it reaches a final status (DONE, FAILED or CANCELLED), unless
+ * nfd_job_destroy came first. It runs on a worker thread, or for a job cancelled before it started
+ * on the thread that cancelled it (nfd_job_cancel, nfd_queue_destroy). It may call nfd_job_poll,
+ * nfd_job_take_mesh, nfd_job_cancel, nfd_job_destroy (this job's included), nfd_queue_submit,
+ * nfd_queue_get_stats, and any function outside the queue that is safe on that thread (not the
+ * queue's context: the workers use it). It must not call nfd_job_wait or nfd_queue_destroy (a
+ * worker would wait for itself). It should return quickly: the worker runs no job meanwhile. */
+typedef void (*nfd_job_callback)(nfd_job* job, nfd_job_status status, void* user_data);
+
+/* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
+typedef struct nfd_job_options {
+    uint32_t struct_size;      /* 0.2: sizeof(nfd_job_options), or 0 */
+    int32_t priority;          /* higher starts first; default 0 */
+    nfd_job_callback callback; /* NULL: none */
+    void* user_data;           /* passed to callback */
+} nfd_job_options;
+
+typedef struct nfd_queue_stats {
+    uint64_t jobs_submitted, jobs_done, jobs_failed, jobs_cancelled;
+    uint64_t reserved_host_bytes, reserved_device_bytes;           /* now */
+    uint64_t peak_reserved_host_bytes, peak_reserved_device_bytes; /* since creation */
+} nfd_queue_stats;
+
+/* Starts the workers. The context must outlive the queue, and nothing else may use it while the
+ * queue exists (the workers do; one queue per context). options may be NULL (one worker, no
+ * budget). Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (context or out_queue NULL, bad
+ * struct_size); NFD_ERROR_OUT_OF_MEMORY (also when a thread cannot be started). */
+NFD_API nfd_result nfd_queue_create(nfd_context* context, const nfd_queue_options* options,
+                                    nfd_queue** out_queue);
+/* Cancels every job that has not finished (pending ones at once, their callbacks on this thread;
+ * running ones at their next step boundary), waits for the workers and joins them. Job handles
+ * stay valid (final, CANCELLED unless they finished first) until nfd_job_destroy. NULL is a
+ * no-op. Must not be called from a callback. */
+NFD_API void nfd_queue_destroy(nfd_queue* queue);
+
+/* Queues the extraction of `asset` with mesh `options` (as nfd_mesh_extract; NULL = defaults) and
+ * job `options` (NULL = defaults). The queue keeps its own copy of the asset's network: the asset
+ * may be destroyed as soon as this returns. Never waits for work in progress; O(log n) in the
+ * pending jobs plus a copy of the network's weights (at most the NFD_MAX_PARAMETERS cap, 4 MiB).
+ * Outcomes: NFD_SUCCESS and *out_job (release with nfd_job_destroy); NFD_ERROR_INVALID_ARGUMENT
+ * (NULL queue, asset or out_job, bad struct_size); NFD_ERROR_LIMIT_EXCEEDED (resolution outside
+ * the caps); NFD_ERROR_CANCELLED (called from a callback while nfd_queue_destroy runs);
+ * NFD_ERROR_OUT_OF_MEMORY. A job too large for the budget is accepted, then FAILED. */
+NFD_API nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
+                                    const nfd_mesh_options* mesh_options,
+                                    const nfd_job_options* job_options, nfd_job** out_job);
+
+/* A snapshot of the counters. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
+NFD_API nfd_result nfd_queue_get_stats(const nfd_queue* queue, nfd_queue_stats* out_stats);
+
+/* The job's status now. A job is final (DONE, FAILED, CANCELLED) to poll and wait once its
+ * callback has returned: RUNNING until then. NULL gives NFD_JOB_FAILED. */
+NFD_API nfd_job_status nfd_job_poll(const nfd_job* job);
+
+/* Waits until the job is final (as nfd_job_poll sees it) or `timeout_ns` nanoseconds have passed
+ * (0: do not wait; UINT64_MAX: no limit), and returns its status: final, or the status when the
+ * time ran out. NULL gives NFD_JOB_FAILED. Must not be called from a callback. */
+NFD_API nfd_job_status nfd_job_wait(nfd_job* job, uint64_t timeout_ns);
+
+/* Cancels the job: a pending job becomes CANCELLED at once (its callback runs on this thread
+ * before this returns); a running one when its current step ends (the last one included: its mesh
+ * is dropped); a final one stays as it is. Everything the job allocated is freed when it becomes
+ * CANCELLED. NFD_ERROR_INVALID_ARGUMENT for NULL, else NFD_SUCCESS. */
+NFD_API nfd_result nfd_job_cancel(nfd_job* job);
+
+/* Hands the job's mesh to the caller, who destroys it with nfd_mesh_destroy; it outlives the job
+ * and the queue. In this version a job delivers one mesh, when DONE (its callback may take it).
+ * Outcomes: NFD_SUCCESS and *out_mesh (DONE; a second call gives NFD_SUCCESS and NULL: the mesh
+ * was taken); NFD_ERROR_NOT_READY (not final); NFD_ERROR_CANCELLED; the job's error (FAILED: what
+ * nfd_mesh_extract would have returned, or NFD_ERROR_LIMIT_EXCEEDED for a step over the whole
+ * budget); NFD_ERROR_INVALID_ARGUMENT (NULL arguments). *out_mesh is NULL unless a mesh is
+ * given. */
+NFD_API nfd_result nfd_job_take_mesh(nfd_job* job, nfd_mesh** out_mesh);
+
+/* Releases the handle in any status, cancelling the job if it has not finished (a running step
+ * completes on its worker, which then frees it). No callback starts after this returns; if this
+ * job's callback is running on another thread, this waits for it. An untaken mesh is destroyed.
+ * NULL is a no-op. Legal before or after nfd_queue_destroy. */
+NFD_API void nfd_job_destroy(nfd_job* job);
 
 #ifdef __cplusplus
 } /* extern "C" */

@@ -23,7 +23,8 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
 void destroy_device(Device* device);  // also what the unique_ptr's deleter calls
 const char* device_name(const Device& device);
 // The device memory its buffers hold, and the peak since the last reset: what the progressive
-// extraction's bounds of the next step (LevelReport::next_device_bytes) are checked against.
+// extraction's bounds of the next step (LevelReport::next_device_bytes) and the queue's device
+// budget are checked against.
 struct DeviceMemory {
     uint64_t live = 0, peak = 0;
 };

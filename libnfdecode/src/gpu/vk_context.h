@@ -56,7 +56,7 @@ struct Buffer {
     VkDeviceMemory memory = VK_NULL_HANDLE;
     void* data = nullptr;
     VkDeviceSize size = 0;
-    VkDeviceSize allocated = 0;  // bytes of `memory`
+    VkDeviceSize allocated = 0;  // bytes of `memory`, counted in Context::live_bytes()
     template <typename T>
     T* as() const { return static_cast<T*>(data); }
 };
@@ -109,8 +109,8 @@ public:
 
     nfd_result create_buffer(VkDeviceSize size, Buffer* out);  // storage + uniform + transfer
     void destroy(Buffer& buffer);
-    // Device memory of the live buffers, and its peak since reset_peak(): what memory bounds
-    // (nfd_extraction_level.next_device_bytes) are checked against.
+    // Device memory of the live buffers, and its peak since reset_peak(): what the memory bounds
+    // (nfd_extraction_level.next_device_bytes, the queue's device budget) are checked against.
     VkDeviceSize live_bytes() const { return live_bytes_; }
     VkDeviceSize peak_bytes() const { return peak_bytes_; }
     void reset_peak() { peak_bytes_ = live_bytes_; }

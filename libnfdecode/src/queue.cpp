@@ -1,0 +1,314 @@
+// The asynchronous queue (queue.h). One mutex guards the whole queue: every operation under it is
+// bookkeeping (a map insert or erase, counters), never a step or a callback, so a caller's call
+// waits at most for another thread's bookkeeping. Steps and callbacks run with the lock released.
+#include "queue.h"
+
+#include <algorithm>
+#include <chrono>
+#include <exception>
+#include <iterator>
+#include <limits>
+#include <new>
+#include <stdexcept>
+
+namespace nfd {
+
+struct Job::Shared {
+    std::mutex mutex;
+    std::condition_variable work_changed;  // a job was queued, memory released, stopping
+    std::map<std::pair<int64_t, uint64_t>, std::shared_ptr<Job>> pending;  // begin() runs next
+    uint64_t submitted = 0;
+    MemoryBytes budget, reserved, peak;
+    uint64_t done = 0, failed = 0, cancelled = 0;
+    bool stopping = false;
+
+    static bool within(uint64_t bytes, uint64_t limit) { return limit == 0 || bytes <= limit; }
+    bool fits_budget(const MemoryBytes& need) const {
+        return within(need.host, budget.host) && within(need.device, budget.device);
+    }
+    // With `held` (the job's own reservation) given back first.
+    bool fits_now(const MemoryBytes& need, const MemoryBytes& held) const {
+        return within(reserved.host - held.host + need.host, budget.host) &&
+               within(reserved.device - held.device + need.device, budget.device);
+    }
+    void set_reservation(Job& job, const MemoryBytes& bytes) {
+        reserved.host = reserved.host - job.reserved_.host + bytes.host;
+        reserved.device = reserved.device - job.reserved_.device + bytes.device;
+        job.reserved_ = bytes;
+        peak.host = std::max(peak.host, reserved.host);
+        peak.device = std::max(peak.device, reserved.device);
+    }
+
+    // Makes `job` final: its memory is given back, then (lock released) its work and, unless it is
+    // DONE, its mesh are freed (unmapping tens of MB takes milliseconds: not under the lock) and
+    // its callback runs on this thread. Returns with the lock held again.
+    void finish(const std::shared_ptr<Job>& job, nfd_job_status status, nfd_result result,
+                std::unique_lock<std::mutex>& lock) {
+        job->status_ = status;
+        job->result_ = result;
+        set_reservation(*job, MemoryBytes{});
+        ++(status == NFD_JOB_DONE ? done : status == NFD_JOB_FAILED ? failed : cancelled);
+        std::optional<MeshResult> dropped;
+        if (status != NFD_JOB_DONE) dropped.swap(job->mesh_);
+        std::unique_ptr<JobWork> work = std::move(job->work_);
+        std::function<void(nfd_job_status)> callback = std::move(job->on_final_);
+        job->on_final_ = nullptr;
+        if (callback) {
+            job->in_callback_ = true;
+            job->callback_thread_ = std::this_thread::get_id();
+        }
+        job->changed_.notify_all();
+        work_changed.notify_all();  // memory was released
+        lock.unlock();
+        work.reset();
+        dropped.reset();
+        if (callback) callback(status);
+        lock.lock();
+        if (callback) {
+            job->in_callback_ = false;
+            job->changed_.notify_all();
+        }
+    }
+
+    void cancel_pending(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock) {
+        pending.erase(job->order_);
+        work_changed.notify_all();  // the head may have changed
+        finish(job, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
+    }
+};
+
+namespace {
+
+bool is_pending(nfd_job_status s) { return s == NFD_JOB_QUEUED || s == NFD_JOB_WAITING_FOR_MEMORY; }
+bool is_final(nfd_job_status s) {
+    return s == NFD_JOB_DONE || s == NFD_JOB_FAILED || s == NFD_JOB_CANCELLED;
+}
+
+// As api.cpp's guard: nothing may escape a worker thread (std::terminate would end the host).
+nfd_result run_step(JobWork& work, StepResult* out) noexcept {
+    try {
+        return work.step(out);
+    } catch (const std::bad_alloc&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
+    } catch (const std::length_error&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
+    } catch (...) {
+        return NFD_ERROR_INTERNAL;
+    }
+}
+
+}  // namespace
+
+// ---- Job ----------------------------------------------------------------------------------------
+
+Job::Job(std::shared_ptr<Shared> shared, std::unique_ptr<JobWork> work, int32_t priority,
+         std::function<void(nfd_job_status)> on_final)
+    : shared_(std::move(shared)), work_(std::move(work)), on_final_(std::move(on_final)),
+      order_(-int64_t(priority), 0) {}
+
+// A job is final to its handle once its callback has returned, so that what the callback did is
+// visible to whoever sees the final status.
+nfd_job_status Job::status() const {
+    std::lock_guard<std::mutex> lock(shared_->mutex);
+    return in_callback_ ? NFD_JOB_RUNNING : status_;
+}
+
+nfd_job_status Job::wait(uint64_t timeout_ns) {
+    std::unique_lock<std::mutex> lock(shared_->mutex);
+    auto final_ = [this] { return is_final(status_) && !in_callback_; };
+    if (timeout_ns == std::numeric_limits<uint64_t>::max()) {
+        changed_.wait(lock, final_);
+    } else {
+        // Capped so that now() + timeout cannot overflow the clock (292 years at int64 ns).
+        const uint64_t cap = uint64_t(std::numeric_limits<int64_t>::max() / 4);
+        changed_.wait_for(lock, std::chrono::nanoseconds(int64_t(std::min(timeout_ns, cap))),
+                          final_);
+    }
+    return in_callback_ ? NFD_JOB_RUNNING : status_;
+}
+
+void Job::cancel() {
+    std::unique_lock<std::mutex> lock(shared_->mutex);
+    if (is_pending(status_)) {
+        // The worker's copy of the pointer is the map's: keep the job alive through finish().
+        const std::shared_ptr<Job> self = shared_->pending.at(order_);
+        shared_->cancel_pending(self, lock);
+    } else if (status_ == NFD_JOB_RUNNING) {
+        cancel_requested_ = true;
+    }
+}
+
+std::optional<MeshResult> Job::take_mesh(nfd_result* result) {
+    std::lock_guard<std::mutex> lock(shared_->mutex);
+    *result = result_;
+    std::optional<MeshResult> mesh = std::move(mesh_);
+    mesh_.reset();
+    return mesh;
+}
+
+void Job::release() {
+    std::optional<MeshResult> mesh;
+    {
+        std::unique_lock<std::mutex> lock(shared_->mutex);
+        on_final_ = nullptr;
+        if (is_pending(status_)) {
+            const std::shared_ptr<Job> self = shared_->pending.at(order_);
+            shared_->cancel_pending(self, lock);
+        } else if (status_ == NFD_JOB_RUNNING) {
+            cancel_requested_ = true;  // the worker frees the work after the step in progress
+        }
+        // A callback of this job running on another thread may still use the handle: wait for
+        // it. From inside the callback itself (it may destroy its own job) there is nothing to
+        // wait for.
+        changed_.wait(lock, [this] {
+            return !in_callback_ || callback_thread_ == std::this_thread::get_id();
+        });
+        mesh = std::move(mesh_);
+        mesh_.reset();
+    }
+}
+
+// ---- Queue --------------------------------------------------------------------------------------
+
+Queue::Queue(uint32_t workers, bool one_at_a_time, MemoryBytes budget)
+    : shared_(std::make_shared<Job::Shared>()) {
+    shared_->budget = budget;
+    const uint32_t count = one_at_a_time ? 1 : std::max(1u, workers);
+    workers_.reserve(count);
+    try {
+        for (uint32_t i = 0; i < count; ++i) workers_.emplace_back([this] { run_worker(); });
+    } catch (...) {
+        {
+            std::lock_guard<std::mutex> lock(shared_->mutex);
+            shared_->stopping = true;
+        }
+        shared_->work_changed.notify_all();
+        for (std::thread& t : workers_) t.join();
+        throw;
+    }
+}
+
+Queue::~Queue() {
+    {
+        std::unique_lock<std::mutex> lock(shared_->mutex);
+        shared_->stopping = true;
+        shared_->work_changed.notify_all();
+        // finish() releases the lock for callbacks, during which the map may change: take the
+        // first entry again every time.
+        while (!shared_->pending.empty()) {
+            const std::shared_ptr<Job> job = shared_->pending.begin()->second;
+            shared_->cancel_pending(job, lock);
+        }
+    }
+    for (std::thread& t : workers_) t.join();
+}
+
+bool Queue::submit(std::unique_ptr<JobWork> work, int32_t priority,
+                   std::function<void(nfd_job_status)> on_final, std::shared_ptr<Job>* out) {
+    std::shared_ptr<Job> job(new Job(shared_, std::move(work), priority, std::move(on_final)));
+    {
+        std::lock_guard<std::mutex> lock(shared_->mutex);
+        if (shared_->stopping) return false;
+        job->order_.second = shared_->submitted++;
+        const auto at = shared_->pending.emplace(job->order_, job).first;
+        // A job that goes before one waiting for memory takes its place: that one is queued again.
+        const auto behind = std::next(at);
+        if (at == shared_->pending.begin() && behind != shared_->pending.end())
+            behind->second->status_ = NFD_JOB_QUEUED;
+        *out = std::move(job);
+    }
+    // All workers: the one woken may be waiting for memory that a higher-priority job may use.
+    shared_->work_changed.notify_all();
+    return true;
+}
+
+nfd_queue_stats Queue::stats() const {
+    std::lock_guard<std::mutex> lock(shared_->mutex);
+    const Job::Shared& s = *shared_;
+    nfd_queue_stats out{};
+    out.jobs_submitted = s.submitted;
+    out.jobs_done = s.done;
+    out.jobs_failed = s.failed;
+    out.jobs_cancelled = s.cancelled;
+    out.reserved_host_bytes = s.reserved.host;
+    out.reserved_device_bytes = s.reserved.device;
+    out.peak_reserved_host_bytes = s.peak.host;
+    out.peak_reserved_device_bytes = s.peak.device;
+    return out;
+}
+
+void Queue::run_worker() {
+    std::unique_lock<std::mutex> lock(shared_->mutex);
+    while (std::shared_ptr<Job> job = next_job(lock)) run_steps(job, lock);
+}
+
+// The first pending job once its first step fits the budget (it is RUNNING and reserved on
+// return), or nullptr when the queue stops. Strict order: while the head waits for memory no
+// later job starts, so a large job cannot be starved by a stream of small ones.
+std::shared_ptr<Job> Queue::next_job(std::unique_lock<std::mutex>& lock) {
+    Job::Shared& s = *shared_;
+    for (;;) {
+        if (s.stopping) return nullptr;
+        if (s.pending.empty()) {
+            s.work_changed.wait(lock);
+            continue;
+        }
+        const std::shared_ptr<Job> job = s.pending.begin()->second;
+        const MemoryBytes need = job->work_->next_step_bytes();
+        if (!s.fits_budget(need)) {  // would wait forever: fail it instead
+            s.pending.erase(s.pending.begin());
+            s.finish(job, NFD_JOB_FAILED, NFD_ERROR_LIMIT_EXCEEDED, lock);
+            continue;
+        }
+        if (!s.fits_now(need, job->reserved_)) {
+            job->status_ = NFD_JOB_WAITING_FOR_MEMORY;
+            s.work_changed.wait(lock);
+            continue;
+        }
+        s.pending.erase(s.pending.begin());
+        s.set_reservation(*job, need);
+        job->status_ = NFD_JOB_RUNNING;
+        return job;
+    }
+}
+
+// Runs the job's steps until it is final. Between steps the job keeps its reservation and, if
+// cancelled (or the queue stops), ends there; the next step's reservation replaces the last one.
+void Queue::run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock) {
+    Job::Shared& s = *shared_;
+    for (;;) {
+        lock.unlock();
+        StepResult step;
+        const nfd_result r = run_step(*job->work_, &step);
+        lock.lock();
+        // Meshes are freed outside the lock: one this step replaced here, one nobody will take
+        // in finish().
+        if (step.mesh) {
+            job->mesh_.swap(step.mesh);
+            if (step.mesh) {
+                lock.unlock();
+                step.mesh.reset();
+                lock.lock();
+            }
+        }
+        // A cancel that came during the step wins over its outcome, the last step's included:
+        // the caller no longer wants the mesh.
+        if (job->cancel_requested_ || s.stopping)
+            return s.finish(job, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
+        if (r != NFD_SUCCESS) return s.finish(job, NFD_JOB_FAILED, r, lock);
+        if (step.finished) return s.finish(job, NFD_JOB_DONE, NFD_SUCCESS, lock);
+        // A later step that does not fit waits here, on its worker, holding its reservation.
+        // Today's jobs have one step; see extract_work.h for what a multi-step job must add.
+        const MemoryBytes need = job->work_->next_step_bytes();
+        if (!s.fits_budget(need))
+            return s.finish(job, NFD_JOB_FAILED, NFD_ERROR_LIMIT_EXCEEDED, lock);
+        s.work_changed.wait(lock, [&] {
+            return s.fits_now(need, job->reserved_) || job->cancel_requested_ || s.stopping;
+        });
+        if (job->cancel_requested_ || s.stopping)
+            return s.finish(job, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
+        s.set_reservation(*job, need);
+    }
+}
+
+}  // namespace nfd

@@ -1,0 +1,633 @@
+// The asynchronous queue (nfdecode.h, "Asynchronous queue"): results identical to
+// nfd_mesh_extract, priority order, cancel and destroy in every status, the memory budget,
+// callbacks, waits and arguments. No test depends on timing: where a job must stay in a status,
+// a worker is held inside a callback (a Gate) until the test opens it. Run under ThreadSanitizer
+// and AddressSanitizer by scripts/sanitize.sh.
+#include <gtest/gtest.h>
+#include <nfdecode/nfdecode.h>
+
+#include <atomic>
+#include <cstring>
+#include <future>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "extract.h"
+#include "extract_work.h"
+#include "queue.h"
+#include "test_util.h"
+
+namespace nfd::test {
+namespace {
+
+constexpr uint64_t kForever = UINT64_MAX;
+
+bool is_final(nfd_job_status s) {
+    return s == NFD_JOB_DONE || s == NFD_JOB_FAILED || s == NFD_JOB_CANCELLED;
+}
+
+// A callback that holds its worker until the test opens the gate: the jobs queued behind stay
+// QUEUED meanwhile, whatever the speed of the machine.
+struct Gate {
+    std::promise<void> opened;
+    std::shared_future<void> is_open = opened.get_future().share();
+    std::atomic<int> calls{0};
+    void open() { opened.set_value(); }
+    static void hold(nfd_job*, nfd_job_status, void* user) {
+        auto* gate = static_cast<Gate*>(user);
+        ++gate->calls;
+        gate->is_open.wait();
+    }
+};
+
+// Records every callback: which job (user index), its status, on which thread.
+struct Calls {
+    std::mutex mutex;
+    std::vector<int> order;
+    std::vector<nfd_job_status> statuses;
+    std::vector<std::thread::id> threads;
+    struct Entry {
+        Calls* calls;
+        int index;
+    };
+    std::vector<Entry> entries;
+    explicit Calls(int n) {
+        for (int i = 0; i < n; ++i) entries.push_back({this, i});
+    }
+    static void record(nfd_job*, nfd_job_status status, void* user) {
+        auto* e = static_cast<Entry*>(user);
+        std::lock_guard<std::mutex> lock(e->calls->mutex);
+        e->calls->order.push_back(e->index);
+        e->calls->statuses.push_back(status);
+        e->calls->threads.push_back(std::this_thread::get_id());
+    }
+    nfd_job_options options(int index, int32_t priority = 0) {
+        nfd_job_options o = {};
+        o.struct_size = sizeof o;
+        o.priority = priority;
+        o.callback = record;
+        o.user_data = &entries[size_t(index)];
+        return o;
+    }
+    size_t count() {
+        std::lock_guard<std::mutex> lock(mutex);
+        return order.size();
+    }
+};
+
+nfd_mesh_options mesh_options(uint32_t resolution) {
+    nfd_mesh_options mo = {};
+    mo.struct_size = sizeof mo;
+    mo.resolution = resolution;
+    return mo;
+}
+
+nfd_asset* make_asset(const Bytes& bytes) {
+    nfd_asset* a = nullptr;
+    EXPECT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &a), NFD_SUCCESS);
+    return a;
+}
+
+::testing::AssertionResult same_mesh(const nfd_mesh* a, const nfd_mesh* b) {
+    nfd_mesh_data x, y;
+    if (nfd_mesh_get_data(a, &x) != NFD_SUCCESS || nfd_mesh_get_data(b, &y) != NFD_SUCCESS)
+        return ::testing::AssertionFailure() << "no mesh";
+    if (x.vertex_count != y.vertex_count || x.triangle_count != y.triangle_count)
+        return ::testing::AssertionFailure() << x.vertex_count << "/" << x.triangle_count << " vs "
+                                             << y.vertex_count << "/" << y.triangle_count;
+    const size_t v = 3 * x.vertex_count * sizeof(float);
+    const size_t t = 3 * x.triangle_count * sizeof(uint32_t);
+    if ((v && (std::memcmp(x.positions, y.positions, v) || std::memcmp(x.normals, y.normals, v))) ||
+        (t && std::memcmp(x.indices, y.indices, t)))
+        return ::testing::AssertionFailure() << "bytes differ";
+    return ::testing::AssertionSuccess();
+}
+
+nfd_context* make_context(nfd_device_kind kind, uint32_t cpu_threads = 2) {
+    nfd_context_options o = {};
+    o.device = kind;
+    o.cpu_threads = cpu_threads;
+    nfd_context* ctx = nullptr;
+    return nfd_context_create(&o, &ctx) == NFD_SUCCESS ? ctx : nullptr;
+}
+
+nfd_queue* make_queue(nfd_context* ctx, uint32_t workers, uint64_t host_budget = 0) {
+    nfd_queue_options o = {};
+    o.struct_size = sizeof o;
+    o.worker_threads = workers;
+    o.host_budget_bytes = host_budget;
+    nfd_queue* q = nullptr;
+    EXPECT_EQ(nfd_queue_create(ctx, &o, &q), NFD_SUCCESS);
+    return q;
+}
+
+// The host bound the queue reserves for one CPU job (extract_work.h).
+uint64_t cpu_bound(const Bytes& bytes, uint32_t resolution) {
+    return extract_bytes_bound(parse_or_throw(bytes), resolution, false).host;
+}
+
+Bytes blob(float scale) {
+    const float center[3] = {0.5f * scale, -1.0f, 2.0f};
+    return geom_file(closed_blob(scale, center));
+}
+
+// A job whose extraction takes long enough to be seen RUNNING, and then cancelled, by a test that
+// polls for it: the UDF golden vector at 128 on one CPU thread takes 0.4 s or more (40 s under
+// ThreadSanitizer), while a poll and the cancel that follows it are microseconds apart.
+Bytes slow_asset() { return read_bytes(golden_path("tshirt_udf_w16", ".nfc")); }
+constexpr uint32_t kSlowResolution = 128;
+
+// Waits (polling, no deadline) until the job leaves the statuses before `status`.
+nfd_job_status poll_until_at_least(nfd_job* job, nfd_job_status status) {
+    nfd_job_status s;
+    while ((s = nfd_job_poll(job)) < status) std::this_thread::yield();
+    return s;
+}
+
+// Ten assets at once: the five golden vectors (SDF and UDF) and five synthetic ones, one with an
+// empty surface, at several resolutions; every mesh is nfd_mesh_extract's on the same context,
+// byte for byte, and every callback fires once, DONE, on a worker.
+void ten_assets_match_mesh_extract(nfd_context* ctx, uint32_t workers) {
+    std::vector<Bytes> files;
+    for (const std::string& name : golden_names())
+        files.push_back(read_bytes(golden_path(name, ".nfc")));
+    ASSERT_EQ(files.size(), 5u);
+    for (float scale : {1.0f, 2.0f, 0.5f, 3.0f}) files.push_back(blob(scale));
+    GeomSpec positive = closed_blob();
+    positive.levels.back() = 20000;  // f > 0 everywhere: an empty mesh
+    files.push_back(geom_file(positive));
+    const uint32_t resolutions[10] = {48, 40, 48, 40, 48, 32, 64, 33, 96, 16};
+
+    std::vector<nfd_asset*> assets;
+    std::vector<nfd_mesh*> expected;
+    for (size_t i = 0; i < files.size(); ++i) {
+        assets.push_back(make_asset(files[i]));
+        const nfd_mesh_options mo = mesh_options(resolutions[i]);
+        nfd_mesh* m = nullptr;
+        ASSERT_EQ(nfd_mesh_extract(ctx, assets[i], &mo, &m), NFD_SUCCESS);
+        expected.push_back(m);
+    }
+
+    Calls calls(10);
+    nfd_queue* q = make_queue(ctx, workers);
+    std::vector<nfd_job*> jobs(10);
+    for (int i = 0; i < 10; ++i) {
+        const nfd_mesh_options mo = mesh_options(resolutions[i]);
+        const nfd_job_options jo = calls.options(i);
+        ASSERT_EQ(nfd_queue_submit(q, assets[size_t(i)], &mo, &jo, &jobs[size_t(i)]), NFD_SUCCESS);
+    }
+    for (nfd_asset* a : assets) nfd_asset_destroy(a);  // the queue keeps what it needs
+    for (int i = 0; i < 10; ++i) {
+        SCOPED_TRACE(i);
+        ASSERT_EQ(nfd_job_wait(jobs[size_t(i)], kForever), NFD_JOB_DONE);
+        nfd_mesh* m = nullptr;
+        ASSERT_EQ(nfd_job_take_mesh(jobs[size_t(i)], &m), NFD_SUCCESS);
+        EXPECT_TRUE(same_mesh(m, expected[size_t(i)]));
+        nfd_mesh* again = reinterpret_cast<nfd_mesh*>(0x1);
+        EXPECT_EQ(nfd_job_take_mesh(jobs[size_t(i)], &again), NFD_SUCCESS);
+        EXPECT_EQ(again, nullptr);  // taken
+        nfd_mesh_destroy(m);
+        nfd_mesh_destroy(expected[size_t(i)]);
+    }
+    nfd_queue_stats st;
+    ASSERT_EQ(nfd_queue_get_stats(q, &st), NFD_SUCCESS);
+    EXPECT_EQ(st.jobs_submitted, 10u);
+    EXPECT_EQ(st.jobs_done, 10u);
+    EXPECT_EQ(st.jobs_failed + st.jobs_cancelled, 0u);
+    EXPECT_EQ(st.reserved_host_bytes + st.reserved_device_bytes, 0u);
+    EXPECT_GT(st.peak_reserved_host_bytes, 0u);
+    for (nfd_job* j : jobs) nfd_job_destroy(j);
+    nfd_queue_destroy(q);  // every callback has run once the workers are joined
+    EXPECT_EQ(calls.count(), 10u);
+    std::vector<int> seen = calls.order;
+    std::sort(seen.begin(), seen.end());
+    for (int i = 0; i < 10; ++i) EXPECT_EQ(seen[size_t(i)], i);
+    for (nfd_job_status s : calls.statuses) EXPECT_EQ(s, NFD_JOB_DONE);
+    for (std::thread::id t : calls.threads) EXPECT_NE(t, std::this_thread::get_id());
+}
+
+TEST(Queue, TenAssetsAtOnceMatchMeshExtractCpu) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    ASSERT_NE(ctx, nullptr);
+    ten_assets_match_mesh_extract(ctx, 3);
+    nfd_context_destroy(ctx);
+}
+
+#if NFD_WITH_VULKAN
+TEST(Queue, TenAssetsAtOnceMatchMeshExtractVulkan) {
+    nfd_context* ctx = make_context(NFD_DEVICE_VULKAN);
+    if (!ctx) {
+        if (std::getenv("NFD_REQUIRE_VULKAN")) FAIL() << "no Vulkan device";
+        GTEST_SKIP() << "no Vulkan device";
+    }
+    ten_assets_match_mesh_extract(ctx, 4);  // runs one job at a time on the device
+    nfd_context_destroy(ctx);
+}
+#endif
+
+// One worker, held by a first job's callback while the others are queued: they then run by
+// priority, higher first, submission order among equals.
+TEST(Queue, PriorityOrderThenSubmissionOrder) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_asset* a = make_asset(blob(1.0f));
+    nfd_queue* q = make_queue(ctx, 1);
+    const nfd_mesh_options mo = mesh_options(16);
+    Gate gate;
+    nfd_job_options hold = {};
+    hold.struct_size = sizeof hold;
+    hold.priority = INT32_MAX;  // runs first even if the worker had not taken it yet
+    hold.callback = Gate::hold;
+    hold.user_data = &gate;
+    nfd_job* first = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &first), NFD_SUCCESS);
+
+    const int32_t priorities[] = {1, 5, INT32_MIN, 5, 3, -2, 5, 1};
+    const int expected_order[] = {1, 3, 6, 4, 0, 7, 5, 2};
+    Calls calls(8);
+    std::vector<nfd_job*> jobs(8);
+    for (int i = 0; i < 8; ++i) {
+        const nfd_job_options jo = calls.options(i, priorities[i]);
+        ASSERT_EQ(nfd_queue_submit(q, a, &mo, &jo, &jobs[size_t(i)]), NFD_SUCCESS);
+        EXPECT_EQ(nfd_job_poll(jobs[size_t(i)]), NFD_JOB_QUEUED);
+    }
+    gate.open();
+    for (nfd_job* j : jobs) EXPECT_EQ(nfd_job_wait(j, kForever), NFD_JOB_DONE);
+    EXPECT_EQ(calls.order, std::vector<int>(std::begin(expected_order), std::end(expected_order)));
+    EXPECT_EQ(gate.calls.load(), 1);
+    for (nfd_job* j : jobs) nfd_job_destroy(j);
+    nfd_job_destroy(first);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// Queued: cancelled at once, its callback on the cancelling thread, nothing left reserved.
+TEST(Queue, CancelQueuedJob) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_asset* a = make_asset(blob(1.0f));
+    nfd_queue* q = make_queue(ctx, 1);
+    const nfd_mesh_options mo = mesh_options(16);
+    Gate gate;
+    nfd_job_options hold = {};
+    hold.priority = 1;
+    hold.callback = Gate::hold;
+    hold.user_data = &gate;
+    nfd_job *first = nullptr, *job = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &first), NFD_SUCCESS);
+    Calls calls(1);
+    const nfd_job_options jo = calls.options(0);
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &jo, &job), NFD_SUCCESS);
+    nfd_mesh* m = reinterpret_cast<nfd_mesh*>(0x1);
+    EXPECT_EQ(nfd_job_take_mesh(job, &m), NFD_ERROR_NOT_READY);
+    EXPECT_EQ(m, nullptr);
+    EXPECT_EQ(nfd_job_cancel(job), NFD_SUCCESS);
+    EXPECT_EQ(nfd_job_poll(job), NFD_JOB_CANCELLED);
+    ASSERT_EQ(calls.count(), 1u);
+    EXPECT_EQ(calls.statuses[0], NFD_JOB_CANCELLED);
+    EXPECT_EQ(calls.threads[0], std::this_thread::get_id());
+    EXPECT_EQ(nfd_job_take_mesh(job, &m), NFD_ERROR_CANCELLED);
+    EXPECT_EQ(nfd_job_cancel(job), NFD_SUCCESS);  // final: stays as it is, no second callback
+    EXPECT_EQ(calls.count(), 1u);
+    gate.open();
+    EXPECT_EQ(nfd_job_wait(first, kForever), NFD_JOB_DONE);
+    nfd_queue_stats st;
+    nfd_queue_get_stats(q, &st);
+    EXPECT_EQ(st.jobs_cancelled, 1u);
+    nfd_job_destroy(job);
+    nfd_job_destroy(first);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// Running: the step completes, the job ends CANCELLED at that boundary and its mesh is freed
+// (the ASan run checks that nothing leaks); the queue carries on with the next job.
+TEST(Queue, CancelRunningJob) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    nfd_asset* slow = make_asset(slow_asset());
+    nfd_asset* small = make_asset(blob(1.0f));
+    nfd_queue* q = make_queue(ctx, 1);
+    const nfd_mesh_options big = mesh_options(kSlowResolution), tiny = mesh_options(16);
+    Calls calls(2);
+    const nfd_job_options jo0 = calls.options(0), jo1 = calls.options(1);
+    nfd_job *job = nullptr, *next = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, slow, &big, &jo0, &job), NFD_SUCCESS);
+    ASSERT_EQ(nfd_queue_submit(q, small, &tiny, &jo1, &next), NFD_SUCCESS);
+    ASSERT_EQ(poll_until_at_least(job, NFD_JOB_RUNNING), NFD_JOB_RUNNING);
+    EXPECT_EQ(nfd_job_cancel(job), NFD_SUCCESS);
+    EXPECT_EQ(nfd_job_wait(job, kForever), NFD_JOB_CANCELLED);
+    nfd_mesh* m = nullptr;
+    EXPECT_EQ(nfd_job_take_mesh(job, &m), NFD_ERROR_CANCELLED);
+    EXPECT_EQ(m, nullptr);
+    EXPECT_EQ(nfd_job_wait(next, kForever), NFD_JOB_DONE);
+    nfd_queue_destroy(q);
+    ASSERT_EQ(calls.count(), 2u);
+    EXPECT_EQ(calls.order, (std::vector<int>{0, 1}));
+    EXPECT_EQ(calls.statuses[0], NFD_JOB_CANCELLED);
+    EXPECT_NE(calls.threads[0], std::this_thread::get_id());  // the worker ended it
+    nfd_job_destroy(job);
+    nfd_job_destroy(next);
+    nfd_asset_destroy(slow);
+    nfd_asset_destroy(small);
+    nfd_context_destroy(ctx);
+}
+
+// nfd_job_destroy in every status: queued, waiting for memory, running, done with an untaken mesh,
+// failed, cancelled. No callback of a destroyed job fires afterwards; the queue is then empty.
+TEST(Queue, DestroyJobInEveryStatus) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    const Bytes slow_bytes = slow_asset(), small_bytes = blob(1.0f);
+    nfd_asset* slow = make_asset(slow_bytes);
+    nfd_asset* small = make_asset(small_bytes);
+    const nfd_mesh_options big = mesh_options(kSlowResolution), tiny = mesh_options(16);
+    const uint64_t slow_bound = cpu_bound(slow_bytes, kSlowResolution);
+    const uint64_t small_bound = cpu_bound(small_bytes, 16);
+    // Two workers; the slow job's reservation leaves no room for a second slow one.
+    nfd_queue* q = make_queue(ctx, 2, slow_bound + small_bound);
+    Calls calls(6);
+
+    nfd_job *done = nullptr, *failed = nullptr, *cancelled = nullptr;
+    const nfd_job_options jo0 = calls.options(0), jo1 = calls.options(1), jo2 = calls.options(2);
+    ASSERT_EQ(nfd_queue_submit(q, small, &tiny, &jo0, &done), NFD_SUCCESS);
+    ASSERT_EQ(nfd_job_wait(done, kForever), NFD_JOB_DONE);  // its mesh stays untaken
+    // Failed: a job whose bound exceeds the whole budget.
+    const nfd_mesh_options huge = mesh_options(1024);
+    ASSERT_EQ(nfd_queue_submit(q, slow, &huge, &jo1, &failed), NFD_SUCCESS);
+    ASSERT_EQ(nfd_job_wait(failed, kForever), NFD_JOB_FAILED);
+    ASSERT_EQ(nfd_queue_submit(q, small, &tiny, &jo2, &cancelled), NFD_SUCCESS);
+    nfd_job_cancel(cancelled);
+    ASSERT_TRUE(is_final(nfd_job_wait(cancelled, kForever)));
+
+    nfd_job *running = nullptr, *waiting = nullptr, *queued = nullptr;
+    const nfd_job_options jo3 = calls.options(3), jo4 = calls.options(4), jo5 = calls.options(5);
+    ASSERT_EQ(nfd_queue_submit(q, slow, &big, &jo3, &running), NFD_SUCCESS);
+    ASSERT_EQ(nfd_queue_submit(q, slow, &big, &jo4, &waiting), NFD_SUCCESS);
+    ASSERT_EQ(nfd_queue_submit(q, small, &tiny, &jo5, &queued), NFD_SUCCESS);
+    ASSERT_EQ(poll_until_at_least(running, NFD_JOB_RUNNING), NFD_JOB_RUNNING);
+    // The second slow job is first in line and does not fit: it waits, and the small one behind
+    // it waits in the queue (no overtaking).
+    ASSERT_EQ(poll_until_at_least(waiting, NFD_JOB_WAITING_FOR_MEMORY), NFD_JOB_WAITING_FOR_MEMORY);
+    EXPECT_EQ(nfd_job_poll(queued), NFD_JOB_QUEUED);
+    EXPECT_EQ(nfd_job_poll(running), NFD_JOB_RUNNING);
+    const size_t calls_before = calls.count();
+    nfd_job_destroy(queued);
+    nfd_job_destroy(waiting);
+    nfd_job_destroy(running);  // returns at once; the worker finishes the step, then frees it
+    nfd_job_destroy(done);
+    nfd_job_destroy(failed);
+    nfd_job_destroy(cancelled);
+    nfd_queue_destroy(q);
+    EXPECT_EQ(calls.count(), calls_before);  // none after its job was destroyed
+    nfd_asset_destroy(slow);
+    nfd_asset_destroy(small);
+    nfd_context_destroy(ctx);
+}
+
+// Destroying the queue cancels what has not run; handles stay valid until destroyed.
+TEST(Queue, DestroyQueueWithJobsPending) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    nfd_asset* slow = make_asset(slow_asset());
+    nfd_queue* q = make_queue(ctx, 1);
+    const nfd_mesh_options big = mesh_options(kSlowResolution);
+    Calls calls(5);
+    std::vector<nfd_job*> jobs(5);
+    for (int i = 0; i < 5; ++i) {
+        const nfd_job_options jo = calls.options(i);
+        ASSERT_EQ(nfd_queue_submit(q, slow, &big, &jo, &jobs[size_t(i)]), NFD_SUCCESS);
+    }
+    nfd_queue_destroy(q);
+    EXPECT_EQ(calls.count(), 5u);  // each callback once
+    int cancelled = 0;
+    for (nfd_job* j : jobs) {
+        const nfd_job_status s = nfd_job_poll(j);
+        EXPECT_TRUE(s == NFD_JOB_CANCELLED || s == NFD_JOB_DONE) << s;
+        cancelled += s == NFD_JOB_CANCELLED;
+        EXPECT_EQ(nfd_job_wait(j, kForever), s);
+        EXPECT_EQ(nfd_job_cancel(j), NFD_SUCCESS);
+    }
+    EXPECT_GE(cancelled, 4);  // at most the one the worker had started can have finished
+    for (nfd_job* j : jobs) nfd_job_destroy(j);
+    nfd_asset_destroy(slow);
+    nfd_context_destroy(ctx);
+}
+
+// A budget admitting about two jobs' bounds, four workers, twelve jobs: the reservation never
+// exceeded the budget, and every job still finished.
+TEST(Queue, BudgetHoldsAndAllJobsFinish) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    const Bytes bytes = read_bytes(golden_path("bunny_sdf_w16", ".nfc"));
+    nfd_asset* a = make_asset(bytes);
+    const uint64_t bound = cpu_bound(bytes, 40);
+    const uint64_t budget = 2 * bound + bound / 2;
+    nfd_queue* q = make_queue(ctx, 4, budget);
+    const nfd_mesh_options mo = mesh_options(40);
+    std::vector<nfd_job*> jobs(12);
+    for (nfd_job*& j : jobs) ASSERT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &j), NFD_SUCCESS);
+    for (nfd_job* j : jobs) EXPECT_EQ(nfd_job_wait(j, kForever), NFD_JOB_DONE);
+    nfd_queue_stats st;
+    ASSERT_EQ(nfd_queue_get_stats(q, &st), NFD_SUCCESS);
+    EXPECT_EQ(st.jobs_done, 12u);
+    EXPECT_LE(st.peak_reserved_host_bytes, budget);
+    EXPECT_GE(st.peak_reserved_host_bytes, bound);
+    EXPECT_EQ(st.reserved_host_bytes, 0u);
+    for (nfd_job* j : jobs) nfd_job_destroy(j);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// A job larger than the whole budget fails with NFD_ERROR_LIMIT_EXCEEDED (its callback once,
+// FAILED) instead of waiting forever; the jobs behind it run.
+TEST(Queue, JobOverTheWholeBudgetFails) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    const Bytes bytes = blob(1.0f);
+    nfd_asset* a = make_asset(bytes);
+    const uint64_t budget = cpu_bound(bytes, 64);
+    nfd_queue* q = make_queue(ctx, 1, budget);
+    const nfd_mesh_options over = mesh_options(65), fits = mesh_options(64);
+    Calls calls(2);
+    const nfd_job_options jo0 = calls.options(0), jo1 = calls.options(1);
+    nfd_job *big = nullptr, *ok = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &over, &jo0, &big), NFD_SUCCESS);
+    ASSERT_EQ(nfd_queue_submit(q, a, &fits, &jo1, &ok), NFD_SUCCESS);
+    EXPECT_EQ(nfd_job_wait(big, kForever), NFD_JOB_FAILED);
+    nfd_mesh* m = nullptr;
+    EXPECT_EQ(nfd_job_take_mesh(big, &m), NFD_ERROR_LIMIT_EXCEEDED);
+    EXPECT_EQ(nfd_job_wait(ok, kForever), NFD_JOB_DONE);
+    nfd_queue_destroy(q);
+    ASSERT_EQ(calls.count(), 2u);
+    EXPECT_EQ(calls.statuses[0], NFD_JOB_FAILED);
+    EXPECT_EQ(calls.statuses[1], NFD_JOB_DONE);
+    nfd_job_destroy(big);
+    nfd_job_destroy(ok);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// Fire and forget: the callback takes the mesh and destroys its own job.
+struct Forget {
+    std::atomic<int> done{0};
+    std::atomic<size_t> triangles{0};
+    static void take_and_destroy(nfd_job* job, nfd_job_status status, void* user) {
+        auto* f = static_cast<Forget*>(user);
+        nfd_mesh* m = nullptr;
+        if (status == NFD_JOB_DONE && nfd_job_take_mesh(job, &m) == NFD_SUCCESS) {
+            nfd_mesh_data d;
+            nfd_mesh_get_data(m, &d);
+            f->triangles += d.triangle_count;
+        }
+        nfd_mesh_destroy(m);
+        nfd_job_destroy(job);
+        ++f->done;
+    }
+};
+
+TEST(Queue, CallbackMayDestroyItsOwnJob) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_asset* a = make_asset(blob(1.0f));
+    nfd_queue* q = make_queue(ctx, 2);
+    const nfd_mesh_options mo = mesh_options(24);
+    Forget forget;
+    nfd_job_options jo = {};
+    jo.callback = Forget::take_and_destroy;
+    jo.user_data = &forget;
+    for (int i = 0; i < 4; ++i) {
+        nfd_job* j = nullptr;
+        ASSERT_EQ(nfd_queue_submit(q, a, &mo, &jo, &j), NFD_SUCCESS);  // the callback owns it
+    }
+    while (forget.done.load() < 4) std::this_thread::yield();
+    nfd_queue_destroy(q);
+    EXPECT_EQ(forget.done.load(), 4);
+    EXPECT_GT(forget.triangles.load(), 0u);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// A wait that times out returns the status then, not final; 0 is a poll.
+TEST(Queue, WaitWithTimeout) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_asset* a = make_asset(blob(1.0f));
+    nfd_queue* q = make_queue(ctx, 1);
+    const nfd_mesh_options mo = mesh_options(16);
+    Gate gate;
+    nfd_job_options hold = {};
+    hold.priority = 1;
+    hold.callback = Gate::hold;
+    hold.user_data = &gate;
+    nfd_job *first = nullptr, *job = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &first), NFD_SUCCESS);
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &job), NFD_SUCCESS);
+    EXPECT_EQ(nfd_job_wait(job, 0), NFD_JOB_QUEUED);
+    EXPECT_EQ(nfd_job_wait(job, 2000000), NFD_JOB_QUEUED);  // 2 ms: the worker is held
+    gate.open();
+    EXPECT_EQ(nfd_job_wait(job, kForever), NFD_JOB_DONE);
+    EXPECT_EQ(nfd_job_wait(job, 0), NFD_JOB_DONE);
+    nfd_job_destroy(job);
+    nfd_job_destroy(first);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+TEST(Queue, NullAndInvalidArguments) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_asset* a = make_asset(blob(1.0f));
+    nfd_queue* q = reinterpret_cast<nfd_queue*>(0x1);
+    EXPECT_EQ(nfd_queue_create(ctx, nullptr, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_queue_create(nullptr, nullptr, &q), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(q, nullptr);
+    nfd_queue_options qo = {};
+    qo.struct_size = 3;  // smaller than the first layout
+    EXPECT_EQ(nfd_queue_create(ctx, &qo, &q), NFD_ERROR_INVALID_ARGUMENT);
+    ASSERT_EQ(nfd_queue_create(ctx, nullptr, &q), NFD_SUCCESS);  // defaults
+
+    nfd_job* j = reinterpret_cast<nfd_job*>(0x1);
+    EXPECT_EQ(nfd_queue_submit(q, a, nullptr, nullptr, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_queue_submit(nullptr, a, nullptr, nullptr, &j), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(j, nullptr);
+    EXPECT_EQ(nfd_queue_submit(q, nullptr, nullptr, nullptr, &j), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_mesh_options mo = mesh_options(NFD_MAX_RESOLUTION + 1);
+    EXPECT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &j), NFD_ERROR_LIMIT_EXCEEDED);
+    mo = mesh_options(NFD_MIN_RESOLUTION - 1);
+    EXPECT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &j), NFD_ERROR_LIMIT_EXCEEDED);
+    struct {
+        nfd_job_options known;
+        uint32_t unknown;
+    } newer = {};
+    newer.known.struct_size = sizeof newer;
+    newer.unknown = 1;  // a field this library does not know, not zero
+    EXPECT_EQ(nfd_queue_submit(q, a, nullptr, &newer.known, &j), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(j, nullptr);
+
+    nfd_queue_stats st;
+    EXPECT_EQ(nfd_queue_get_stats(nullptr, &st), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_queue_get_stats(q, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_job_poll(nullptr), NFD_JOB_FAILED);
+    EXPECT_EQ(nfd_job_wait(nullptr, 0), NFD_JOB_FAILED);
+    EXPECT_EQ(nfd_job_cancel(nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_mesh* m = reinterpret_cast<nfd_mesh*>(0x1);
+    EXPECT_EQ(nfd_job_take_mesh(nullptr, &m), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(m, nullptr);
+    ASSERT_EQ(nfd_queue_submit(q, a, nullptr, nullptr, &j), NFD_SUCCESS);  // defaults: 256
+    EXPECT_EQ(nfd_job_take_mesh(j, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_job_destroy(j);
+    nfd_job_destroy(nullptr);
+    nfd_queue_destroy(nullptr);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// The internal queue with a job of several steps, as the progressive extraction will be: a preview
+// at 32 cells, then the mesh at 64, each step a real extraction delivering its mesh. The queue
+// replaces the untaken preview by the final mesh, and moves the job's reservation from one step's
+// bound to the next (the peak is the larger one).
+class TwoResolutionWork final : public JobWork {
+public:
+    explicit TwoResolutionWork(const Geometry& g) : geometry_(g) {}
+    MemoryBytes next_step_bytes() const override {
+        return extract_bytes_bound(geometry_, resolutions_[next_], false);
+    }
+    nfd_result step(StepResult* out) override {
+        MeshResult mesh;
+        const nfd_result r =
+            extract_mesh_cpu(geometry_, resolutions_[next_], &mesh.data, &mesh.stats, 1);
+        if (r != NFD_SUCCESS) return r;
+        out->mesh = std::move(mesh);
+        out->finished = ++next_ == 2;
+        return NFD_SUCCESS;
+    }
+
+private:
+    Geometry geometry_;
+    const uint32_t resolutions_[2] = {32, 64};
+    int next_ = 0;
+};
+
+TEST(Queue, JobOfSeveralStepsDeliversItsLastMesh) {
+    const Geometry g = parse_or_throw(blob(1.0f));
+    MeshData expected;
+    ASSERT_EQ(extract_mesh_cpu(g, 64, &expected, nullptr, 1), NFD_SUCCESS);
+    const uint64_t budget = extract_bytes_bound(g, 64, false).host;
+    Queue queue(1, false, MemoryBytes{budget, 0});
+    std::atomic<int> callbacks{0};
+    std::shared_ptr<Job> job;
+    ASSERT_TRUE(queue.submit(std::make_unique<TwoResolutionWork>(g), 0,
+                             [&](nfd_job_status s) { callbacks += s == NFD_JOB_DONE; }, &job));
+    ASSERT_EQ(job->wait(kForever), NFD_JOB_DONE);
+    nfd_result result;
+    std::optional<MeshResult> mesh = job->take_mesh(&result);
+    EXPECT_EQ(result, NFD_SUCCESS);
+    ASSERT_TRUE(mesh);
+    EXPECT_EQ(mesh->data.indices, expected.indices);
+    EXPECT_EQ(mesh->data.positions, expected.positions);
+    EXPECT_EQ(callbacks.load(), 1);
+    const nfd_queue_stats st = queue.stats();
+    EXPECT_EQ(st.peak_reserved_host_bytes, budget);  // the second step's bound, the larger
+    EXPECT_EQ(st.reserved_host_bytes, 0u);
+    job->release();
+}
+
+}  // namespace
+}  // namespace nfd::test
