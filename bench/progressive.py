@@ -9,7 +9,13 @@ Per file and device, medians over --runs interleaved runs of:
     which a busy machine does not inflate, and in wall time;
   * the one-shot nfd_mesh_extract (parse + field + mesh of --stats) in wall time.
 
-    python3 bench/progressive.py /work/main/bench/out/nfc/bunny_fast_w32.nfc --levels 32,64,128,256
+With --bandwidth R (e.g. 256KB/s) the progressive runs feed the file through nfd_stream in
+--stream-chunk pieces paced at R (nfc-decode --stream-chunk --bandwidth): the times then count from
+the first byte fed, and two more columns give when the geometry chunk had arrived and the first
+level's time after it.
+
+    python3 bench/progressive.py bench/out/nfc/bunny_fast_w32.nfc --levels 32,64,128,256
+    python3 bench/progressive.py bench/out/nfc/bunny_fast_w32.nfc --bandwidth 256KB/s
 """
 
 from __future__ import annotations
@@ -26,10 +32,11 @@ REPO = Path(__file__).resolve().parents[1]
 NFC_DECODE = REPO / "build" / "samples" / "nfc-decode"
 
 
-def progressive(path: Path, levels: str, device: str) -> tuple[dict[int, float], dict]:
+def progressive(path: Path, levels: str, device: str,
+                feed: list[str]) -> tuple[dict[int, float], dict]:
     with tempfile.TemporaryDirectory() as tmp:
         out = subprocess.run([str(NFC_DECODE), str(path), "-o", f"{tmp}/out.ply", "--levels", levels,
-                              "--device", device, "--stats=json"],
+                              "--device", device, "--stats=json", *feed],
                              check=True, capture_output=True, text=True).stdout
     objects = [json.loads(line) for line in out.splitlines()]
     return {o["resolution"]: o["elapsed_ms"] for o in objects[:-1]}, objects[-1]
@@ -50,20 +57,23 @@ def main() -> None:
     ap.add_argument("--levels", default="32,64,128,256")
     ap.add_argument("--devices", nargs="+", default=["vulkan", "cpu"])
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--bandwidth", help="stream the progressive runs at this rate, e.g. 256KB/s")
+    ap.add_argument("--stream-chunk", type=int, default=1024, help="bytes per piece with --bandwidth")
     args = ap.parse_args()
+    feed = ["--stream-chunk", str(args.stream_chunk), "--bandwidth", args.bandwidth] if args.bandwidth else []
     levels = [int(r) for r in args.levels.split(",")]
     final = str(levels[-1])
     print("| file | device | " + " | ".join(f"to {r} ms" for r in levels) +
           " | extraction create ms | CPU ms: all levels / final only | wall ms: all levels /"
-          " final only / one-shot |")
-    print("|" + "---|" * (len(levels) + 5))
+          " final only / one-shot |" + (" geometry arrived ms | first level after it ms |" if feed else ""))
+    print("|" + "---|" * (len(levels) + 5 + (2 if feed else 0)))
     med = statistics.median
     for path in args.files:
         for device in args.devices:
             full, last, shots = [], [], []
             for _ in range(args.runs):
-                full.append(progressive(path, args.levels, device))
-                last.append(progressive(path, final, device)[1])
+                full.append(progressive(path, args.levels, device, feed))
+                last.append(progressive(path, final, device, feed)[1])
                 shots.append(one_shot(path, levels[-1], device))
             to = [med(r[0][res] for r in full) for res in levels]
             create = med(r[1]["prepare_ms"] for r in full)
@@ -71,7 +81,9 @@ def main() -> None:
             wall_last, shot = med(r["elapsed_ms"] for r in last), med(shots)
             print(f"| {path.name} | {device} | " + " | ".join(f"{t:.1f}" for t in to) +
                   f" | {create:.1f} | {cpu_full:.0f} / {cpu_last:.0f} = {cpu_full / cpu_last:.3f}"
-                  f" | {to[-1]:.0f} / {wall_last:.0f} / {shot:.0f} = {to[-1] / shot:.3f} |")
+                  f" | {to[-1]:.0f} / {wall_last:.0f} / {shot:.0f} = {to[-1] / shot:.3f} |" +
+                  (f" {med(r[1]['geometry_ms'] for r in full):.1f} |"
+                   f" {med(r[0][levels[0]] - r[1]['geometry_ms'] for r in full):.1f} |" if feed else ""))
 
 
 if __name__ == "__main__":
