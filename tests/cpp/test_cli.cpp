@@ -205,6 +205,42 @@ TEST(Cli, ProgressiveLevelsMatchTheOneShotFile) {
     }
 }
 
+// --levels with --stream-chunk: the levels start from the streamed asset, the clock from the first
+// byte fed, and the geometry's arrival (geometry_ms) comes before the first level; a truncated
+// stream still fails the run with one line.
+TEST(Cli, StreamedProgressiveLevelsMatchTheOneShotFile) {
+    const std::string in = golden_path("bunny_sdf_w16", ".nfc");
+    const std::string base = (std::filesystem::temp_directory_path() /
+                              ("nfd_cli_" + std::to_string(::getpid()) + "_streamed_levels"))
+                                 .string();
+    const std::string one = base + "_one.ply", prog = base + ".ply";
+    ASSERT_EQ(run_cli(in + " -o " + one + " --resolution 64 --device cpu").status, 0);
+    const CliRun r = run_cli(in + " -o " + prog + " --levels 32,64 --stream-chunk 7 " +
+                             "--bandwidth 64KB/s --stats=json --device cpu");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(read_bytes(prog), read_bytes(one));
+    std::istringstream lines(r.out);
+    std::string line;
+    std::vector<nlohmann::json> objects;
+    while (std::getline(lines, line)) objects.push_back(nlohmann::json::parse(line));
+    ASSERT_EQ(objects.size(), 3u) << r.out;
+    const double geometry = objects.back().at("geometry_ms").get<double>();
+    // 64 KB/s: the golden file's bytes take a measurable time to arrive before the first level.
+    EXPECT_GT(geometry, 1000.0 * double(read_bytes(in).size()) / (64 * 1024) * 0.9);
+    EXPECT_GE(objects[0].at("elapsed_ms").get<double>(), geometry);
+
+    Bytes bytes = read_bytes(in);
+    bytes.resize(bytes.size() - 5);
+    const std::string truncated = base + "_truncated.nfc";
+    std::FILE* f = std::fopen(truncated.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fwrite(bytes.data(), 1, bytes.size(), f);
+    std::fclose(f);
+    expect_one_line_error(run_cli(truncated + " -o " + prog + " --levels 32,64 --stream-chunk 7"),
+                          1, "truncated");
+    for (const std::string& p : {one, prog, truncated}) std::remove(p.c_str());
+}
+
 TEST(Cli, BadLevelListsAreOneLineErrors) {
     const std::string in = golden_path("bunny_sdf_w16", ".nfc");
     expect_one_line_error(run_cli(in + " -o x.glb --levels 32,100"), 2, "not a level of 100");
