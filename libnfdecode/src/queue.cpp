@@ -162,6 +162,7 @@ void Job::cancel() {
         shared_->cancel_pending(self, lock);
     } else if (status_ == NFD_JOB_RUNNING) {
         cancel_requested_ = true;
+        shared_->work_changed.notify_all();  // its worker may be waiting for memory
     }
 }
 
@@ -185,6 +186,7 @@ void Job::release() {
             shared_->cancel_pending(self, lock);
         } else if (status_ == NFD_JOB_RUNNING) {
             cancel_requested_ = true;  // the worker frees the work after the step in progress
+            shared_->work_changed.notify_all();  // or at once if it waits for memory
         }
         // A callback of this job running on another thread may still use the handle: wait for
         // it. From inside the callback itself (it may destroy its own job) there is nothing to
@@ -360,6 +362,7 @@ void Queue::run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mut
                        (all_wait && *s.growing.rbegin() == job->order_);
             });
             s.growing.erase(job->order_);
+            s.work_changed.notify_all();  // pending jobs may start again
             if (job->cancel_requested_ || s.stopping)
                 return end(NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED);
             if (!s.fits_now(need, job->reserved_)) return restart(job, lock);

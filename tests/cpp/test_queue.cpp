@@ -774,6 +774,42 @@ TEST(Queue, BudgetForOneJobAtItsLargestAndTwoWorkers) {
     nfd_context_destroy(ctx);
 }
 
+// A running job that waits for memory to grow ends at once when cancelled: job A holds its first
+// step's reservation inside its first level's callback, job B's second level does not fit beside
+// it; B is cancelled while A is still held.
+TEST(Queue, CancelWhileWaitingToGrow) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    const Bytes bytes = slow_asset();
+    nfd_asset* a = make_asset(bytes);
+    nfd_queue* q = make_queue(ctx, 2, 2 * first_step_host(bytes, kSlowResolution));
+    const nfd_mesh_options mo = mesh_options(kSlowResolution);
+    Gate gate;
+    nfd_job_options hold = {};
+    hold.struct_size = sizeof hold;
+    hold.callback = Gate::hold;
+    hold.user_data = &gate;
+    hold.mesh_levels = 0b111;
+    nfd_job *held = nullptr, *grows = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &held), NFD_SUCCESS);
+    while (gate.calls.load() == 0) std::this_thread::yield();
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &grows), NFD_SUCCESS);
+    nfd_job_progress p = {};
+    while (nfd_job_get_progress(grows, &p) == NFD_SUCCESS && p.levels_done == 0)
+        std::this_thread::yield();
+    EXPECT_EQ(p.levels_done, 1u);
+    EXPECT_EQ(nfd_job_poll(grows), NFD_JOB_RUNNING);
+    EXPECT_EQ(nfd_job_cancel(grows), NFD_SUCCESS);
+    EXPECT_EQ(nfd_job_wait(grows, kForever), NFD_JOB_CANCELLED);
+    EXPECT_EQ(gate.calls.load(), 1);  // A is still held
+    gate.open();
+    EXPECT_TRUE(is_final(nfd_job_wait(held, kForever)));
+    nfd_job_destroy(grows);
+    nfd_job_destroy(held);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
 // mesh_levels as nfd_extraction_options', except 0: the final level must be in it, no bit past
 // the ladder.
 TEST(Queue, MeshLevelsOutsideTheLadderAreRejected) {

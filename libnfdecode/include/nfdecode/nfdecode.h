@@ -721,7 +721,8 @@ NFD_API void nfd_queue_destroy(nfd_queue* queue);
  * may be destroyed as soon as this returns. Never waits for work in progress; O(log n) in the
  * pending jobs plus a copy of the network's weights (at most the NFD_MAX_PARAMETERS cap, 4 MiB).
  * Outcomes: NFD_SUCCESS and *out_job (release with nfd_job_destroy); NFD_ERROR_INVALID_ARGUMENT
- * (NULL queue, asset or out_job, bad struct_size); NFD_ERROR_LIMIT_EXCEEDED (resolution outside
+ * (NULL queue, asset or out_job, bad struct_size, mesh_levels without the final level or with a
+ * bit past the ladder of the resolution); NFD_ERROR_LIMIT_EXCEEDED (resolution outside
  * the caps); NFD_ERROR_CANCELLED (called from a callback while nfd_queue_destroy runs);
  * NFD_ERROR_OUT_OF_MEMORY. A job too large for the budget is accepted, then FAILED. */
 NFD_API nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
