@@ -52,7 +52,7 @@ void operator delete(void* p, size_t) noexcept { operator delete(p); }
 namespace nfd::test {
 namespace {
 
-const uint32_t kResolutions[] = {64, 128, 256};
+const uint32_t kResolutions[] = {48, 64, 128, 256};  // first steps at 48 and 32 cells
 
 // Runs a job's steps as a worker does, keeping the newest delivered mesh (the job holds it until
 // it is taken or replaced), and checks every step's peak against its reservation.
