@@ -68,6 +68,7 @@ struct nfd_queue {
 
 struct nfd_job {
     std::shared_ptr<nfd::Job> job;
+    uint32_t levels_total = 0, final_resolution = 0;
 };
 
 // The finest level in the public layout, built once so that nfd_grid_get_voxels hands out stable
@@ -171,6 +172,7 @@ constexpr size_t kExtractionOptions02 = NFD_LAYOUT_END(nfd_extraction_options, m
 constexpr size_t kExtractionLevel02 = NFD_LAYOUT_END(nfd_extraction_level, next_device_bytes);
 constexpr size_t kQueueOptions02 = NFD_LAYOUT_END(nfd_queue_options, device_budget_bytes);
 constexpr size_t kJobOptions02 = NFD_LAYOUT_END(nfd_job_options, user_data);
+constexpr size_t kJobProgress1 = NFD_LAYOUT_END(nfd_job_progress, final_resolution);
 
 // The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
 uint32_t options_resolution(uint32_t requested) {
@@ -193,6 +195,12 @@ nfd_stream_progress progress_of(const nfd_stream& stream) {
     if (parser.file().has_colour) p.flags |= NFD_STREAM_COLOUR_SEEN;
     if (parser.complete()) p.flags |= NFD_STREAM_COMPLETE;
     return p;
+}
+
+// A ladder mask of a resolution whose ladder has top + 1 levels: it must hold the final level and
+// no bit past it (0 is each caller's default).
+bool valid_ladder_mask(uint32_t ladder_mask, uint32_t top) {
+    return !ladder_mask || ((ladder_mask >> top) == 1u);
 }
 
 // Ladder mask bit i (0 = coarsest) -> grid level top - i; 0 = every level.
@@ -515,9 +523,7 @@ nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
     const uint32_t resolution = options_resolution(opts.resolution);
     if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
     const uint32_t top = nfd::refinement_levels(resolution);
-    const uint32_t final_bit = 1u << top;
-    if (opts.mesh_levels && (!(opts.mesh_levels & final_bit) || (opts.mesh_levels >> top) > 1u))
-        return NFD_ERROR_INVALID_ARGUMENT;
+    if (!valid_ladder_mask(opts.mesh_levels, top)) return NFD_ERROR_INVALID_ARGUMENT;
     const uint32_t mask = grid_level_mask(opts.mesh_levels, top);
     const nfd::Geometry& g = asset->file.geometry;
     return guarded([&] {
@@ -649,20 +655,25 @@ nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
         return NFD_ERROR_INVALID_ARGUMENT;
     const uint32_t resolution = options_resolution(mo.resolution);
     if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
+    const uint32_t top = nfd::refinement_levels(resolution);
+    if (!valid_ladder_mask(jo.mesh_levels, top)) return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t mask = jo.mesh_levels ? grid_level_mask(jo.mesh_levels, top) : 1u;
     return guarded([&] {
         nfd_context& ctx = *queue->context;
         nfd::gpu::Device* device = nullptr;
 #if NFD_WITH_VULKAN
         device = ctx.gpu.get();
 #endif
-        auto work = std::make_unique<nfd::ExtractWork>(asset->file.geometry, resolution, device,
-                                                       ctx.cpu_threads);
+        auto work = std::make_unique<nfd::ExtractWork>(asset->file.geometry, resolution, mask,
+                                                       device, ctx.cpu_threads);
         auto handle = std::make_unique<nfd_job>();
-        std::function<void(nfd_job_status)> on_final;
+        handle->levels_total = top + 1;
+        handle->final_resolution = resolution;
+        std::function<void(nfd_job_status)> callback;
         if (jo.callback)
-            on_final = [job = handle.get(), callback = jo.callback, user = jo.user_data](
-                           nfd_job_status status) { callback(job, status, user); };
-        if (!queue->queue->submit(std::move(work), jo.priority, std::move(on_final), &handle->job))
+            callback = [job = handle.get(), fn = jo.callback, user = jo.user_data](
+                           nfd_job_status status) { fn(job, status, user); };
+        if (!queue->queue->submit(std::move(work), jo.priority, std::move(callback), &handle->job))
             return NFD_ERROR_CANCELLED;  // submitted from a callback while the queue is destroyed
         *out_job = handle.release();
         return NFD_SUCCESS;
@@ -703,6 +714,24 @@ nfd_result nfd_job_take_mesh(nfd_job* job, nfd_mesh** out_mesh) {
         *out_mesh = mesh.release();
         return NFD_SUCCESS;
     });
+}
+
+nfd_result nfd_job_get_progress(const nfd_job* job, nfd_job_progress* out_progress) {
+    if (!job || !out_progress) return NFD_ERROR_INVALID_ARGUMENT;
+    if (out_progress->struct_size && out_progress->struct_size < kJobProgress1)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    const nfd::Job::Progress p = job->job->progress();
+    const uint32_t caller_size = out_progress->struct_size;
+    nfd_job_progress info{};
+    info.levels_done = p.levels_done;
+    info.levels_total = job->levels_total;
+    info.newest_mesh_resolution = p.newest_mesh_resolution;
+    info.taken_mesh_resolution = p.taken_mesh_resolution;
+    info.final_resolution = job->final_resolution;
+    std::memcpy(out_progress, &info,
+                std::min(caller_size ? size_t(caller_size) : kJobProgress1, sizeof info));
+    out_progress->struct_size = caller_size;
+    return NFD_SUCCESS;
 }
 
 void nfd_job_destroy(nfd_job* job) {

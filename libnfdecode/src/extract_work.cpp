@@ -1,7 +1,10 @@
-// One-step extraction work for the queue (extract_work.h) and the bound of its memory.
+// The progressive extraction as queue work (extract_work.h) and the bound of its first step.
 #include "extract_work.h"
 
+#include <algorithm>
 #include <utility>
+
+#include "grid.h"
 
 #if NFD_WITH_VULKAN
 #include "gpu/gpu_decode.h"
@@ -30,6 +33,8 @@ uint64_t geometry_bytes(const Geometry& g) {
 //                 shape, when the job compiles its field pipeline (lavapipe, whose compiler is
 //                 LLVM, at shirt w24's first job; other drivers differ).
 // Bounds: the fixed part rounded up, the band part at 2.2 to 2.8 times the largest measured.
+// A job uses it at 32 to 63 cells only, where the fixed part dominates: test_memory_bound.cpp
+// checks a job's first step (and every later one) against what the job reserves.
 MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, bool vulkan) {
     const uint64_t r2 = uint64_t(resolution) * resolution;
     constexpr uint64_t MiB = uint64_t(1) << 20;
@@ -44,23 +49,44 @@ MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, b
     return b;
 }
 
-ExtractWork::ExtractWork(const Geometry& geometry, uint32_t resolution, gpu::Device* device,
-                         unsigned cpu_threads)
-    : geometry_(geometry), resolution_(resolution), device_(device), cpu_threads_(cpu_threads),
-      bound_(extract_bytes_bound(geometry, resolution, device != nullptr)) {}
+ExtractWork::ExtractWork(const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask,
+                         gpu::Device* device, unsigned cpu_threads)
+    : geometry_(geometry), resolution_(resolution), top_(refinement_levels(resolution)),
+      mesh_mask_(mesh_mask), device_(device), cpu_threads_(cpu_threads) {
+    restart();
+}
+
+void ExtractWork::restart() {
+    extraction_.reset();
+    held_ = MemoryBytes{};
+    next_ = extract_bytes_bound(geometry_, cells_at_level(resolution_, top_), device_ != nullptr);
+}
 
 nfd_result ExtractWork::step(StepResult* out) {
-    MeshResult mesh;
-    nfd_result r;
+    if (!extraction_) {
 #if NFD_WITH_VULKAN
-    if (device_)
-        r = gpu::extract_mesh(*device_, geometry_, resolution_, &mesh.data, &mesh.stats);
-    else
+        if (device_) {
+            const nfd_result r =
+                gpu::make_extraction(*device_, geometry_, resolution_, mesh_mask_, &extraction_);
+            if (r != NFD_SUCCESS) return r;
+        } else
 #endif
-        r = extract_mesh_cpu(geometry_, resolution_, &mesh.data, &mesh.stats, cpu_threads_);
+            extraction_ = make_extraction_cpu(geometry_, resolution_, mesh_mask_, cpu_threads_);
+    }
+    MeshResult mesh;
+    LevelReport report;
+    const nfd_result r = extraction_->step(&mesh.data, &mesh.stats, &report);
     if (r != NFD_SUCCESS) return r;
-    out->mesh = std::move(mesh);
-    out->finished = true;
+    held_ = held_ + next_;
+    next_ = MemoryBytes{report.next_host_bytes, report.next_device_bytes};
+    levels_done_ = std::max(levels_done_, top_ - report.level + 1);
+    out->levels_done = levels_done_;
+    if (report.meshed) {
+        out->mesh = std::move(mesh);
+        out->mesh_resolution = report.cells_per_axis;
+        mesh_mask_ &= ((1u << report.level) - 1) | 1u;  // finer levels only, the finest always
+    }
+    out->finished = report.done;
     return NFD_SUCCESS;
 }
 

@@ -1,9 +1,12 @@
-// A queue job's work today (queue.h, JobWork): the whole mesh extraction of nfd_mesh_extract as
-// one step, on the CPU or the Vulkan device, with an upper bound of the memory it takes.
+// A queue job's work (queue.h, JobWork): the progressive extraction (progressive.h) of one asset,
+// one grid level per step, on the CPU or the Vulkan device, delivering the mesh of every level in
+// its mask, with an upper bound of the memory each step holds.
 #pragma once
 #include <cstdint>
+#include <memory>
 
 #include "network.h"
+#include "progressive.h"
 #include "queue.h"
 
 namespace nfd {
@@ -13,36 +16,41 @@ class Device;
 
 // Upper bound of what one extraction (extract_mesh_cpu or gpu::extract_mesh) of `geometry` at
 // `resolution` holds at its peak: the result mesh included, the geometry copy a job keeps
-// included. Measured, not derived (extract_work.cpp gives the measurements and the margin): the
-// band of the sparse grid, and so the memory, follows the surface's area, which no cap bounds.
+// included. Measured, not derived (extract_work.cpp gives the measurements and the margin). A job
+// reserves it for its first step only, at the coarsest level's resolution (32 to 63): that step
+// creates the extraction (on Vulkan: the network's upload and pipelines, whose driver memory no
+// derivation bounds) and evaluates that level densely, as the one-shot extraction there does.
 MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, bool vulkan);
 
-// One step: the extraction; it finishes the job and delivers its mesh. Keeps a copy of the
-// geometry, so that the asset may be destroyed while the job is pending. `device` null: the CPU
+// Keeps a copy of the geometry, so that the asset may be destroyed while the job is pending.
+// `mesh_mask`: bit l meshes grid level l (0 = the finest, always meshed). `device` null: the CPU
 // path with `cpu_threads`.
 //
-// For the integrator of the progressive extraction: replace this by one step per grid level,
-// next_step_bytes() being the extraction's bound of its next level plus what it keeps of the
-// earlier ones. Queue::run_steps then keeps the job's reservation between steps and waits on the
-// worker when the next level does not fit. Two such jobs that both hold memory and both wait can
-// block each other (none releases): before allowing several workers to hold memory between
-// steps, either reserve a job's final-level bound when it starts, or let pending jobs that hold
-// nothing wait while a job holding memory waits to grow (start order before priority).
-// For a stream: its job's steps parse what has arrived; a job with nothing to parse must leave
-// its worker (back to Job::Shared::pending, woken by the stream's feed) rather than wait on it.
+// The reservation of a step is what the job may hold when the step starts plus the extraction's
+// bound of what the step allocates (LevelReport: a true bound, not measured). What it holds at a
+// step's start is bounded by the previous step's reservation (it allocated at most its bound, and
+// may have freed some), so the reservation only grows: the first step's measured bound, then each
+// level's bound added. That counts the grid levels the extraction keeps and the meshes the job
+// delivered (each inside the bound of the step that made it) without a second accounting of
+// either; the sum over the levels is about 4/3 of the final level's bound (each level's band has
+// about four times its parent's cells).
 class ExtractWork final : public JobWork {
 public:
-    ExtractWork(const Geometry& geometry, uint32_t resolution, gpu::Device* device,
-                unsigned cpu_threads);
-    MemoryBytes next_step_bytes() const override { return bound_; }
+    ExtractWork(const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask,
+                gpu::Device* device, unsigned cpu_threads);
+    MemoryBytes next_step_bytes() const override { return held_ + next_; }
     nfd_result step(StepResult* out) override;
+    void restart() override;
 
 private:
     Geometry geometry_;
-    uint32_t resolution_;
+    const uint32_t resolution_, top_;
+    uint32_t mesh_mask_;  // levels still to deliver: a restart does not deliver a level twice
     gpu::Device* device_;
-    unsigned cpu_threads_;
-    MemoryBytes bound_;
+    const unsigned cpu_threads_;
+    std::unique_ptr<Extraction> extraction_;  // made by the first step
+    MemoryBytes held_, next_;
+    uint32_t levels_done_ = 0;  // ladder levels completed, the most over restarts
 };
 
 }  // namespace nfd

@@ -8,6 +8,7 @@
 #include <exception>
 #include <iterator>
 #include <limits>
+#include <set>
 #include <new>
 #include <stdexcept>
 
@@ -17,6 +18,10 @@ struct Job::Shared {
     std::mutex mutex;
     std::condition_variable work_changed;  // a job was queued, memory released, stopping
     std::map<std::pair<int64_t, uint64_t>, std::shared_ptr<Job>> pending;  // begin() runs next
+    // The running jobs (a worker runs their steps), and those of them that wait for memory to
+    // grow their reservation, by order.
+    uint32_t running = 0;
+    std::set<std::pair<int64_t, uint64_t>> growing;
     uint64_t submitted = 0;
     MemoryBytes budget, reserved, peak;
     uint64_t done = 0, failed = 0, cancelled = 0;
@@ -51,8 +56,8 @@ struct Job::Shared {
         std::optional<MeshResult> dropped;
         if (status != NFD_JOB_DONE) dropped.swap(job->mesh_);
         std::unique_ptr<JobWork> work = std::move(job->work_);
-        std::function<void(nfd_job_status)> callback = std::move(job->on_final_);
-        job->on_final_ = nullptr;
+        std::function<void(nfd_job_status)> callback = std::move(job->callback_);
+        job->callback_ = nullptr;
         if (callback) {
             job->in_callback_ = true;
             job->callback_thread_ = std::this_thread::get_id();
@@ -68,6 +73,23 @@ struct Job::Shared {
             job->in_callback_ = false;
             job->changed_.notify_all();
         }
+    }
+
+    // The callback of a running job that delivered a mesh, with RUNNING. It is moved out while it
+    // runs, so that release() from inside it (the callback destroying its job) does not destroy
+    // the function being called; it goes back unless release() came.
+    void notify_delivery(Job& job, std::unique_lock<std::mutex>& lock) {
+        if (!job.callback_) return;
+        std::function<void(nfd_job_status)> callback = std::move(job.callback_);
+        job.callback_ = nullptr;
+        job.in_callback_ = true;
+        job.callback_thread_ = std::this_thread::get_id();
+        lock.unlock();
+        callback(NFD_JOB_RUNNING);
+        lock.lock();
+        if (!job.released_) job.callback_ = std::move(callback);
+        job.in_callback_ = false;
+        job.changed_.notify_all();
     }
 
     void cancel_pending(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock) {
@@ -102,8 +124,8 @@ nfd_result run_step(JobWork& work, StepResult* out) noexcept {
 // ---- Job ----------------------------------------------------------------------------------------
 
 Job::Job(std::shared_ptr<Shared> shared, std::unique_ptr<JobWork> work, int32_t priority,
-         std::function<void(nfd_job_status)> on_final)
-    : shared_(std::move(shared)), work_(std::move(work)), on_final_(std::move(on_final)),
+         std::function<void(nfd_job_status)> callback)
+    : shared_(std::move(shared)), work_(std::move(work)), callback_(std::move(callback)),
       order_(-int64_t(priority), 0) {}
 
 // A job is final to its handle once its callback has returned, so that what the callback did is
@@ -111,6 +133,11 @@ Job::Job(std::shared_ptr<Shared> shared, std::unique_ptr<JobWork> work, int32_t 
 nfd_job_status Job::status() const {
     std::lock_guard<std::mutex> lock(shared_->mutex);
     return in_callback_ ? NFD_JOB_RUNNING : status_;
+}
+
+Job::Progress Job::progress() const {
+    std::lock_guard<std::mutex> lock(shared_->mutex);
+    return progress_;
 }
 
 nfd_job_status Job::wait(uint64_t timeout_ns) {
@@ -135,6 +162,7 @@ void Job::cancel() {
         shared_->cancel_pending(self, lock);
     } else if (status_ == NFD_JOB_RUNNING) {
         cancel_requested_ = true;
+        shared_->work_changed.notify_all();  // its worker may be waiting for memory
     }
 }
 
@@ -143,6 +171,7 @@ std::optional<MeshResult> Job::take_mesh(nfd_result* result) {
     *result = result_;
     std::optional<MeshResult> mesh = std::move(mesh_);
     mesh_.reset();
+    if (mesh) progress_.taken_mesh_resolution = progress_.newest_mesh_resolution;
     return mesh;
 }
 
@@ -150,12 +179,14 @@ void Job::release() {
     std::optional<MeshResult> mesh;
     {
         std::unique_lock<std::mutex> lock(shared_->mutex);
-        on_final_ = nullptr;
+        callback_ = nullptr;
+        released_ = true;
         if (is_pending(status_)) {
             const std::shared_ptr<Job> self = shared_->pending.at(order_);
             shared_->cancel_pending(self, lock);
         } else if (status_ == NFD_JOB_RUNNING) {
             cancel_requested_ = true;  // the worker frees the work after the step in progress
+            shared_->work_changed.notify_all();  // or at once if it waits for memory
         }
         // A callback of this job running on another thread may still use the handle: wait for
         // it. From inside the callback itself (it may destroy its own job) there is nothing to
@@ -204,8 +235,8 @@ Queue::~Queue() {
 }
 
 bool Queue::submit(std::unique_ptr<JobWork> work, int32_t priority,
-                   std::function<void(nfd_job_status)> on_final, std::shared_ptr<Job>* out) {
-    std::shared_ptr<Job> job(new Job(shared_, std::move(work), priority, std::move(on_final)));
+                   std::function<void(nfd_job_status)> callback, std::shared_ptr<Job>* out) {
+    std::shared_ptr<Job> job(new Job(shared_, std::move(work), priority, std::move(callback)));
     {
         std::lock_guard<std::mutex> lock(shared_->mutex);
         if (shared_->stopping) return false;
@@ -244,12 +275,14 @@ void Queue::run_worker() {
 
 // The first pending job once its first step fits the budget (it is RUNNING and reserved on
 // return), or nullptr when the queue stops. Strict order: while the head waits for memory no
-// later job starts, so a large job cannot be starved by a stream of small ones.
+// later job starts, so a large job cannot be starved by a stream of small ones. And no job starts
+// while a running one waits to grow: the memory that is released goes to jobs that already hold
+// some (they finish and release it all) before jobs that hold none take it.
 std::shared_ptr<Job> Queue::next_job(std::unique_lock<std::mutex>& lock) {
     Job::Shared& s = *shared_;
     for (;;) {
         if (s.stopping) return nullptr;
-        if (s.pending.empty()) {
+        if (s.pending.empty() || !s.growing.empty()) {
             s.work_changed.wait(lock);
             continue;
         }
@@ -268,23 +301,40 @@ std::shared_ptr<Job> Queue::next_job(std::unique_lock<std::mutex>& lock) {
         s.pending.erase(s.pending.begin());
         s.set_reservation(*job, need);
         job->status_ = NFD_JOB_RUNNING;
+        ++s.running;
         return job;
     }
 }
 
-// Runs the job's steps until it is final. Between steps the job keeps its reservation and, if
-// cancelled (or the queue stops), ends there; the next step's reservation replaces the last one.
+// Runs the job's steps until it is final or restarts. Between steps the job keeps its reservation
+// and, if cancelled (or the queue stops), ends there; the next step's reservation replaces the
+// last one.
+//
+// A step that does not fit yet waits here, on its worker, holding the job's reservation. Two
+// running jobs that both wait would wait forever (neither releases): when every running job waits
+// and none fits, the last of them in the queue's order restarts: it gives back all it holds and
+// goes back to pending at its place. The first in order never restarts while another job holds
+// memory, and alone it fits (or its step is over the whole budget, and it fails): it finishes,
+// so every job does, one after the other in the worst case. A restarted job evaluates its levels
+// again; a job of one worker never restarts (Vulkan: one worker).
 void Queue::run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock) {
     Job::Shared& s = *shared_;
+    auto end = [&](nfd_job_status status, nfd_result result) {
+        --s.running;
+        s.finish(job, status, result, lock);
+    };
     for (;;) {
         lock.unlock();
         StepResult step;
         const nfd_result r = run_step(*job->work_, &step);
         lock.lock();
+        job->progress_.levels_done = std::max(job->progress_.levels_done, step.levels_done);
         // Meshes are freed outside the lock: one this step replaced here, one nobody will take
         // in finish().
-        if (step.mesh) {
+        const bool delivered = step.mesh.has_value();
+        if (delivered) {
             job->mesh_.swap(step.mesh);
+            job->progress_.newest_mesh_resolution = step.mesh_resolution;
             if (step.mesh) {
                 lock.unlock();
                 step.mesh.reset();
@@ -293,22 +343,49 @@ void Queue::run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mut
         }
         // A cancel that came during the step wins over its outcome, the last step's included:
         // the caller no longer wants the mesh.
-        if (job->cancel_requested_ || s.stopping)
-            return s.finish(job, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
-        if (r != NFD_SUCCESS) return s.finish(job, NFD_JOB_FAILED, r, lock);
-        if (step.finished) return s.finish(job, NFD_JOB_DONE, NFD_SUCCESS, lock);
-        // A later step that does not fit waits here, on its worker, holding its reservation.
-        // Today's jobs have one step; see extract_work.h for what a multi-step job must add.
+        if (job->cancel_requested_ || s.stopping) return end(NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED);
+        if (r != NFD_SUCCESS) return end(NFD_JOB_FAILED, r);
+        if (step.finished) return end(NFD_JOB_DONE, NFD_SUCCESS);
+        if (delivered) {
+            s.notify_delivery(*job, lock);
+            if (job->cancel_requested_ || s.stopping)
+                return end(NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED);
+        }
         const MemoryBytes need = job->work_->next_step_bytes();
-        if (!s.fits_budget(need))
-            return s.finish(job, NFD_JOB_FAILED, NFD_ERROR_LIMIT_EXCEEDED, lock);
-        s.work_changed.wait(lock, [&] {
-            return s.fits_now(need, job->reserved_) || job->cancel_requested_ || s.stopping;
-        });
-        if (job->cancel_requested_ || s.stopping)
-            return s.finish(job, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
+        if (!s.fits_budget(need)) return end(NFD_JOB_FAILED, NFD_ERROR_LIMIT_EXCEEDED);
+        if (!s.fits_now(need, job->reserved_)) {
+            s.growing.insert(job->order_);
+            s.work_changed.notify_all();  // the running jobs may now all be waiting
+            s.work_changed.wait(lock, [&] {
+                const bool all_wait = s.growing.size() == s.running;
+                return s.fits_now(need, job->reserved_) || job->cancel_requested_ || s.stopping ||
+                       (all_wait && *s.growing.rbegin() == job->order_);
+            });
+            s.growing.erase(job->order_);
+            s.work_changed.notify_all();  // pending jobs may start again
+            if (job->cancel_requested_ || s.stopping)
+                return end(NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED);
+            if (!s.fits_now(need, job->reserved_)) return restart(job, lock);
+        }
         s.set_reservation(*job, need);
     }
+}
+
+// The job gives back its memory and is pending again at its place in the order (run_steps). The
+// work frees its state with the lock released; meanwhile the job still counts as running and
+// holding its reservation, so that no other job sees the memory before it is free.
+void Queue::restart(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock) {
+    Job::Shared& s = *shared_;
+    lock.unlock();
+    job->work_->restart();
+    lock.lock();
+    --s.running;
+    if (job->cancel_requested_ || s.stopping)
+        return s.finish(job, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
+    s.set_reservation(*job, MemoryBytes{});
+    job->status_ = NFD_JOB_QUEUED;
+    s.pending.emplace(job->order_, job);
+    s.work_changed.notify_all();
 }
 
 }  // namespace nfd

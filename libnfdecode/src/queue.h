@@ -9,6 +9,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -23,6 +24,9 @@ struct MemoryBytes {
     uint64_t host = 0;
     uint64_t device = 0;  // Vulkan buffer memory
 };
+inline MemoryBytes operator+(const MemoryBytes& a, const MemoryBytes& b) {
+    return MemoryBytes{a.host + b.host, a.device + b.device};
+}
 
 struct MeshResult {
     MeshData data;
@@ -32,15 +36,18 @@ struct MeshResult {
 struct StepResult {
     bool finished = false;           // no step left: the job is DONE
     std::optional<MeshResult> mesh;  // delivered by this step; replaces an untaken older one
+    uint32_t mesh_resolution = 0;    // of `mesh`: cells per axis
+    uint32_t levels_done = 0;        // progress after this step (nfd_job_progress)
 };
 
 // What a job does, cut into steps that each allocate a bounded amount and end at a point where
-// the job may stop (cancellation) or wait (budget). The worker that starts a job runs all its
-// steps, one at a time; no two calls on one JobWork overlap.
+// the job may stop (cancellation) or wait (budget). One worker at a time runs a job's steps, one
+// at a time; no two calls on one JobWork overlap.
 //
-// Today's only implementation (ExtractWork, extract_work.h) has one step: the whole extraction.
-// A progressive extraction has one step per grid level and delivers a mesh per level; a job fed
-// by a stream has steps that parse what has arrived. Both fit this interface as it is.
+// The implementation (ExtractWork, extract_work.h) has one step per grid level and delivers a mesh
+// per level asked for. A job fed by a stream would have steps that parse what has arrived; one
+// with nothing to parse must leave its worker (back to pending, woken by the feed) rather than
+// wait on it.
 class JobWork {
 public:
     virtual ~JobWork() = default;
@@ -49,6 +56,10 @@ public:
     virtual MemoryBytes next_step_bytes() const = 0;
     // Runs the next step. A result other than NFD_SUCCESS fails the job with that result.
     virtual nfd_result step(StepResult* out) = 0;
+    // Frees what the earlier steps kept: the next step starts the work over (meshes already
+    // delivered are not delivered again). How the queue breaks a wait in which every running job
+    // waits for memory (Queue::run_steps).
+    virtual void restart() = 0;
 };
 
 class Queue;
@@ -60,8 +71,13 @@ public:
     nfd_job_status status() const;
     nfd_job_status wait(uint64_t timeout_ns);
     void cancel();
-    // The delivered mesh, if any (moved out); *result is the job's outcome (nfd_job_take_mesh).
+    // The delivered mesh, if any (moved out); *result is the job's outcome (nfd_job_take_mesh):
+    // NFD_ERROR_NOT_READY while it runs, whether or not a mesh is given.
     std::optional<MeshResult> take_mesh(nfd_result* result);
+    struct Progress {
+        uint32_t levels_done = 0, newest_mesh_resolution = 0, taken_mesh_resolution = 0;
+    };
+    Progress progress() const;
     // The handle lets go: no callback starts afterwards (waits for one running on another thread),
     // the job is cancelled if not final, the untaken mesh is freed.
     void release();
@@ -70,18 +86,20 @@ private:
     friend class Queue;
     struct Shared;  // the queue's lock and wait lists, which outlive the Queue object
     Job(std::shared_ptr<Shared> shared, std::unique_ptr<JobWork> work, int32_t priority,
-        std::function<void(nfd_job_status)> on_final);
+        std::function<void(nfd_job_status)> callback);
 
     std::shared_ptr<Shared> shared_;
     std::unique_ptr<JobWork> work_;                // freed when the job becomes final
-    std::function<void(nfd_job_status)> on_final_; // the callback; cleared by release()
+    std::function<void(nfd_job_status)> callback_; // moved out while it runs; cleared by release()
+    bool released_ = false;                        // release() came: no callback any more
     std::pair<int64_t, uint64_t> order_;           // (-priority, submission number)
     nfd_job_status status_ = NFD_JOB_QUEUED;
     nfd_result result_ = NFD_ERROR_NOT_READY;
     bool cancel_requested_ = false;
     MemoryBytes reserved_;                         // counted in the queue's reservation now
     std::optional<MeshResult> mesh_;
-    std::thread::id callback_thread_;              // set while on_final_ runs
+    Progress progress_;
+    std::thread::id callback_thread_;              // set while callback_ runs
     bool in_callback_ = false;
     std::condition_variable changed_;              // status final, callback returned
 };
@@ -98,15 +116,17 @@ public:
     Queue& operator=(const Queue&) = delete;
 
     // Queues a job and stores it in *out before any worker can see it (so that a callback may
-    // read *out); false, with *out untouched, once the destructor has begun.
+    // read *out); false, with *out untouched, once the destructor has begun. `callback` runs once
+    // per final status and, with RUNNING, after each step that delivered a mesh but not the last.
     bool submit(std::unique_ptr<JobWork> work, int32_t priority,
-                std::function<void(nfd_job_status)> on_final, std::shared_ptr<Job>* out);
+                std::function<void(nfd_job_status)> callback, std::shared_ptr<Job>* out);
     nfd_queue_stats stats() const;
 
 private:
     void run_worker();
     std::shared_ptr<Job> next_job(std::unique_lock<std::mutex>& lock);
     void run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock);
+    void restart(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock);
 
     std::shared_ptr<Job::Shared> shared_;
     std::vector<std::thread> workers_;

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <nfdecode/nfdecode.h>
 
+#include <atomic>
+#include <cstdint>
 #include <cstring>
 
 #include "test_util.h"
@@ -38,7 +40,73 @@ struct extraction_level {
     uint64_t next_host_bytes;
     uint64_t next_device_bytes;
 };
+struct job_options {
+    uint32_t struct_size;
+    int32_t priority;
+    nfd_job_callback callback;
+    void* user_data;
+};
 }  // namespace v0_2
+
+// A 0.2 job's options: read by struct_size, mesh_levels taken as 0 (the final level only): one
+// callback, DONE, with the final mesh. A newer caller's job progress struct is written only as
+// far as it covers.
+TEST(Abi, JobOptionsKeepTheirLayout) {
+    nfd_context_options co{};
+    co.struct_size = sizeof co;
+    co.device = NFD_DEVICE_CPU;
+    nfd_context* ctx = nullptr;
+    ASSERT_EQ(nfd_context_create(&co, &ctx), NFD_SUCCESS);
+    const Bytes b = geom_file(closed_blob());
+    nfd_asset* asset = nullptr;
+    ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &asset), NFD_SUCCESS);
+    nfd_queue* q = nullptr;
+    ASSERT_EQ(nfd_queue_create(ctx, nullptr, &q), NFD_SUCCESS);
+    std::atomic<int> calls{0}, done{0};
+    struct Count {
+        std::atomic<int>*calls, *done;
+    } count{&calls, &done};
+    const v0_2::job_options old_options{
+        sizeof(v0_2::job_options), 0,
+        [](nfd_job*, nfd_job_status s, void* user) {
+            auto* c = static_cast<Count*>(user);
+            ++*c->calls;
+            *c->done += s == NFD_JOB_DONE;
+        },
+        &count};
+    nfd_mesh_options mo{};
+    mo.struct_size = sizeof mo;
+    mo.resolution = 128;  // ladder 32, 64, 128
+    nfd_job* job = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, asset, &mo, reinterpret_cast<const nfd_job_options*>(&old_options),
+                               &job),
+              NFD_SUCCESS);
+    ASSERT_EQ(nfd_job_wait(job, UINT64_MAX), NFD_JOB_DONE);
+    struct {
+        nfd_job_progress known;
+        uint32_t unknown;
+    } newer{};
+    newer.known.struct_size = sizeof newer;
+    newer.unknown = 0xABCD;
+    ASSERT_EQ(nfd_job_get_progress(job, &newer.known), NFD_SUCCESS);
+    EXPECT_EQ(newer.known.struct_size, sizeof newer);
+    EXPECT_EQ(newer.known.levels_done, 3u);
+    EXPECT_EQ(newer.known.newest_mesh_resolution, 128u);
+    EXPECT_EQ(newer.unknown, 0xABCDu);
+    nfd_job_progress small{};
+    small.struct_size = 4;
+    EXPECT_EQ(nfd_job_get_progress(job, &small), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_mesh* mesh = nullptr;
+    ASSERT_EQ(nfd_job_take_mesh(job, &mesh), NFD_SUCCESS);
+    EXPECT_NE(mesh, nullptr);
+    nfd_mesh_destroy(mesh);
+    nfd_job_destroy(job);
+    nfd_queue_destroy(q);
+    EXPECT_EQ(calls.load(), 1);
+    EXPECT_EQ(done.load(), 1);
+    nfd_asset_destroy(asset);
+    nfd_context_destroy(ctx);
+}
 
 // The extraction's option struct is read by struct_size, and its output struct written only as
 // far as the caller's struct_size says: a newer caller's extra fields are left alone.

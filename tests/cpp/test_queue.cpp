@@ -15,6 +15,7 @@
 
 #include "extract.h"
 #include "extract_work.h"
+#include "grid.h"
 #include "queue.h"
 #include "test_util.h"
 
@@ -122,9 +123,23 @@ nfd_queue* make_queue(nfd_context* ctx, uint32_t workers, uint64_t host_budget =
     return q;
 }
 
-// The host bound the queue reserves for one CPU job (extract_work.h).
-uint64_t cpu_bound(const Bytes& bytes, uint32_t resolution) {
-    return extract_bytes_bound(parse_or_throw(bytes), resolution, false).host;
+// The host bytes the queue reserves for the first step of a CPU job (extract_work.h): the whole
+// job under 64 cells (a ladder of one level).
+uint64_t first_step_host(const Bytes& bytes, uint32_t resolution) {
+    const uint32_t coarse = cells_at_level(resolution, refinement_levels(resolution));
+    return extract_bytes_bound(parse_or_throw(bytes), coarse, false).host;
+}
+
+// The largest host reservation of a CPU job, its last step's (each step's adds to the last):
+// the job's steps run here as a worker runs them.
+uint64_t job_host_reservation(const Bytes& bytes, uint32_t resolution, unsigned cpu_threads) {
+    ExtractWork work(parse_or_throw(bytes), resolution, 1u, nullptr, cpu_threads);
+    for (;;) {
+        const uint64_t reserved = work.next_step_bytes().host;
+        StepResult step;
+        EXPECT_EQ(work.step(&step), NFD_SUCCESS);
+        if (step.finished) return reserved;
+    }
 }
 
 Bytes blob(float scale) {
@@ -341,17 +356,18 @@ TEST(Queue, DestroyJobInEveryStatus) {
     nfd_asset* slow = make_asset(slow_bytes);
     nfd_asset* small = make_asset(small_bytes);
     const nfd_mesh_options big = mesh_options(kSlowResolution), tiny = mesh_options(16);
-    const uint64_t slow_bound = cpu_bound(slow_bytes, kSlowResolution);
-    const uint64_t small_bound = cpu_bound(small_bytes, 16);
-    // Two workers; the slow job's reservation leaves no room for a second slow one.
-    nfd_queue* q = make_queue(ctx, 2, slow_bound + small_bound);
+    const uint64_t slow_first = first_step_host(slow_bytes, kSlowResolution);
+    const uint64_t small_bound = first_step_host(small_bytes, 16);
+    // Two workers; the running slow job, held in its first level's callback, keeps its first
+    // step's reservation, which leaves no room for a second slow one.
+    nfd_queue* q = make_queue(ctx, 2, slow_first + small_bound);
     Calls calls(6);
 
     nfd_job *done = nullptr, *failed = nullptr, *cancelled = nullptr;
     const nfd_job_options jo0 = calls.options(0), jo1 = calls.options(1), jo2 = calls.options(2);
     ASSERT_EQ(nfd_queue_submit(q, small, &tiny, &jo0, &done), NFD_SUCCESS);
     ASSERT_EQ(nfd_job_wait(done, kForever), NFD_JOB_DONE);  // its mesh stays untaken
-    // Failed: a job whose bound exceeds the whole budget.
+    // Failed: a job whose second level's reservation exceeds the whole budget.
     const nfd_mesh_options huge = mesh_options(1024);
     ASSERT_EQ(nfd_queue_submit(q, slow, &huge, &jo1, &failed), NFD_SUCCESS);
     ASSERT_EQ(nfd_job_wait(failed, kForever), NFD_JOB_FAILED);
@@ -360,11 +376,17 @@ TEST(Queue, DestroyJobInEveryStatus) {
     ASSERT_TRUE(is_final(nfd_job_wait(cancelled, kForever)));
 
     nfd_job *running = nullptr, *waiting = nullptr, *queued = nullptr;
-    const nfd_job_options jo3 = calls.options(3), jo4 = calls.options(4), jo5 = calls.options(5);
-    ASSERT_EQ(nfd_queue_submit(q, slow, &big, &jo3, &running), NFD_SUCCESS);
+    const nfd_job_options jo4 = calls.options(4), jo5 = calls.options(5);
+    Gate gate;
+    nfd_job_options hold = {};
+    hold.struct_size = sizeof hold;
+    hold.callback = Gate::hold;
+    hold.user_data = &gate;
+    hold.mesh_levels = 0b111;  // 32, 64, 128: held at 32
+    ASSERT_EQ(nfd_queue_submit(q, slow, &big, &hold, &running), NFD_SUCCESS);
     ASSERT_EQ(nfd_queue_submit(q, slow, &big, &jo4, &waiting), NFD_SUCCESS);
     ASSERT_EQ(nfd_queue_submit(q, small, &tiny, &jo5, &queued), NFD_SUCCESS);
-    ASSERT_EQ(poll_until_at_least(running, NFD_JOB_RUNNING), NFD_JOB_RUNNING);
+    while (gate.calls.load() == 0) std::this_thread::yield();
     // The second slow job is first in line and does not fit: it waits, and the small one behind
     // it waits in the queue (no overtaking).
     ASSERT_EQ(poll_until_at_least(waiting, NFD_JOB_WAITING_FOR_MEMORY), NFD_JOB_WAITING_FOR_MEMORY);
@@ -373,7 +395,8 @@ TEST(Queue, DestroyJobInEveryStatus) {
     const size_t calls_before = calls.count();
     nfd_job_destroy(queued);
     nfd_job_destroy(waiting);
-    nfd_job_destroy(running);  // returns at once; the worker finishes the step, then frees it
+    gate.open();
+    nfd_job_destroy(running);  // the worker ends it at the next level boundary, then frees it
     nfd_job_destroy(done);
     nfd_job_destroy(failed);
     nfd_job_destroy(cancelled);
@@ -418,7 +441,7 @@ TEST(Queue, BudgetHoldsAndAllJobsFinish) {
     nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
     const Bytes bytes = read_bytes(golden_path("bunny_sdf_w16", ".nfc"));
     nfd_asset* a = make_asset(bytes);
-    const uint64_t bound = cpu_bound(bytes, 40);
+    const uint64_t bound = first_step_host(bytes, 40);  // the whole job: one level
     const uint64_t budget = 2 * bound + bound / 2;
     nfd_queue* q = make_queue(ctx, 4, budget);
     const nfd_mesh_options mo = mesh_options(40);
@@ -443,9 +466,9 @@ TEST(Queue, JobOverTheWholeBudgetFails) {
     nfd_context* ctx = make_context(NFD_DEVICE_CPU);
     const Bytes bytes = blob(1.0f);
     nfd_asset* a = make_asset(bytes);
-    const uint64_t budget = cpu_bound(bytes, 64);
+    const uint64_t budget = job_host_reservation(bytes, 64, 2);
     nfd_queue* q = make_queue(ctx, 1, budget);
-    const nfd_mesh_options over = mesh_options(65), fits = mesh_options(64);
+    const nfd_mesh_options over = mesh_options(96), fits = mesh_options(64);
     Calls calls(2);
     const nfd_job_options jo0 = calls.options(0), jo1 = calls.options(1);
     nfd_job *big = nullptr, *ok = nullptr;
@@ -579,54 +602,234 @@ TEST(Queue, NullAndInvalidArguments) {
     nfd_context_destroy(ctx);
 }
 
-// The internal queue with a job of several steps, as the progressive extraction will be: a preview
-// at 32 cells, then the mesh at 64, each step a real extraction delivering its mesh. The queue
-// replaces the untaken preview by the final mesh, and moves the job's reservation from one step's
-// bound to the next (the peak is the larger one).
-class TwoResolutionWork final : public JobWork {
-public:
-    explicit TwoResolutionWork(const Geometry& g) : geometry_(g) {}
-    MemoryBytes next_step_bytes() const override {
-        return extract_bytes_bound(geometry_, resolutions_[next_], false);
+// Takes every mesh a job delivers, in its callback (a newer level would replace an untaken one),
+// with the level it is, the status of each call, and how far the job was.
+struct Levels {
+    std::mutex mutex;
+    std::vector<nfd_job_status> statuses;
+    std::vector<nfd_mesh*> meshes;
+    std::vector<uint32_t> resolutions;
+    static void take(nfd_job* job, nfd_job_status status, void* user) {
+        auto* self = static_cast<Levels*>(user);
+        nfd_mesh* m = nullptr;
+        const nfd_result r = nfd_job_take_mesh(job, &m);
+        nfd_job_progress p = {};
+        p.struct_size = sizeof p;
+        EXPECT_EQ(nfd_job_get_progress(job, &p), NFD_SUCCESS);
+        std::lock_guard<std::mutex> lock(self->mutex);
+        self->statuses.push_back(status);
+        if (r == NFD_SUCCESS && m) {
+            self->meshes.push_back(m);
+            self->resolutions.push_back(p.taken_mesh_resolution);
+        }
     }
-    nfd_result step(StepResult* out) override {
-        MeshResult mesh;
-        const nfd_result r =
-            extract_mesh_cpu(geometry_, resolutions_[next_], &mesh.data, &mesh.stats, 1);
-        if (r != NFD_SUCCESS) return r;
-        out->mesh = std::move(mesh);
-        out->finished = ++next_ == 2;
-        return NFD_SUCCESS;
+    nfd_job_options options(uint32_t mesh_levels) {
+        nfd_job_options o = {};
+        o.struct_size = sizeof o;
+        o.callback = take;
+        o.user_data = this;
+        o.mesh_levels = mesh_levels;
+        return o;
     }
-
-private:
-    Geometry geometry_;
-    const uint32_t resolutions_[2] = {32, 64};
-    int next_ = 0;
+    ~Levels() {
+        for (nfd_mesh* m : meshes) nfd_mesh_destroy(m);
+    }
 };
 
-TEST(Queue, JobOfSeveralStepsDeliversItsLastMesh) {
-    const Geometry g = parse_or_throw(blob(1.0f));
-    MeshData expected;
-    ASSERT_EQ(extract_mesh_cpu(g, 64, &expected, nullptr, 1), NFD_SUCCESS);
-    const uint64_t budget = extract_bytes_bound(g, 64, false).host;
-    Queue queue(1, false, MemoryBytes{budget, 0});
-    std::atomic<int> callbacks{0};
-    std::shared_ptr<Job> job;
-    ASSERT_TRUE(queue.submit(std::make_unique<TwoResolutionWork>(g), 0,
-                             [&](nfd_job_status s) { callbacks += s == NFD_JOB_DONE; }, &job));
-    ASSERT_EQ(job->wait(kForever), NFD_JOB_DONE);
-    nfd_result result;
-    std::optional<MeshResult> mesh = job->take_mesh(&result);
-    EXPECT_EQ(result, NFD_SUCCESS);
-    ASSERT_TRUE(mesh);
-    EXPECT_EQ(mesh->data.indices, expected.indices);
-    EXPECT_EQ(mesh->data.positions, expected.positions);
-    EXPECT_EQ(callbacks.load(), 1);
-    const nfd_queue_stats st = queue.stats();
-    EXPECT_EQ(st.peak_reserved_host_bytes, budget);  // the second step's bound, the larger
+// Every level of the ladder of 128 (32, 64, 128) on the golden vectors, SDF and UDF: delivered
+// in order, one RUNNING callback per coarser level and DONE with the final one, each mesh
+// byte-identical to nfd_mesh_extract's at its resolution on the same context.
+void levels_match_mesh_extract(nfd_context* ctx, uint32_t workers) {
+    const std::vector<std::string> names = golden_names();
+    std::vector<Levels> levels(names.size());
+    std::vector<nfd_asset*> assets;
+    nfd_queue* q = make_queue(ctx, workers);
+    std::vector<nfd_job*> jobs(names.size());
+    const nfd_mesh_options mo = mesh_options(128);
+    for (size_t i = 0; i < names.size(); ++i) {
+        assets.push_back(make_asset(read_bytes(golden_path(names[i], ".nfc"))));
+        const nfd_job_options jo = levels[i].options(0b111);
+        ASSERT_EQ(nfd_queue_submit(q, assets[i], &mo, &jo, &jobs[i]), NFD_SUCCESS);
+    }
+    for (size_t i = 0; i < names.size(); ++i) {
+        SCOPED_TRACE(names[i]);
+        ASSERT_EQ(nfd_job_wait(jobs[i], kForever), NFD_JOB_DONE);
+        nfd_job_progress p = {};
+        ASSERT_EQ(nfd_job_get_progress(jobs[i], &p), NFD_SUCCESS);  // 0: the first layout
+        EXPECT_EQ(p.levels_done, 3u);
+        EXPECT_EQ(p.levels_total, 3u);
+        EXPECT_EQ(p.newest_mesh_resolution, 128u);
+        EXPECT_EQ(p.taken_mesh_resolution, 128u);
+        EXPECT_EQ(p.final_resolution, 128u);
+        nfd_job_destroy(jobs[i]);
+    }
+    nfd_queue_destroy(q);  // the context is the queue's while it exists
+    for (size_t i = 0; i < names.size(); ++i) {
+        SCOPED_TRACE(names[i]);
+        EXPECT_EQ(levels[i].statuses,
+                  (std::vector<nfd_job_status>{NFD_JOB_RUNNING, NFD_JOB_RUNNING, NFD_JOB_DONE}));
+        ASSERT_EQ(levels[i].resolutions, (std::vector<uint32_t>{32, 64, 128}));
+        for (size_t l = 0; l < 3; ++l) {
+            const nfd_mesh_options at = mesh_options(levels[i].resolutions[l]);
+            nfd_mesh* expected = nullptr;
+            ASSERT_EQ(nfd_mesh_extract(ctx, assets[i], &at, &expected), NFD_SUCCESS);
+            EXPECT_TRUE(same_mesh(levels[i].meshes[l], expected)) << "level " << l;
+            nfd_mesh_destroy(expected);
+        }
+    }
+    for (nfd_asset* a : assets) nfd_asset_destroy(a);
+}
+
+TEST(Queue, LevelsInOrderMatchMeshExtractCpu) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    levels_match_mesh_extract(ctx, 2);
+    nfd_context_destroy(ctx);
+}
+
+TEST(Queue, LevelsInOrderMatchMeshExtractVulkan) {
+    nfd_context* ctx = make_context(NFD_DEVICE_VULKAN);
+    if (!ctx) {
+        if (std::getenv("NFD_REQUIRE_VULKAN")) FAIL() << "no Vulkan device";
+        GTEST_SKIP() << "no Vulkan device";
+    }
+    levels_match_mesh_extract(ctx, 1);
+    nfd_context_destroy(ctx);
+}
+
+// Cancelled while its first level's callback runs: the job ends CANCELLED at that level's
+// boundary, evaluates no further level, and frees the mesh the callback did not take.
+TEST(Queue, CancelBetweenLevels) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    nfd_asset* a = make_asset(slow_asset());
+    nfd_queue* q = make_queue(ctx, 1);
+    const nfd_mesh_options mo = mesh_options(kSlowResolution);
+    Gate gate;
+    nfd_job_options jo = {};
+    jo.struct_size = sizeof jo;
+    jo.callback = Gate::hold;
+    jo.user_data = &gate;
+    jo.mesh_levels = 0b111;
+    nfd_job* job = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &jo, &job), NFD_SUCCESS);
+    while (gate.calls.load() == 0) std::this_thread::yield();
+    nfd_job_progress p = {};
+    ASSERT_EQ(nfd_job_get_progress(job, &p), NFD_SUCCESS);
+    EXPECT_EQ(p.levels_done, 1u);
+    EXPECT_EQ(p.newest_mesh_resolution, 32u);
+    EXPECT_EQ(nfd_job_cancel(job), NFD_SUCCESS);
+    gate.open();
+    EXPECT_EQ(nfd_job_wait(job, kForever), NFD_JOB_CANCELLED);
+    ASSERT_EQ(nfd_job_get_progress(job, &p), NFD_SUCCESS);
+    EXPECT_EQ(p.levels_done, 1u);  // 64 was never evaluated
+    nfd_mesh* m = nullptr;
+    EXPECT_EQ(nfd_job_take_mesh(job, &m), NFD_ERROR_CANCELLED);
+    EXPECT_EQ(m, nullptr);
+    EXPECT_EQ(gate.calls.load(), 2);  // RUNNING at 32, then CANCELLED
+    nfd_job_destroy(job);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// A budget that admits one job's largest reservation but not two, two workers, three jobs of
+// every level: two jobs start (their first steps fit together), then both grow. None waits
+// forever: all finish DONE, the reservation never exceeded the budget, each job delivered its
+// levels once each, in order (a job that restarted to let the other finish delivers none
+// twice), and the final meshes are nfd_mesh_extract's.
+TEST(Queue, BudgetForOneJobAtItsLargestAndTwoWorkers) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    const Bytes bytes = read_bytes(golden_path("bunny_sdf_w16", ".nfc"));
+    nfd_asset* a = make_asset(bytes);
+    const uint32_t r = 128;
+    const uint64_t largest = job_host_reservation(bytes, r, 1);
+    ASSERT_GE(largest, 2 * first_step_host(bytes, r));  // two jobs can start together
+    const uint64_t budget = largest + largest / 2;
+    const nfd_mesh_options mo = mesh_options(r);
+    nfd_mesh* expected = nullptr;
+    ASSERT_EQ(nfd_mesh_extract(ctx, a, &mo, &expected), NFD_SUCCESS);
+    nfd_queue* q = make_queue(ctx, 2, budget);
+    std::vector<Levels> levels(3);
+    std::vector<nfd_job*> jobs(3);
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        const nfd_job_options jo = levels[i].options(0b111);
+        ASSERT_EQ(nfd_queue_submit(q, a, &mo, &jo, &jobs[i]), NFD_SUCCESS);
+    }
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        SCOPED_TRACE(i);
+        ASSERT_EQ(nfd_job_wait(jobs[i], kForever), NFD_JOB_DONE);
+        EXPECT_EQ(levels[i].resolutions, (std::vector<uint32_t>{32, 64, 128}));
+        ASSERT_EQ(levels[i].meshes.size(), 3u);
+        EXPECT_TRUE(same_mesh(levels[i].meshes.back(), expected));
+    }
+    nfd_queue_stats st;
+    ASSERT_EQ(nfd_queue_get_stats(q, &st), NFD_SUCCESS);
+    EXPECT_EQ(st.jobs_done, 3u);
+    EXPECT_LE(st.peak_reserved_host_bytes, budget);
+    EXPECT_GE(st.peak_reserved_host_bytes, largest);
     EXPECT_EQ(st.reserved_host_bytes, 0u);
-    job->release();
+    nfd_mesh_destroy(expected);
+    for (nfd_job* j : jobs) nfd_job_destroy(j);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// A running job that waits for memory to grow ends at once when cancelled: job A holds its first
+// step's reservation inside its first level's callback, job B's second level does not fit beside
+// it; B is cancelled while A is still held.
+TEST(Queue, CancelWhileWaitingToGrow) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU, 1);
+    const Bytes bytes = slow_asset();
+    nfd_asset* a = make_asset(bytes);
+    nfd_queue* q = make_queue(ctx, 2, 2 * first_step_host(bytes, kSlowResolution));
+    const nfd_mesh_options mo = mesh_options(kSlowResolution);
+    Gate gate;
+    nfd_job_options hold = {};
+    hold.struct_size = sizeof hold;
+    hold.callback = Gate::hold;
+    hold.user_data = &gate;
+    hold.mesh_levels = 0b111;
+    nfd_job *held = nullptr, *grows = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &held), NFD_SUCCESS);
+    while (gate.calls.load() == 0) std::this_thread::yield();
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &grows), NFD_SUCCESS);
+    nfd_job_progress p = {};
+    while (nfd_job_get_progress(grows, &p) == NFD_SUCCESS && p.levels_done == 0)
+        std::this_thread::yield();
+    EXPECT_EQ(p.levels_done, 1u);
+    EXPECT_EQ(nfd_job_poll(grows), NFD_JOB_RUNNING);
+    EXPECT_EQ(nfd_job_cancel(grows), NFD_SUCCESS);
+    EXPECT_EQ(nfd_job_wait(grows, kForever), NFD_JOB_CANCELLED);
+    EXPECT_EQ(gate.calls.load(), 1);  // A is still held
+    gate.open();
+    EXPECT_TRUE(is_final(nfd_job_wait(held, kForever)));
+    nfd_job_destroy(grows);
+    nfd_job_destroy(held);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+
+// mesh_levels as nfd_extraction_options', except 0: the final level must be in it, no bit past
+// the ladder.
+TEST(Queue, MeshLevelsOutsideTheLadderAreRejected) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_asset* a = make_asset(blob(1.0f));
+    nfd_queue* q = make_queue(ctx, 1);
+    const nfd_mesh_options mo = mesh_options(128);
+    nfd_job_options jo = {};
+    jo.struct_size = sizeof jo;
+    nfd_job* j = reinterpret_cast<nfd_job*>(0x1);
+    for (uint32_t bad : {0b011u, 0b1111u, 0b001u}) {
+        jo.mesh_levels = bad;
+        EXPECT_EQ(nfd_queue_submit(q, a, &mo, &jo, &j), NFD_ERROR_INVALID_ARGUMENT) << bad;
+        EXPECT_EQ(j, nullptr);
+    }
+    nfd_job_progress p = {};
+    EXPECT_EQ(nfd_job_get_progress(nullptr, &p), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
 }
 
 }  // namespace

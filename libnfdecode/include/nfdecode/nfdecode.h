@@ -583,27 +583,48 @@ NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, co
  *     ... every frame: if (nfd_job_poll(job) == NFD_JOB_DONE) nfd_job_take_mesh(job, &mesh);
  *     nfd_job_destroy(job);  nfd_queue_destroy(q);
  *
- * A queue owns worker threads that run jobs on the context given at creation. A job decodes an
- * asset as a sequence of bounded steps (in this version one step: the whole nfd_mesh_extract);
- * between steps it checks for cancellation. Results are those of nfd_mesh_extract on the same
- * context, byte for byte.
+ * A queue owns worker threads that run jobs on the context given at creation. A job is the
+ * progressive extraction of an asset (see "Progressive extraction"): one step per ladder level,
+ * coarsest first; between steps it checks for cancellation and for memory. The levels in the job's
+ * mesh_levels are meshed and delivered as they complete (0: only the final level): each is
+ * byte-identical to nfd_extraction_step's on the same context (so the final one to
+ * nfd_mesh_extract's at the job's resolution, and an exact level to nfd_mesh_extract's at its
+ * own). A job keeps the newest delivered mesh until taken: a newer level replaces (frees) an
+ * untaken older one.
  *
  * Order: the pending job of highest priority starts first, jobs of equal priority in submission
  * order. The head of that order waits for memory rather than letting a later job overtake it, so
  * a large job is never starved by small ones.
  *
  * Memory budget: before a step runs, the queue reserves an upper bound of what the job holds
- * during the step (host and device bytes, nfd_queue_stats); the reservation is replaced by the
- * next step's and released when the job ends. The sum of reservations never exceeds the budget: a
- * job whose first step does not fit waits (NFD_JOB_WAITING_FOR_MEMORY) until running jobs end. A
- * step larger than the whole budget can never fit: its job fails with NFD_ERROR_LIMIT_EXCEEDED
- * instead of waiting forever. The bound in this version is conservative and depends on the
- * resolution r only: CPU path, host 32 MiB + 3 KiB * r^2 (235 MB at 256); Vulkan, host
- * 64 MiB + 1 KiB * r^2 (a driver compiling a network's pipeline on its first job takes tens of MB)
- * and device 16 MiB + 1.5 KiB * r^2 (117 MB at 256). libnfdecode/src/extract_work.cpp states how
- * it was measured: the largest peak of the test and bench assets is 2.2 to 2.8 times below it,
- * typical ones 5 to 10 times. A finished mesh is not counted: it is the caller's to take, and
- * collecting it late must not stall other jobs.
+ * during the step (host and device bytes, nfd_queue_stats), and keeps it until the next step's
+ * replaces it; everything is released when the job ends. The sum of reservations never exceeds
+ * the budget. The bound of a step is what the job may hold when the step starts (the previous
+ * step's reservation: the grid levels kept, the meshes made, the network copy) plus the bound of
+ * what the step allocates: for the first step (it creates the extraction and evaluates the
+ * coarsest level, 32 to 63 cells per axis) a measured bound (CPU host 32 MiB + 3 KiB * c^2 at c
+ * cells; Vulkan host 64 MiB + 1 KiB * c^2, a driver compiling a network's pipelines takes tens of
+ * MB, device 16 MiB + 1.5 KiB * c^2: libnfdecode/src/extract_work.cpp states how it was measured),
+ * then nfd_extraction_level's next_host_bytes / next_device_bytes: worst-case bounds, several
+ * times the real peak (see there). A job's reservation thus grows level by level, to about 4/3 of
+ * its final level's bound. A mesh the job delivered counts while the job runs; once the job is
+ * final, the mesh is the caller's and uncounted (collecting it late must not stall other jobs).
+ *   A job whose first step does not fit waits (NFD_JOB_WAITING_FOR_MEMORY) until running jobs
+ * release memory. A running job whose next step does not fit waits on its worker (its status
+ * stays RUNNING), and while one does, no pending job starts: memory that is released goes first
+ * to the jobs that hold some. When every running job waits so and none fits, the last of them in
+ * the queue's order restarts: it releases everything, goes back to pending at its place
+ * (QUEUED), and later evaluates its levels again, delivering none twice. So two jobs that each
+ * fit the budget but not together both finish, one after the other. A step larger than the
+ * whole budget can never fit: its job fails with NFD_ERROR_LIMIT_EXCEEDED instead of waiting
+ * forever. A queue of one worker (every Vulkan queue) never restarts a job.
+ *
+ * Streaming: an engine feeds each arriving file to its own nfd_stream on its own thread (the cost
+ * of nfd_stream_feed follows the bytes fed; the feed that completes the GEOM chunk decodes it),
+ * takes the asset with nfd_stream_take_asset once NFD_STREAM_GEOMETRY_READY is set, submits it,
+ * and may destroy the asset at once. A submit that takes a stream (a job that starts before its
+ * file is complete) is not provided in this version. bench/queue_frame.cpp does this in a frame
+ * loop and measures the frame thread's time in these calls.
  *
  * Threads: every queue and job function may be called from any thread, concurrently, except
  * that a destroy must not race with other calls on the same handle (nfd_queue_destroy with the
@@ -619,8 +640,9 @@ typedef struct nfd_job nfd_job;
 typedef enum nfd_job_status {
     NFD_JOB_QUEUED = 0,             /* waiting for a worker, by priority */
     NFD_JOB_WAITING_FOR_MEMORY = 1, /* first in line; its next step does not fit the budget yet */
-    NFD_JOB_RUNNING = 2,            /* a worker runs its steps */
-    NFD_JOB_DONE = 3,               /* final: the mesh is ready (nfd_job_take_mesh) */
+    NFD_JOB_RUNNING = 2,            /* a worker runs its steps (or it waits to grow, see above);
+                                       a coarser level's mesh may be ready (nfd_job_take_mesh) */
+    NFD_JOB_DONE = 3,               /* final: the final level's mesh is ready (nfd_job_take_mesh) */
     NFD_JOB_FAILED = 4,             /* final: nfd_job_take_mesh gives the error */
     NFD_JOB_CANCELLED = 5           /* final: cancelled before it finished */
 } nfd_job_status;
@@ -637,8 +659,12 @@ typedef struct nfd_queue_options {
 } nfd_queue_options;
 
 /* Called once per job when it reaches a final status (DONE, FAILED or CANCELLED), unless
- * nfd_job_destroy came first. It runs on a worker thread, or for a job cancelled before it started
- * on the thread that cancelled it (nfd_job_cancel, nfd_queue_destroy). It may call nfd_job_poll,
+ * nfd_job_destroy came first, and with NFD_JOB_RUNNING each time the job delivers the mesh of a
+ * level before the final one (a mesh is then ready for nfd_job_take_mesh, unless a newer one
+ * replaced it; the final level's delivery is the DONE call alone). Calls for one job never
+ * overlap, come in the order of the levels, and the final one is the last. It runs on a worker
+ * thread, or for a job cancelled before it started on the thread that cancelled it (nfd_job_cancel,
+ * nfd_queue_destroy). It may call nfd_job_poll, nfd_job_get_progress,
  * nfd_job_take_mesh, nfd_job_cancel, nfd_job_destroy (this job's included), nfd_queue_submit,
  * nfd_queue_get_stats, and any function outside the queue that is safe on that thread (not the
  * queue's context: the workers use it). It must not call nfd_job_wait or nfd_queue_destroy (a
@@ -651,7 +677,26 @@ typedef struct nfd_job_options {
     int32_t priority;          /* higher starts first; default 0 */
     nfd_job_callback callback; /* NULL: none */
     void* user_data;           /* passed to callback */
+    /* appended after 0.2 (read when struct_size covers it): */
+    uint32_t mesh_levels;      /* the ladder levels to mesh and deliver, as
+                                  nfd_extraction_options.mesh_levels (bit i: ladder level i, 0 =
+                                  coarsest; must include the final level; no bit past the
+                                  ladder), except that 0 = the final level only (the 0.2 job) */
 } nfd_job_options;
+
+/* Where a job is (nfd_job_get_progress). */
+typedef struct nfd_job_progress {
+    uint32_t struct_size;            /* set by the caller (sizeof, or 0 for the first layout): the
+                                        library writes the fields it covers */
+    uint32_t levels_done;            /* ladder levels evaluated, 0..levels_total (a restarted job
+                                        keeps its count while it evaluates them again) */
+    uint32_t levels_total;           /* the ladder's length at the job's resolution */
+    uint32_t newest_mesh_resolution; /* cells per axis of the newest delivered mesh, taken or
+                                        not; 0 before the first */
+    uint32_t taken_mesh_resolution;  /* that of the mesh the last successful nfd_job_take_mesh
+                                        gave; 0 before */
+    uint32_t final_resolution;       /* the job's resolution: the last level's */
+} nfd_job_progress;
 
 typedef struct nfd_queue_stats {
     uint64_t jobs_submitted, jobs_done, jobs_failed, jobs_cancelled;
@@ -676,7 +721,8 @@ NFD_API void nfd_queue_destroy(nfd_queue* queue);
  * may be destroyed as soon as this returns. Never waits for work in progress; O(log n) in the
  * pending jobs plus a copy of the network's weights (at most the NFD_MAX_PARAMETERS cap, 4 MiB).
  * Outcomes: NFD_SUCCESS and *out_job (release with nfd_job_destroy); NFD_ERROR_INVALID_ARGUMENT
- * (NULL queue, asset or out_job, bad struct_size); NFD_ERROR_LIMIT_EXCEEDED (resolution outside
+ * (NULL queue, asset or out_job, bad struct_size, mesh_levels without the final level or with a
+ * bit past the ladder of the resolution); NFD_ERROR_LIMIT_EXCEEDED (resolution outside
  * the caps); NFD_ERROR_CANCELLED (called from a callback while nfd_queue_destroy runs);
  * NFD_ERROR_OUT_OF_MEMORY. A job too large for the budget is accepted, then FAILED. */
 NFD_API nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
@@ -696,19 +742,25 @@ NFD_API nfd_job_status nfd_job_poll(const nfd_job* job);
 NFD_API nfd_job_status nfd_job_wait(nfd_job* job, uint64_t timeout_ns);
 
 /* Cancels the job: a pending job becomes CANCELLED at once (its callback runs on this thread
- * before this returns); a running one when its current step ends (the last one included: its mesh
- * is dropped); a final one stays as it is. Everything the job allocated is freed when it becomes
+ * before this returns); a running one when its current step (level) ends (the last one included:
+ * its mesh is dropped, as is an untaken coarser one); a final one stays as it is. Everything the job allocated is freed when it becomes
  * CANCELLED. NFD_ERROR_INVALID_ARGUMENT for NULL, else NFD_SUCCESS. */
 NFD_API nfd_result nfd_job_cancel(nfd_job* job);
 
-/* Hands the job's mesh to the caller, who destroys it with nfd_mesh_destroy; it outlives the job
- * and the queue. In this version a job delivers one mesh, when DONE (its callback may take it).
- * Outcomes: NFD_SUCCESS and *out_mesh (DONE; a second call gives NFD_SUCCESS and NULL: the mesh
- * was taken); NFD_ERROR_NOT_READY (not final); NFD_ERROR_CANCELLED; the job's error (FAILED: what
- * nfd_mesh_extract would have returned, or NFD_ERROR_LIMIT_EXCEEDED for a step over the whole
- * budget); NFD_ERROR_INVALID_ARGUMENT (NULL arguments). *out_mesh is NULL unless a mesh is
+/* Hands the job's newest delivered mesh to the caller, who destroys it with nfd_mesh_destroy; it
+ * outlives the job and the queue. Which level it is: nfd_job_get_progress's
+ * taken_mesh_resolution, set by this same call (the final level's once DONE).
+ * Outcomes: NFD_SUCCESS and *out_mesh (a level's mesh while RUNNING, the final one when DONE;
+ * once DONE and taken, NFD_SUCCESS and NULL); NFD_ERROR_NOT_READY (not final, no mesh ready);
+ * NFD_ERROR_CANCELLED (an untaken mesh was freed with the job's memory); the job's error (FAILED:
+ * what nfd_extraction_step would have returned, or NFD_ERROR_LIMIT_EXCEEDED for a step over the
+ * whole budget); NFD_ERROR_INVALID_ARGUMENT (NULL arguments). *out_mesh is NULL unless a mesh is
  * given. */
 NFD_API nfd_result nfd_job_take_mesh(nfd_job* job, nfd_mesh** out_mesh);
+
+/* Writes the job's progress: the fields out_progress->struct_size covers (0: the first layout,
+ * this one). NFD_ERROR_INVALID_ARGUMENT for NULL arguments or a struct_size below it. */
+NFD_API nfd_result nfd_job_get_progress(const nfd_job* job, nfd_job_progress* out_progress);
 
 /* Releases the handle in any status, cancelling the job if it has not finished (a running step
  * completes on its worker, which then frees it). No callback starts after this returns; if this
