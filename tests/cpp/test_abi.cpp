@@ -48,18 +48,28 @@ struct job_options {
 };
 }  // namespace v0_2
 
+// A CPU context and a closed blob's asset.
+struct AbiOnBlob : ::testing::Test {
+    nfd_context* ctx = nullptr;
+    nfd_asset* asset = nullptr;
+    void SetUp() override {
+        nfd_context_options co{};
+        co.struct_size = sizeof co;
+        co.device = NFD_DEVICE_CPU;
+        ASSERT_EQ(nfd_context_create(&co, &ctx), NFD_SUCCESS);
+        const Bytes b = geom_file(closed_blob());
+        ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &asset), NFD_SUCCESS);
+    }
+    void TearDown() override {
+        nfd_asset_destroy(asset);
+        nfd_context_destroy(ctx);
+    }
+};
+
 // A 0.2 job's options: read by struct_size, mesh_levels taken as 0 (the final level only): one
 // callback, DONE, with the final mesh. A newer caller's job progress struct is written only as
 // far as it covers.
-TEST(Abi, JobOptionsKeepTheirLayout) {
-    nfd_context_options co{};
-    co.struct_size = sizeof co;
-    co.device = NFD_DEVICE_CPU;
-    nfd_context* ctx = nullptr;
-    ASSERT_EQ(nfd_context_create(&co, &ctx), NFD_SUCCESS);
-    const Bytes b = geom_file(closed_blob());
-    nfd_asset* asset = nullptr;
-    ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &asset), NFD_SUCCESS);
+TEST_F(AbiOnBlob, JobOptionsKeepTheirLayout) {
     nfd_queue* q = nullptr;
     ASSERT_EQ(nfd_queue_create(ctx, nullptr, &q), NFD_SUCCESS);
     std::atomic<int> calls{0}, done{0};
@@ -104,21 +114,11 @@ TEST(Abi, JobOptionsKeepTheirLayout) {
     nfd_queue_destroy(q);
     EXPECT_EQ(calls.load(), 1);
     EXPECT_EQ(done.load(), 1);
-    nfd_asset_destroy(asset);
-    nfd_context_destroy(ctx);
 }
 
 // The extraction's option struct is read by struct_size, and its output struct written only as
 // far as the caller's struct_size says: a newer caller's extra fields are left alone.
-TEST(Abi, ExtractionStructsKeepTheirLayouts) {
-    nfd_context_options co{};
-    co.struct_size = sizeof co;
-    co.device = NFD_DEVICE_CPU;
-    nfd_context* ctx = nullptr;
-    ASSERT_EQ(nfd_context_create(&co, &ctx), NFD_SUCCESS);
-    const Bytes b = geom_file(closed_blob());
-    nfd_asset* asset = nullptr;
-    ASSERT_EQ(nfd_asset_create(b.data(), b.size(), &asset), NFD_SUCCESS);
+TEST_F(AbiOnBlob, ExtractionStructsKeepTheirLayouts) {
     const v0_2::extraction_options old_options{sizeof(v0_2::extraction_options), 64, 0b10};
     nfd_extraction* ex = nullptr;
     ASSERT_EQ(nfd_extraction_create(ctx, asset,
@@ -148,8 +148,6 @@ TEST(Abi, ExtractionStructsKeepTheirLayouts) {
     EXPECT_NE(old_level.done, 0);
     nfd_mesh_destroy(mesh);
     nfd_extraction_destroy(ex);
-    nfd_asset_destroy(asset);
-    nfd_context_destroy(ctx);
 }
 
 TEST(Abi, RuntimeVersionIsTheHeaders) {

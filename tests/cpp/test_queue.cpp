@@ -35,6 +35,16 @@ struct Gate {
     std::shared_future<void> is_open = opened.get_future().share();
     std::atomic<int> calls{0};
     void open() { opened.set_value(); }
+    // Options of a job whose callback holds its worker at this gate.
+    nfd_job_options job_options(int32_t priority = 0, uint32_t mesh_levels = 0) {
+        nfd_job_options o = {};
+        o.struct_size = sizeof o;
+        o.priority = priority;
+        o.callback = hold;
+        o.user_data = this;
+        o.mesh_levels = mesh_levels;
+        return o;
+    }
     static void hold(nfd_job*, nfd_job_status, void* user) {
         auto* gate = static_cast<Gate*>(user);
         ++gate->calls;
@@ -249,11 +259,8 @@ TEST(Queue, PriorityOrderThenSubmissionOrder) {
     nfd_queue* q = make_queue(ctx, 1);
     const nfd_mesh_options mo = mesh_options(16);
     Gate gate;
-    nfd_job_options hold = {};
-    hold.struct_size = sizeof hold;
-    hold.priority = INT32_MAX;  // runs first even if the worker had not taken it yet
-    hold.callback = Gate::hold;
-    hold.user_data = &gate;
+    // Runs first even if the worker had not taken it yet.
+    const nfd_job_options hold = gate.job_options(INT32_MAX);
     nfd_job* first = nullptr;
     ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &first), NFD_SUCCESS);
 
@@ -284,10 +291,7 @@ TEST(Queue, CancelQueuedJob) {
     nfd_queue* q = make_queue(ctx, 1);
     const nfd_mesh_options mo = mesh_options(16);
     Gate gate;
-    nfd_job_options hold = {};
-    hold.priority = 1;
-    hold.callback = Gate::hold;
-    hold.user_data = &gate;
+    const nfd_job_options hold = gate.job_options(1);
     nfd_job *first = nullptr, *job = nullptr;
     ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &first), NFD_SUCCESS);
     Calls calls(1);
@@ -378,11 +382,7 @@ TEST(Queue, DestroyJobInEveryStatus) {
     nfd_job *running = nullptr, *waiting = nullptr, *queued = nullptr;
     const nfd_job_options jo4 = calls.options(4), jo5 = calls.options(5);
     Gate gate;
-    nfd_job_options hold = {};
-    hold.struct_size = sizeof hold;
-    hold.callback = Gate::hold;
-    hold.user_data = &gate;
-    hold.mesh_levels = 0b111;  // 32, 64, 128: held at 32
+    const nfd_job_options hold = gate.job_options(0, 0b111);  // 32, 64, 128: held at 32
     ASSERT_EQ(nfd_queue_submit(q, slow, &big, &hold, &running), NFD_SUCCESS);
     ASSERT_EQ(nfd_queue_submit(q, slow, &big, &jo4, &waiting), NFD_SUCCESS);
     ASSERT_EQ(nfd_queue_submit(q, small, &tiny, &jo5, &queued), NFD_SUCCESS);
@@ -534,10 +534,7 @@ TEST(Queue, WaitWithTimeout) {
     nfd_queue* q = make_queue(ctx, 1);
     const nfd_mesh_options mo = mesh_options(16);
     Gate gate;
-    nfd_job_options hold = {};
-    hold.priority = 1;
-    hold.callback = Gate::hold;
-    hold.user_data = &gate;
+    const nfd_job_options hold = gate.job_options(1);
     nfd_job *first = nullptr, *job = nullptr;
     ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &first), NFD_SUCCESS);
     ASSERT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &job), NFD_SUCCESS);
@@ -704,11 +701,7 @@ TEST(Queue, CancelBetweenLevels) {
     nfd_queue* q = make_queue(ctx, 1);
     const nfd_mesh_options mo = mesh_options(kSlowResolution);
     Gate gate;
-    nfd_job_options jo = {};
-    jo.struct_size = sizeof jo;
-    jo.callback = Gate::hold;
-    jo.user_data = &gate;
-    jo.mesh_levels = 0b111;
+    const nfd_job_options jo = gate.job_options(0, 0b111);
     nfd_job* job = nullptr;
     ASSERT_EQ(nfd_queue_submit(q, a, &mo, &jo, &job), NFD_SUCCESS);
     while (gate.calls.load() == 0) std::this_thread::yield();
@@ -784,11 +777,7 @@ TEST(Queue, CancelWhileWaitingToGrow) {
     nfd_queue* q = make_queue(ctx, 2, 2 * first_step_host(bytes, kSlowResolution));
     const nfd_mesh_options mo = mesh_options(kSlowResolution);
     Gate gate;
-    nfd_job_options hold = {};
-    hold.struct_size = sizeof hold;
-    hold.callback = Gate::hold;
-    hold.user_data = &gate;
-    hold.mesh_levels = 0b111;
+    const nfd_job_options hold = gate.job_options(0, 0b111);
     nfd_job *held = nullptr, *grows = nullptr;
     ASSERT_EQ(nfd_queue_submit(q, a, &mo, &hold, &held), NFD_SUCCESS);
     while (gate.calls.load() == 0) std::this_thread::yield();
