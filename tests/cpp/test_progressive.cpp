@@ -10,6 +10,7 @@
 
 #include "alloc_tracking.h"
 #include "extract.h"
+#include "progressive.h"
 #if NFD_WITH_VULKAN
 #include "gpu/gpu_decode.h"
 #endif
@@ -319,6 +320,30 @@ INSTANTIATE_TEST_SUITE_P(Devices, Progressive,
 
 // What a step reports it will allocate bounds what the next step's peak adds to the live host
 // bytes, on the CPU path, SDF and UDF, every level meshed (the largest case).
+// Hostile values that pass the CRC (the accepted flips of every 41st byte of a small SDF and UDF
+// network's GEOM payload): every level of a progressive extraction ends in a success with a
+// finite mesh or an error code, never a crash (CPU path, ladder 32, 64).
+TEST(ProgressiveCpu, AcceptedDamageGivesFiniteLevelsOrErrors) {
+    for (uint8_t field : {uint8_t(0), uint8_t(1)}) {
+        size_t meshed = 0;
+        for_each_accepted_damage(
+            geom_payload(random_siren(8, 8, 11, field)), 41, {0x80, 0xFF},
+            [&](size_t i, const Geometry& g) {
+                const std::unique_ptr<Extraction> ex = make_extraction_cpu(g, 64, 0b11, 1);
+                for (bool done = false; !done;) {
+                    MeshData m;
+                    ExtractStats stats;
+                    LevelReport report;
+                    if (ex->step(&m, &stats, &report) != NFD_SUCCESS) break;
+                    ASSERT_TRUE(is_finite_mesh(m)) << i;
+                    meshed += m.triangle_count() > 0;
+                    done = report.done;
+                }
+            });
+        EXPECT_GT(meshed, 0u) << int(field);
+    }
+}
+
 TEST(ProgressiveMemory, NextStepBoundHoldsOnTheCpu) {
     for (const std::string name : {"bunny_sdf_w32", "tshirt_udf_w16"}) {
         SCOPED_TRACE(name);

@@ -251,12 +251,21 @@ TEST(Queue, TenAssetsAtOnceMatchMeshExtractVulkan) {
 }
 #endif
 
-// One worker, held by a first job's callback while the others are queued: they then run by
-// priority, higher first, submission order among equals.
-TEST(Queue, PriorityOrderThenSubmissionOrder) {
+// A CPU context, a small blob's asset and a one-worker queue, destroyed in that order's reverse.
+struct QueueOnBlob : ::testing::Test {
     nfd_context* ctx = make_context(NFD_DEVICE_CPU);
     nfd_asset* a = make_asset(blob(1.0f));
     nfd_queue* q = make_queue(ctx, 1);
+    void TearDown() override {
+        nfd_queue_destroy(q);
+        nfd_asset_destroy(a);
+        nfd_context_destroy(ctx);
+    }
+};
+
+// One worker, held by a first job's callback while the others are queued: they then run by
+// priority, higher first, submission order among equals.
+TEST_F(QueueOnBlob, PriorityOrderThenSubmissionOrder) {
     const nfd_mesh_options mo = mesh_options(16);
     Gate gate;
     // Runs first even if the worker had not taken it yet.
@@ -279,16 +288,10 @@ TEST(Queue, PriorityOrderThenSubmissionOrder) {
     EXPECT_EQ(gate.calls.load(), 1);
     for (nfd_job* j : jobs) nfd_job_destroy(j);
     nfd_job_destroy(first);
-    nfd_queue_destroy(q);
-    nfd_asset_destroy(a);
-    nfd_context_destroy(ctx);
 }
 
 // Queued: cancelled at once, its callback on the cancelling thread, nothing left reserved.
-TEST(Queue, CancelQueuedJob) {
-    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
-    nfd_asset* a = make_asset(blob(1.0f));
-    nfd_queue* q = make_queue(ctx, 1);
+TEST_F(QueueOnBlob, CancelQueuedJob) {
     const nfd_mesh_options mo = mesh_options(16);
     Gate gate;
     const nfd_job_options hold = gate.job_options(1);
@@ -315,9 +318,6 @@ TEST(Queue, CancelQueuedJob) {
     EXPECT_EQ(st.jobs_cancelled, 1u);
     nfd_job_destroy(job);
     nfd_job_destroy(first);
-    nfd_queue_destroy(q);
-    nfd_asset_destroy(a);
-    nfd_context_destroy(ctx);
 }
 
 // Running: the step completes, the job ends CANCELLED at that boundary and its mesh is freed
@@ -528,10 +528,7 @@ TEST(Queue, CallbackMayDestroyItsOwnJob) {
 }
 
 // A wait that times out returns the status then, not final; 0 is a poll.
-TEST(Queue, WaitWithTimeout) {
-    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
-    nfd_asset* a = make_asset(blob(1.0f));
-    nfd_queue* q = make_queue(ctx, 1);
+TEST_F(QueueOnBlob, WaitWithTimeout) {
     const nfd_mesh_options mo = mesh_options(16);
     Gate gate;
     const nfd_job_options hold = gate.job_options(1);
@@ -545,9 +542,6 @@ TEST(Queue, WaitWithTimeout) {
     EXPECT_EQ(nfd_job_wait(job, 0), NFD_JOB_DONE);
     nfd_job_destroy(job);
     nfd_job_destroy(first);
-    nfd_queue_destroy(q);
-    nfd_asset_destroy(a);
-    nfd_context_destroy(ctx);
 }
 
 TEST(Queue, NullAndInvalidArguments) {
@@ -801,10 +795,7 @@ TEST(Queue, CancelWhileWaitingToGrow) {
 
 // mesh_levels as nfd_extraction_options', except 0: the final level must be in it, no bit past
 // the ladder.
-TEST(Queue, MeshLevelsOutsideTheLadderAreRejected) {
-    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
-    nfd_asset* a = make_asset(blob(1.0f));
-    nfd_queue* q = make_queue(ctx, 1);
+TEST_F(QueueOnBlob, MeshLevelsOutsideTheLadderAreRejected) {
     const nfd_mesh_options mo = mesh_options(128);
     nfd_job_options jo = {};
     jo.struct_size = sizeof jo;
@@ -816,9 +807,6 @@ TEST(Queue, MeshLevelsOutsideTheLadderAreRejected) {
     }
     nfd_job_progress p = {};
     EXPECT_EQ(nfd_job_get_progress(nullptr, &p), NFD_ERROR_INVALID_ARGUMENT);
-    nfd_queue_destroy(q);
-    nfd_asset_destroy(a);
-    nfd_context_destroy(ctx);
 }
 
 }  // namespace
