@@ -16,7 +16,8 @@
 #define NFD_GPU_UNIFORM_VEC4S 4096 // a uniform weight block: 64 KiB
 #define NFD_FIELD_LOCAL_SIZE 32
 #define NFD_FIELD_LOCAL_SIZE_ID 14 // constant_id of local_size_x (after the network's sizes)
-#define NFD_FIELD_PUSH_BYTES 8     // the point count, the first result's index
+#define NFD_B_FIELD_COUNTERS 11    // the job's counters (counters.glsl)
+#define NFD_FIELD_PUSH_BYTES 12    // capacity, the first result's index, the count's slot
 
 // ---- scan.comp ----------------------------------------------------------------------------------
 #define NFD_B_SCAN_IN 0
@@ -24,7 +25,19 @@
 #define NFD_B_SCAN_SUMS 2
 #define NFD_SCAN_LOCAL_SIZE 256
 #define NFD_SCAN_BLOCK 1024        // elements per workgroup: 4 per invocation
+#define NFD_B_SCAN_COUNTERS 3      // bitmap_compact, count_total, dispatch_args: the counters
 #define NFD_COUNT_PUSH_BYTES 4     // scan and bitmap_compact: the element count
+#define NFD_TOTAL_PUSH_BYTES 16    // count_total.comp's TotalPush
+#define NFD_B_ARGS 4               // dispatch_args.comp: VkDispatchIndirectCommand records
+#define NFD_ARGS_PUSH_BYTES 20     // dispatch_args.comp's ArgsPush
+#define NFD_DRAW_PUSH_BYTES 8      // draw_args.comp's DrawPush
+
+// ---- the job's counters (counters.glsl) ---------------------------------------------------------
+// Item counts that kernels produce and later kernels consume without a host read-back: slot 0
+// is the overflow flag, NFD_NO_COUNTER means "the dispatch's capacity is its count".
+#define NFD_COUNTER_OVERFLOW 0
+#define NFD_NO_COUNTER 0xffffffffu
+#define NFD_COUNTER_SLOTS 256
 
 // ---- the sparse levels and meshers (extract.glsl, mc.glsl, udf.glsl) ---------------------------
 // One number per buffer role across all of them, so that any kernel can bind any role.
@@ -61,8 +74,10 @@
 #define NFD_B_GRADIENT_OWNED 24    // the gradient point list (NFD_B_OWNED's layout)
 #define NFD_B_GRADIENT_OFFSETS 25
 #define NFD_B_GRADIENTS 26         // (value, gradient) per listed point, field_eval's output
+#define NFD_B_COUNTERS 27          // the job's counters (counters.glsl)
+#define NFD_B_DENSE_VALUES 28      // dense_corners: the top level's values, side^3 vertices
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel
-#define NFD_LEVEL_PUSH_BYTES 52    // extract.glsl's LevelPush
+#define NFD_LEVEL_PUSH_BYTES 56    // extract.glsl's LevelPush
 
 #endif

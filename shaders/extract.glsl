@@ -16,6 +16,8 @@
 #ifndef NFD_EXTRACT_GLSL
 #define NFD_EXTRACT_GLSL
 #include "bindings.h"
+#define COUNTERS_BINDING NFD_B_COUNTERS
+#include "counters.glsl"
 
 layout(local_size_x = NFD_LOCAL_SIZE) in;
 layout(std430, binding = NFD_B_KEPT_BITS) readonly buffer KeptBits { uint kept_bits[]; };
@@ -31,16 +33,20 @@ layout(push_constant) uniform LevelPush {
     vec4 center;        // mc_vertices: original = unit * scale + center.xyz
     uint parent_cells;  // cells per axis of the parent level
     uint child_cells;   // of the child level: 2 * parent_cells or one less (the last is dropped)
-    uint count;         // invocations: kept parents (kept children: gather_corners; vertices:
-                        // mc_vertices, udf_vertices)
+    uint count;         // capacity of the items (kept parents; kept children: gather_corners;
+                        // vertices: mc_vertices, udf_vertices; points: refine_points), and with
+                        // count_slot and first their number: item_count()
     uint child_level;   // l: child-grid point v is fine vertex v << l
     float step;         // fine cell edge, 2.0f / resolution
     float threshold;    // refine_cells: the activity threshold of a child cell; UDF: of a near
                         // cell (grid.h, udf_near_threshold)
     float scale;        // mc_vertices, udf_vertices
     float edge_limit;   // UDF: the largest f_a + f_b of a valid edge (extract.h, step 5)
-    uint first_parent;  // refine_points: the first parent of its chunk
+    uint first;         // refine_points: the first point of its chunk
+    uint count_slot;    // the counter with the items' total (counters.glsl), or NFD_NO_COUNTER
 } push;
+
+uint item_count() { return counted_items(push.count, push.count_slot, push.first); }
 
 vec3 child_point(uvec3 v) {
     return vec3(fine_coordinate(v.x << push.child_level, push.step),

@@ -33,6 +33,8 @@
 #extension GL_EXT_control_flow_attributes : require
 #include "common.glsl"
 #include "bindings.h"
+#define COUNTERS_BINDING NFD_B_FIELD_COUNTERS
+#include "counters.glsl"
 
 layout(constant_id = 0) const uint FREQ4 = 4;        // frequency blocks of 4
 layout(constant_id = 1) const uint NUM_LAYERS = 3;
@@ -79,8 +81,9 @@ WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 5, layer5)
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 6, layer6)
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 7, layer7)
 
-// Point i of the input is result first + i: a long list is evaluated in chunks of points.
-layout(push_constant) uniform Push { uint count; uint first; } push;
+// Point i of the input is result first + i: a long list is evaluated in chunks of points. The
+// chunk holds push.count points at most, and fewer when counter push.count_slot says so.
+layout(push_constant) uniform Push { uint count; uint first; uint count_slot; } push;
 
 vec4 ping[POINTS * MAX4];
 vec4 pong[POINTS * MAX4];
@@ -188,11 +191,12 @@ mat2x4 encode(uint b, float coordinate) {
 
 void main() {
     uint first = global_invocation_index(gl_WorkGroupSize.x) * POINTS;
-    if (first >= push.count) return;
+    uint count = counted_items(push.count, push.count_slot, push.first);
+    if (first >= count) return;
 
     // Positional encoding into ping; points past the end repeat the last one (results dropped).
     for (uint p = 0; p < POINTS; ++p) {
-        uint i = min(first + p, push.count - 1);
+        uint i = min(first + p, count - 1);
         vec3 u = vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
         uint v = p * MAX4;
         ping[v] = vec4(u, 0.0);
@@ -219,7 +223,7 @@ void main() {
 
     // The output layer K = NUM_LAYERS - 1 wrote pong when K is even, ping when odd.
 #ifndef WITH_GRADIENT
-    for (uint p = 0; p < POINTS && first + p < push.count; ++p)
+    for (uint p = 0; p < POINTS && first + p < count; ++p)
         values[push.first + first + p] = activate_output(
             (NUM_LAYERS & 1) == 1 ? pong[p * MAX4].x : ping[p * MAX4].x);
 #else
@@ -254,13 +258,13 @@ void main() {
             BACK_COLUMN(OUT4_0, ENC4, layer0, pong, 1 + 6 * b + a, d_sin)
             BACK_COLUMN(OUT4_0, ENC4, layer0, pong, 4 + 6 * b + a, d_cos)
             for (uint p = 0; p < POINTS; ++p) {
-                uint i = min(first + p, push.count - 1);
+                uint i = min(first + p, count - 1);
                 mat2x4 e = encode(b, points[3 * i + a]);
                 gradient[p][a] += dot(d_sin[p], f * e[1]) - dot(d_cos[p], f * e[0]);
             }
         }
     }
-    for (uint p = 0; p < POINTS && first + p < push.count; ++p)
+    for (uint p = 0; p < POINTS && first + p < count; ++p)
         values[push.first + first + p] = vec4(activate_output(y[p]), gradient[p]);
 #endif
 }

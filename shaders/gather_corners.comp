@@ -11,7 +11,7 @@ layout(std430, binding = NFD_B_CHILD_CORNERS) writeonly buffer ChildCorners {
 
 void main() {
     uint j = global_invocation_index(gl_WorkGroupSize.x);
-    if (j >= push.count) return;
+    if (j >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 child = cell_coords(child_cells[j], push.child_cells);
     uvec3 p = child / 2u;

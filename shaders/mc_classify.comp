@@ -13,7 +13,7 @@ layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; }
 
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
-    if (k >= push.count) return;
+    if (k >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     load_grid(p, k, r);

@@ -8,7 +8,7 @@ layout(std430, binding = NFD_B_CHILD_BITS) buffer ChildBits { uint child_bits[];
 
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
-    if (k >= push.count) return;
+    if (k >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     float grid[27];

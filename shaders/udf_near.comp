@@ -9,7 +9,7 @@
 
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
-    if (k >= push.count) return;
+    if (k >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     load_grid(p, k, r);

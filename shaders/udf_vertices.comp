@@ -14,7 +14,7 @@ layout(std430, binding = NFD_B_NORMALS) writeonly buffer Normals { float normals
 
 void main() {
     uint vertex = global_invocation_index(gl_WorkGroupSize.x);
-    if (vertex >= push.count) return;
+    if (vertex >= item_count()) return;
     uint r = push.parent_cells;
     uint k = vertex_edges[vertex] >> 6;
     uvec3 p = cell_coords(kept_cells[k], r);

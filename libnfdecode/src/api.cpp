@@ -61,6 +61,14 @@ struct nfd_extraction {
     bool done = false, failed = false;
 };
 
+struct nfd_recording {
+#if NFD_WITH_VULKAN
+    std::unique_ptr<nfd::gpu::Recording> impl;
+    nfd::gpu::RecordingTotals totals;
+#endif
+    bool finished = false;
+};
+
 struct nfd_queue {
     nfd_context* context;
     std::unique_ptr<nfd::Queue> queue;
@@ -173,6 +181,8 @@ constexpr size_t kExtractionLevel02 = NFD_LAYOUT_END(nfd_extraction_level, next_
 constexpr size_t kQueueOptions02 = NFD_LAYOUT_END(nfd_queue_options, device_budget_bytes);
 constexpr size_t kJobOptions02 = NFD_LAYOUT_END(nfd_job_options, user_data);
 constexpr size_t kJobProgress1 = NFD_LAYOUT_END(nfd_job_progress, final_resolution);
+constexpr size_t kRecordingOptions03 = NFD_LAYOUT_END(nfd_recording_options, max_triangles);
+constexpr size_t kRecordingResult03 = NFD_LAYOUT_END(nfd_recording_result, stats);
 
 // The grid resolution an option asks for (0 = NFD_DEFAULT_RESOLUTION), or 0 outside the caps.
 uint32_t options_resolution(uint32_t requested) {
@@ -212,6 +222,15 @@ uint32_t grid_level_mask(uint32_t ladder_mask, uint32_t top) {
     return mask;
 }
 
+nfd_decode_stats public_stats(const nfd::ExtractStats& s) {
+    nfd_decode_stats out{};
+    out.seconds_field = s.seconds_field;
+    out.seconds_mesh = s.seconds_mesh;
+    out.points_evaluated = s.points_evaluated;
+    out.active_cells = s.active_cells;
+    return out;
+}
+
 // Writes the fields of `info` that the caller's struct_size covers (0: the first layout).
 void write_level_info(const nfd_extraction_level& info, nfd_extraction_level* out) {
     const size_t size = out->struct_size ? out->struct_size : kExtractionLevel02;
@@ -235,6 +254,8 @@ const char* nfd_result_string(nfd_result result) {
         case NFD_ERROR_LIMIT_EXCEEDED: return "request exceeds a documented limit";
         case NFD_ERROR_CANCELLED: return "the job was cancelled";
         case NFD_ERROR_NOT_READY: return "the job has no result yet";
+        case NFD_ERROR_CAPACITY_EXCEEDED:
+            return "the recorded decode outgrew its capacities (record again with the needed ones)";
         case NFD_ERROR_OUT_OF_MEMORY: return "out of memory";
         case NFD_ERROR_DEVICE_UNAVAILABLE: return "no usable Vulkan device";
         case NFD_ERROR_DEVICE: return "Vulkan device error";
@@ -464,10 +485,7 @@ nfd_result nfd_mesh_get_data(const nfd_mesh* mesh, nfd_mesh_data* out_data) {
 
 nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats) {
     if (!mesh || !out_stats) return NFD_ERROR_INVALID_ARGUMENT;
-    out_stats->seconds_field = mesh->stats.seconds_field;
-    out_stats->seconds_mesh = mesh->stats.seconds_mesh;
-    out_stats->points_evaluated = mesh->stats.points_evaluated;
-    out_stats->active_cells = mesh->stats.active_cells;
+    *out_stats = public_stats(mesh->stats);
     return NFD_SUCCESS;
 }
 
@@ -739,5 +757,104 @@ void nfd_job_destroy(nfd_job* job) {
     job->job->release();
     delete job;
 }
+
+nfd_result nfd_recording_create(nfd_context* context, const nfd_asset* asset,
+                                const nfd_recording_options* options,
+                                nfd_recording** out_recording) {
+    if (!out_recording) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_recording = nullptr;
+    if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
+    nfd_recording_options opts;
+    if (nfd::read_options(options, kRecordingOptions03, &opts) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
+#if NFD_WITH_VULKAN
+    if (!context->gpu) return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t resolution = options_resolution(opts.resolution);
+    if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
+    nfd::gpu::Capacities c = nfd::gpu::default_capacities(resolution);
+    if (opts.max_cells) c.cells = opts.max_cells;
+    if (opts.max_gradient_points) c.gradient_points = opts.max_gradient_points;
+    if (opts.max_vertices) c.vertices = opts.max_vertices;
+    if (opts.max_triangles) c.triangles = opts.max_triangles;
+    if (c.cells >= 1u << 26) return NFD_ERROR_LIMIT_EXCEEDED;  // mc_emit's k << 6 | edge records
+    if (asset->file.geometry.field != nfd::FieldType::Udf) c.gradient_points = 0;
+    return guarded([&] {
+        auto recording = std::make_unique<nfd_recording>();
+        const nfd_result r = nfd::gpu::make_recording(*context->gpu, asset->file.geometry,
+                                                      resolution, c, &recording->impl);
+        if (r == NFD_SUCCESS) *out_recording = recording.release();
+        return r;
+    });
+#else
+    return NFD_ERROR_INVALID_ARGUMENT;  // no Vulkan context in this build
+#endif
+}
+
+nfd_result nfd_recording_get_mesh(const nfd_recording* recording, nfd_device_mesh* out_mesh) {
+    if (!recording || !out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
+#if NFD_WITH_VULKAN
+    const nfd::gpu::DeviceMeshHandles h = nfd::gpu::device_mesh(*recording->impl);
+    *out_mesh = {h.positions, h.normals, h.indices, h.draw, h.vertex_capacity,
+                 h.triangle_capacity};
+    return NFD_SUCCESS;
+#else
+    return NFD_ERROR_INVALID_ARGUMENT;
+#endif
+}
+
+nfd_result nfd_recording_record(nfd_recording* recording, void* command_buffer) {
+    if (!recording || !command_buffer) return NFD_ERROR_INVALID_ARGUMENT;
+#if NFD_WITH_VULKAN
+    return guarded([&] { return nfd::gpu::record(*recording->impl, command_buffer); });
+#else
+    return NFD_ERROR_INVALID_ARGUMENT;
+#endif
+}
+
+nfd_result nfd_recording_finish(nfd_recording* recording, nfd_recording_result* out_result) {
+    if (!recording || !out_result) return NFD_ERROR_INVALID_ARGUMENT;
+    const uint32_t caller_size = out_result->struct_size;
+    if (caller_size && caller_size < kRecordingResult03) return NFD_ERROR_INVALID_ARGUMENT;
+#if NFD_WITH_VULKAN
+    nfd::gpu::RecordingTotals& t = recording->totals;
+    const nfd_result r = nfd::gpu::finish(*recording->impl, &t);
+    if (r != NFD_SUCCESS && r != NFD_ERROR_CAPACITY_EXCEEDED) return r;
+    recording->finished = r == NFD_SUCCESS;
+    nfd_recording_result out{};
+    out.vertex_count = t.vertices;
+    out.triangle_count = t.triangles;
+    out.needed_cells = t.needed.cells;
+    out.needed_gradient_points = t.needed.gradient_points;
+    out.needed_vertices = t.needed.vertices;
+    out.needed_triangles = t.needed.triangles;
+    out.stats = public_stats(t.stats);
+    std::memcpy(out_result, &out,
+                std::min(caller_size ? size_t(caller_size) : kRecordingResult03, sizeof out));
+    out_result->struct_size = caller_size;
+    return r;
+#else
+    return NFD_ERROR_INVALID_ARGUMENT;
+#endif
+}
+
+nfd_result nfd_recording_read_mesh(const nfd_recording* recording, nfd_mesh** out_mesh) {
+    if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_mesh = nullptr;
+    if (!recording || !recording->finished) return NFD_ERROR_INVALID_ARGUMENT;
+#if NFD_WITH_VULKAN
+    return guarded([&] {
+        auto mesh = std::make_unique<nfd_mesh>();
+        const nfd_result r = nfd::gpu::read_mesh(*recording->impl, &mesh->data);
+        if (r != NFD_SUCCESS) return r;
+        mesh->stats = recording->totals.stats;
+        *out_mesh = mesh.release();
+        return NFD_SUCCESS;
+    });
+#else
+    return NFD_ERROR_INVALID_ARGUMENT;
+#endif
+}
+
+void nfd_recording_destroy(nfd_recording* recording) { delete recording; }
 
 }  // extern "C"

@@ -8,94 +8,16 @@
 
 #include <vector>
 
+#include "host_vulkan.h"
 #include "nfdecode/nfdecode.h"
 #include "test_util.h"
 
 namespace nfd::test {
 namespace {
 
-// What an engine owns: an instance, a device with one queue of a compute-capable family.
-struct HostVulkan {
-    VkInstance instance = VK_NULL_HANDLE;
-    VkPhysicalDevice physical = VK_NULL_HANDLE;
-    VkDevice device = VK_NULL_HANDLE;
-    VkQueue queue = VK_NULL_HANDLE;
-    uint32_t family = 0;
-    uint32_t family_count = 0;
-
-    // Empty string on success, else why there is no device.
-    std::string create() {
-        VkApplicationInfo app{};
-        app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
-        app.pApplicationName = "nfdecode adopt test";
-        app.apiVersion = VK_API_VERSION_1_1;
-        VkInstanceCreateInfo info{};
-        info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
-        info.pApplicationInfo = &app;
-        if (vkCreateInstance(&info, nullptr, &instance) != VK_SUCCESS)
-            return "vkCreateInstance failed";
-        uint32_t count = 0;
-        vkEnumeratePhysicalDevices(instance, &count, nullptr);
-        std::vector<VkPhysicalDevice> devices(count);
-        vkEnumeratePhysicalDevices(instance, &count, devices.data());
-        devices.resize(count);
-        for (VkPhysicalDevice candidate : devices) {
-            VkPhysicalDeviceProperties properties;
-            vkGetPhysicalDeviceProperties(candidate, &properties);
-            if (properties.apiVersion < VK_API_VERSION_1_1) continue;
-            uint32_t families = 0;
-            vkGetPhysicalDeviceQueueFamilyProperties(candidate, &families, nullptr);
-            std::vector<VkQueueFamilyProperties> props(families);
-            vkGetPhysicalDeviceQueueFamilyProperties(candidate, &families, props.data());
-            for (uint32_t i = 0; i < families && !physical; ++i)
-                if (props[i].queueFlags & VK_QUEUE_COMPUTE_BIT) physical = candidate, family = i;
-            if (physical) {
-                family_count = families;
-                break;
-            }
-        }
-        if (!physical) return "no Vulkan 1.1 device with a compute queue";
-        const float priority = 1.0f;
-        VkDeviceQueueCreateInfo queue_info{};
-        queue_info.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO;
-        queue_info.queueFamilyIndex = family;
-        queue_info.queueCount = 1;
-        queue_info.pQueuePriorities = &priority;
-        VkDeviceCreateInfo device_info{};
-        device_info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
-        device_info.queueCreateInfoCount = 1;
-        device_info.pQueueCreateInfos = &queue_info;
-        if (vkCreateDevice(physical, &device_info, nullptr, &device) != VK_SUCCESS)
-            return "vkCreateDevice failed";
-        vkGetDeviceQueue(device, family, 0, &queue);
-        return "";
-    }
-
-    ~HostVulkan() {
-        if (device) vkDestroyDevice(device, nullptr);
-        if (instance) vkDestroyInstance(instance, nullptr);
-    }
-
-    nfd_vulkan_device lend() const {
-        nfd_vulkan_device d{};
-        d.instance = instance;
-        d.physical_device = physical;
-        d.device = device;
-        d.queue = queue;
-        d.queue_family_index = family;
-        return d;
-    }
-};
-
 class Adopt : public ::testing::Test {
 protected:
-    void SetUp() override {
-        const std::string why = host_.create();
-        if (why.empty()) return;
-        const char* required = std::getenv("NFD_REQUIRE_VULKAN");
-        if (required && *required && *required != '0') FAIL() << why;
-        GTEST_SKIP() << why;
-    }
+    void SetUp() override { skip_without_vulkan(host_.create()); }
 
     // Runs on the host's queue after libnfdecode is done with it: a fence-signalling submit and a
     // device-wide wait, which fail if the library destroyed or broke the device or queue.

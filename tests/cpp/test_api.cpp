@@ -19,7 +19,7 @@ const nfd_result kAllResults[] = {
     NFD_ERROR_UNSUPPORTED_VERSION, NFD_ERROR_UNSUPPORTED_FEATURE, NFD_ERROR_INVALID_ARGUMENT,
     NFD_ERROR_LIMIT_EXCEEDED, NFD_ERROR_OUT_OF_MEMORY,  NFD_ERROR_DEVICE_UNAVAILABLE,
     NFD_ERROR_DEVICE,      NFD_ERROR_IO,                 NFD_ERROR_INTERNAL,
-    NFD_ERROR_CANCELLED,   NFD_ERROR_NOT_READY};
+    NFD_ERROR_CANCELLED,   NFD_ERROR_NOT_READY,          NFD_ERROR_CAPACITY_EXCEEDED};
 
 struct Api : ::testing::Test {
     nfd_context* ctx = nullptr;
@@ -68,7 +68,7 @@ TEST(ApiResults, ErrorsAreGroupedByRange) {
                          NFD_ERROR_UNSUPPORTED_FEATURE})
         EXPECT_TRUE(r <= -1 && r >= -19);
     for (nfd_result r : {NFD_ERROR_INVALID_ARGUMENT, NFD_ERROR_LIMIT_EXCEEDED, NFD_ERROR_CANCELLED,
-                         NFD_ERROR_NOT_READY})
+                         NFD_ERROR_NOT_READY, NFD_ERROR_CAPACITY_EXCEEDED})
         EXPECT_TRUE(r <= -20 && r >= -39);
     for (nfd_result r : {NFD_ERROR_OUT_OF_MEMORY, NFD_ERROR_DEVICE_UNAVAILABLE, NFD_ERROR_DEVICE,
                          NFD_ERROR_IO})

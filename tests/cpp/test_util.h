@@ -509,6 +509,15 @@ inline std::vector<std::string> golden_names() {
     return names;
 }
 
+// A fixture's SetUp with a host Vulkan device (host_vulkan.h): `why` is what HostVulkan::create
+// returned; non-empty skips the test, or fails it when NFD_REQUIRE_VULKAN is set.
+inline void skip_without_vulkan(const std::string& why) {
+    if (why.empty()) return;
+    const char* required = std::getenv("NFD_REQUIRE_VULKAN");
+    if (required && *required && *required != '0') FAIL() << why;
+    GTEST_SKIP() << why;
+}
+
 inline std::string golden_path(const std::string& name, const std::string& suffix) {
     return vectors_dir() + "/v1_0_" + name + suffix;
 }

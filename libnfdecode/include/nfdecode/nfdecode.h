@@ -54,7 +54,7 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 2
+#define NFD_VERSION_MINOR 3
 #define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
@@ -95,6 +95,7 @@ typedef enum nfd_result {
     NFD_ERROR_LIMIT_EXCEEDED = -21,     /* request beyond a documented limit (e.g. resolution) */
     NFD_ERROR_CANCELLED = -22,          /* the job was cancelled (nfd_job_cancel, queue destroyed) */
     NFD_ERROR_NOT_READY = -23,          /* the job has no result yet */
+    NFD_ERROR_CAPACITY_EXCEEDED = -24,  /* a recorded decode outgrew its capacities (0.3) */
 
     NFD_ERROR_OUT_OF_MEMORY = -40,      /* host or device allocation failed */
     NFD_ERROR_DEVICE_UNAVAILABLE = -41, /* no usable Vulkan driver/device (CPU still works) */
@@ -767,6 +768,135 @@ NFD_API nfd_result nfd_job_get_progress(const nfd_job* job, nfd_job_progress* ou
  * job's callback is running on another thread, this waits for it. An untaken mesh is destroyed.
  * NULL is a no-op. Legal before or after nfd_queue_destroy. */
 NFD_API void nfd_job_destroy(nfd_job* job);
+
+/* ---------------------------------------------------------------------------------------------
+ * Recording into the host's command buffer (Vulkan contexts)
+ *
+ *     nfd_recording* rec;  nfd_recording_options ro = {0};  ro.struct_size = sizeof ro;
+ *     nfd_recording_create(ctx, asset, &ro, &rec);         // ctx adopted the engine's device
+ *     nfd_device_mesh dm;  nfd_recording_get_mesh(rec, &dm);
+ *     nfd_recording_record(rec, cmd);                      // cmd: the engine's VkCommandBuffer
+ *     ... the engine submits cmd; later, in a render pass of a cmd submitted after it:
+ *     vkCmdBindVertexBuffers(... dm.positions ..., dm.normals ...);
+ *     vkCmdBindIndexBuffer(... dm.indices, 0, VK_INDEX_TYPE_UINT32);
+ *     vkCmdDrawIndexedIndirect(draw_cmd, dm.draw, 0, 1, 20);
+ *     ... once the engine has waited for cmd (fence, timeline semaphore):
+ *     nfd_recording_result res = {0};  res.struct_size = sizeof res;
+ *     if (nfd_recording_finish(rec, &res) == NFD_ERROR_CAPACITY_EXCEEDED) record again with
+ *         res.needed_* as the capacities;
+ *     nfd_recording_destroy(rec);                          // after the wait; frees the buffers
+ *
+ * Instead of the library's own submission (nfd_mesh_extract, extractions, the queue), the whole
+ * decode of a mesh is recorded into a command buffer of the engine's, which submits it with its
+ * own work. The mesh stays on the device, in buffers the engine's graphics pipeline binds as they
+ * are (zero copy), drawn through an indirect draw record the decode writes: no count makes a
+ * round trip to the host. It is the same decode as nfd_mesh_extract's on the same context, level
+ * by level and kernel by kernel: the mesh is byte-identical (nfd_recording_read_mesh).
+ *
+ * Capacities. Nothing is read back while the commands run, so every size is fixed when they are
+ * recorded: the kept cells of each level of the sampling (max_cells: level 1's, the mesher's
+ * parents at r/2 cells per axis; a coarser level l gets 2 * (max_cells / 4^(l-1) + 64), at most
+ * its number of cells), the UDF's gradient points, the mesh's vertices and triangles. The buffers
+ * are made to these sizes and live until nfd_recording_destroy (about 260 bytes per cell of
+ * max_cells, the coarser levels included, 16 per gradient point, 28 per vertex and 12 per
+ * triangle, plus the levels' bitmaps, r^3 / 32 bytes at level 1). A decode whose totals exceed
+ * them stops at the first total that does (every later kernel does nothing, nothing is written
+ * out of bounds), its draw record draws nothing, and nfd_recording_finish says so and what would
+ * have sufficed. The defaults (0) per (r / 64)^2: 16384 cells, 49152 gradient points, 16384
+ * vertices and 32768 triangles, twice what typical assets need (about 95 MB at r = 256 for a UDF;
+ * bench/recording.cpp measures the needs, bench/RESULTS.md "Recording into the host's command
+ * buffer"); a very detailed asset (the Stanford dragon's UDF at 256: 38744 vertices per (r/64)^2)
+ * takes a second try.
+ *
+ * What the engine must do. The context must have adopted the engine's device (nfd_context_options
+ * .adopt); the command buffer is the engine's (a primary one, of a pool of the adopted queue
+ * family, in the recording state, outside a render pass), and so is its submission, once. The
+ * recorded commands are compute dispatches (direct and indirect) and buffer fills, ending with a
+ * global memory barrier from COMPUTE_SHADER | TRANSFER writes to VERTEX_INPUT (vertex attribute
+ * and index reads), DRAW_INDIRECT, VERTEX_SHADER, COMPUTE_SHADER, TRANSFER and HOST reads: work
+ * recorded after them in the same command buffer, or in a later submission on the same queue,
+ * may read the mesh buffers. A submission on another queue needs the engine's semaphore (and, for
+ * another family, queue-family ownership is the engine's concern: the buffers are
+ * VK_SHARING_MODE_EXCLUSIVE). The host reads (finish, read_mesh) need the engine's wait for that
+ * submission to have returned. The library's buffers and descriptor sets stay alive until
+ * nfd_recording_destroy, which must come after that wait (or before any submission).
+ *
+ * Threads: a recording borrows its context and asset (both must outlive it); create, record and
+ * destroy use the context's device like any call taking it, so they must not run concurrently
+ * with another call on the same context; get_mesh, finish and read_mesh only read.
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_recording nfd_recording;
+
+/* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
+typedef struct nfd_recording_options {
+    uint32_t struct_size;         /* 0.3: sizeof(nfd_recording_options), or 0 */
+    uint32_t resolution;          /* as nfd_mesh_options.resolution */
+    uint32_t max_cells;           /* capacities, see above; 0 = the default of the resolution */
+    uint32_t max_gradient_points; /* UDF fields (ignored for SDF) */
+    uint32_t max_vertices;
+    uint32_t max_triangles;
+} nfd_recording_options;
+
+/* The mesh's buffers on the engine's device: VkBuffer handles (cast with (VkBuffer)(uintptr_t) on
+ * 64-bit platforms, where they are pointers), owned by the recording. Each allows STORAGE,
+ * UNIFORM, TRANSFER_SRC/DST, VERTEX, INDEX and INDIRECT usage. Only the first vertex_count /
+ * triangle_count entries (nfd_recording_result) are the mesh; the draw record covers exactly them. */
+typedef struct nfd_device_mesh {
+    uint64_t positions;       /* 3 floats per vertex, original frame: a vertex buffer, stride 12 */
+    uint64_t normals;         /* 3 floats per vertex, unit length (as nfd_mesh_data) */
+    uint64_t indices;         /* 3 uint32 per triangle: VK_INDEX_TYPE_UINT32 */
+    uint64_t draw;            /* one VkDrawIndexedIndirectCommand at offset 0 (20 bytes):
+                                 indexCount = 3 * triangles (0 after an overflow), instanceCount 1,
+                                 firstIndex, vertexOffset and firstInstance 0 */
+    uint32_t vertex_capacity;   /* entries the buffers hold */
+    uint32_t triangle_capacity;
+} nfd_device_mesh;
+
+typedef struct nfd_recording_result {
+    uint32_t struct_size;       /* set by the caller (sizeof, or 0 for this layout) */
+    uint32_t vertex_count;      /* the mesh (0 after an overflow) */
+    uint32_t triangle_count;
+    /* Capacities that would have held every total the decode counted: the ones given, raised
+     * where a total exceeded them. Totals after the first overflow were not counted, so a decode
+     * may need more than one more try, each raising at least one capacity. */
+    uint32_t needed_cells, needed_gradient_points, needed_vertices, needed_triangles;
+    nfd_decode_stats stats;     /* points_evaluated, active_cells; times are 0 (the engine's) */
+} nfd_recording_result;
+
+/* Makes the recording: uploads the network, makes the pipelines and the mesh buffers; records
+ * nothing yet. Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (NULL argument, a CPU context);
+ * NFD_ERROR_LIMIT_EXCEEDED (resolution outside the caps, or a capacity of 2^26 cells or more,
+ * beyond what the meshers address); NFD_ERROR_UNSUPPORTED_FEATURE (a network beyond the shaders'
+ * caps); NFD_ERROR_OUT_OF_MEMORY; NFD_ERROR_DEVICE. */
+NFD_API nfd_result nfd_recording_create(nfd_context* context, const nfd_asset* asset,
+                                        const nfd_recording_options* options,
+                                        nfd_recording** out_recording);
+
+/* The mesh buffers, valid from creation to destroy. NFD_ERROR_INVALID_ARGUMENT for NULL. */
+NFD_API nfd_result nfd_recording_get_mesh(const nfd_recording* recording,
+                                          nfd_device_mesh* out_mesh);
+
+/* Records the decode into `command_buffer` (a VkCommandBuffer), once per recording; it makes the
+ * levels' buffers as it goes (device memory). Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT
+ * (NULL argument, a second call); NFD_ERROR_OUT_OF_MEMORY, NFD_ERROR_DEVICE (the command buffer
+ * then holds part of the decode: do not submit it). */
+NFD_API nfd_result nfd_recording_record(nfd_recording* recording, void* command_buffer);
+
+/* After the engine's wait for the recorded commands: what they produced. Outcomes: NFD_SUCCESS;
+ * NFD_ERROR_CAPACITY_EXCEEDED (a total exceeded its capacity: vertex and triangle counts are 0,
+ * needed_* say what to try next); NFD_ERROR_INVALID_ARGUMENT (NULL argument, out_result's
+ * struct_size below its layout, not recorded). Calling it before the commands have completed is
+ * a race on the engine's side: the values are unspecified (never a crash). */
+NFD_API nfd_result nfd_recording_finish(nfd_recording* recording,
+                                        nfd_recording_result* out_result);
+
+/* A host copy of the mesh after a successful finish, the caller's to destroy (nfd_mesh_destroy);
+ * its stats are the result's. NFD_ERROR_INVALID_ARGUMENT (NULL argument, not finished or
+ * overflowed); NFD_ERROR_OUT_OF_MEMORY. */
+NFD_API nfd_result nfd_recording_read_mesh(const nfd_recording* recording, nfd_mesh** out_mesh);
+
+/* Frees the buffers and descriptor sets: after the engine's wait (see above). NULL is a no-op. */
+NFD_API void nfd_recording_destroy(nfd_recording* recording);
 
 #ifdef __cplusplus
 } /* extern "C" */

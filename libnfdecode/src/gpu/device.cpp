@@ -27,12 +27,38 @@ static_assert(NFD_SCAN_BLOCK % NFD_SCAN_LOCAL_SIZE == 0, "scan.comp's per-invoca
 namespace {
 
 constexpr uint32_t B(uint32_t binding) { return 1u << binding; }
-constexpr uint32_t kLevel = B(NFD_B_KEPT_BITS) | B(NFD_B_KEPT_PREFIX) | B(NFD_B_KEPT_CELLS);
+constexpr uint32_t kLevel =
+    B(NFD_B_KEPT_BITS) | B(NFD_B_KEPT_PREFIX) | B(NFD_B_KEPT_CELLS) | B(NFD_B_COUNTERS);
 constexpr uint32_t kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
 constexpr uint32_t kGradients =
     B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_GRADIENTS);
 constexpr uint32_t kFieldLayers = ((1u << NFD_GPU_MAX_LAYERS) - 1) << NFD_B_FIELD_LAYER0;
+constexpr uint32_t kField =
+    B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES) | B(NFD_B_FIELD_COUNTERS);
+constexpr uint32_t kTotal = B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_COUNTERS);
+constexpr uint32_t kArgs = B(NFD_B_SCAN_COUNTERS) | B(NFD_B_ARGS);
+static_assert(NFD_B_FIELD_COUNTERS >= NFD_B_FIELD_LAYER0 + NFD_GPU_MAX_LAYERS, "after the layers");
 constexpr uint32_t kNoSpecialization = UINT32_MAX;
+
+constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientStorage; }
+
+// Where each kernel family binds the job's counters (counters.glsl): the field kernels after
+// their layers, the small list kernels after the scan's bindings, the level kernels (extract.glsl)
+// at NFD_B_COUNTERS; the scans run on capacities and have none.
+constexpr uint32_t counters_binding(Kernel kernel) {
+    if (is_field_kernel(kernel)) return NFD_B_FIELD_COUNTERS;
+    switch (kernel) {
+        case Kernel::Scan:
+        case Kernel::ScanPopcount:
+        case Kernel::ScanAdd: return kNoCounters;
+        case Kernel::BitmapCompact:
+        case Kernel::CountTotal:
+        case Kernel::CountTotalPopcount:
+        case Kernel::DispatchArgs:
+        case Kernel::DrawArgs: return NFD_B_SCAN_COUNTERS;
+        default: return NFD_B_COUNTERS;
+    }
+}
 
 struct KernelDesc {
     Kernel kernel;  // the row's own index, checked below
@@ -44,16 +70,14 @@ struct KernelDesc {
 
 constexpr KernelDesc kKernels[] = {
     // Field: the network's sizes are specialization constants, its local size too.
-    {Kernel::FieldEval, shaders::field_eval, B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES),
-     B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
-    {Kernel::FieldEvalStorage, shaders::field_eval_storage,
-     B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES) | kFieldLayers, B(NFD_B_FIELD_FREQUENCIES),
+    {Kernel::FieldEval, shaders::field_eval, kField, B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers,
      NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
-    {Kernel::FieldGradient, shaders::field_gradient, B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES),
+    {Kernel::FieldEvalStorage, shaders::field_eval_storage, kField | kFieldLayers,
+     B(NFD_B_FIELD_FREQUENCIES), NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    {Kernel::FieldGradient, shaders::field_gradient, kField,
      B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
-    {Kernel::FieldGradientStorage, shaders::field_gradient_storage,
-     B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES) | kFieldLayers, B(NFD_B_FIELD_FREQUENCIES),
-     NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    {Kernel::FieldGradientStorage, shaders::field_gradient_storage, kField | kFieldLayers,
+     B(NFD_B_FIELD_FREQUENCIES), NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
     // Prefix scans and compaction.
     {Kernel::Scan, shaders::scan, B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_SUMS), 0,
      NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE, 0},
@@ -61,14 +85,25 @@ constexpr KernelDesc kKernels[] = {
      0, NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE, 1},
     {Kernel::ScanAdd, shaders::scan_add, B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_SUMS), 0,
      NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE},
-    {Kernel::BitmapCompact, shaders::bitmap_compact, kLevel, 0, NFD_COUNT_PUSH_BYTES,
+    {Kernel::BitmapCompact, shaders::bitmap_compact,
+     B(NFD_B_KEPT_BITS) | B(NFD_B_KEPT_PREFIX) | B(NFD_B_KEPT_CELLS) | B(NFD_B_SCAN_COUNTERS), 0,
+     NFD_COUNT_PUSH_BYTES, NFD_LOCAL_SIZE},
+    // Counts on the device (counters.glsl): totals, indirect dispatch and draw records.
+    {Kernel::CountTotal, shaders::count_total, kTotal, 0, NFD_TOTAL_PUSH_BYTES, 1, 0},
+    {Kernel::CountTotalPopcount, shaders::count_total, kTotal, 0, NFD_TOTAL_PUSH_BYTES, 1, 1},
+    {Kernel::DispatchArgs, shaders::dispatch_args, kArgs, 0, NFD_ARGS_PUSH_BYTES, 1},
+    {Kernel::DrawArgs, shaders::draw_args, kArgs, 0, NFD_DRAW_PUSH_BYTES, 1},
+    {Kernel::DenseCorners, shaders::dense_corners,
+     B(NFD_B_COUNTERS) | B(NFD_B_DENSE_VALUES) | B(NFD_B_CHILD_CORNERS), 0, NFD_LEVEL_PUSH_BYTES,
      NFD_LOCAL_SIZE},
     // Refinement (extract.glsl). RefinePoints also lists the UDF's gradient points: the caller
     // binds that list's masks and offsets at NFD_B_OWNED and NFD_B_OFFSETS.
     {Kernel::RefineCount, shaders::refine_count, kLevel | B(NFD_B_OWNED) | B(NFD_B_COUNTS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::RefinePoints, shaders::refine_points,
-     B(NFD_B_KEPT_CELLS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) | B(NFD_B_POINTS), 0,
+     B(NFD_B_KEPT_CELLS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) | B(NFD_B_POINTS) |
+         B(NFD_B_COUNTERS),
+     0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::RefineCells, shaders::refine_cells,
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS), 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
@@ -110,8 +145,15 @@ constexpr bool rows_in_enum_order() {
 }
 static_assert(sizeof(kKernels) / sizeof(kKernels[0]) == kKernelCount, "one row per kernel");
 static_assert(rows_in_enum_order(), "kKernels[k] describes Kernel k");
+constexpr bool rows_bind_their_counters() {
+    for (const KernelDesc& k : kKernels) {
+        const uint32_t b = counters_binding(k.kernel);
+        if (b != kNoCounters && !(k.storage >> b & 1)) return false;
+    }
+    return true;
+}
+static_assert(rows_bind_their_counters(), "a kernel with counters has them in its storage mask");
 
-constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientStorage; }
 
 // The marching-cubes tables, exactly as the CPU reference uses them (mc.glsl's layout).
 nfd_result upload_mc_tables(Device& d) {
@@ -138,6 +180,7 @@ PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization
     desc.uniform_bindings = k.uniform;
     desc.push_constant_bytes = k.push_bytes;
     desc.local_size = k.local_size;
+    desc.counters_binding = counters_binding(kernel);
     if (is_field_kernel(kernel)) desc.local_size_id = NFD_FIELD_LOCAL_SIZE_ID;
     desc.specialization = std::move(specialization);
     if (k.constant0 != kNoSpecialization) desc.specialization = {k.constant0};

@@ -30,6 +30,7 @@ inline uint32_t div_up(uint64_t a, uint64_t b) { return uint32_t((a + b - 1) / b
 enum class Kernel : uint32_t {
     FieldEval, FieldEvalStorage, FieldGradient, FieldGradientStorage,  // specialized per network
     Scan, ScanPopcount, ScanAdd, BitmapCompact,
+    CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseCorners,
     RefineCount, RefinePoints, RefineCells, GatherCorners,
     McClassify, McEmit, McVertices,
     UdfNear, UdfGradientCount, UdfClassify, UdfVertices,
@@ -75,6 +76,57 @@ private:
 
 inline uint32_t word(const Buffer& b, size_t i) { return b.as<uint32_t>()[i]; }
 
+// ---- one decode's counts on the device (job.cpp; counters.glsl) -------------------------------
+// The items of a counted dispatch: at most `capacity` (what its buffers hold) from item `first`
+// on, as many as counter `slot` says when it runs (NFD_NO_COUNTER: exactly `capacity`).
+struct Count {
+    uint32_t capacity = 0;
+    uint32_t slot = NFD_NO_COUNTER;
+    uint32_t first = 0;
+};
+
+// The counters and indirect-dispatch records of one decode. Item counts stay on the device:
+// count_total writes them, dispatch_args turns them into the next kernels' workgroup counts, so
+// a level is recorded without knowing its sizes. An own job runs in the context's batches and
+// may read a counter after a submit (sync); a recorded job writes into a host's command buffer
+// (nfd_recording), with the capacities of a plan, and is read only after the host's wait.
+class Job {
+public:
+    Job(Device& d, bool own_batches) : device(d), own(own_batches), buffers_(*d.vk) {}
+    nfd_result init();  // the counters, zeroed
+    Device& device;
+    const bool own;
+
+    nfd_result new_slot(uint32_t* slot);  // NFD_ERROR_INTERNAL past NFD_COUNTER_SLOTS
+    uint32_t counter(uint32_t slot) const { return word(*counters_, slot); }  // after the fence
+    bool overflowed() const { return counter(NFD_COUNTER_OVERFLOW) != 0; }
+    const Buffer& counters() const { return *counters_; }
+
+    // Launches `pipeline` over `count`'s items, `per_invocation` to an invocation, the counters
+    // bound where its kernel family has them; its push constants must describe the same count.
+    nfd_result dispatch(const Pipeline& pipeline, std::vector<Bind> buffers, const void* push,
+                        Count count, uint32_t per_invocation = 1);
+    nfd_result dispatch(Kernel kernel, std::vector<Bind> buffers, const void* push, Count count) {
+        return dispatch(device[kernel], std::move(buffers), push, count);
+    }
+    // Counter `slot` := the total of `elements` entries of `in` (their popcounts) whose exclusive
+    // prefix sum is `prefix`; the overflow flag when it exceeds `capacity`.
+    nfd_result total(const Buffer& in, const Buffer& prefix, uint32_t elements, bool popcount,
+                     uint32_t slot, uint32_t capacity);
+
+    // Own jobs: begin() and submit() are the context's (records are reused after a submit), sync()
+    // submits and begins again so that counters can be read. Recorded jobs: no-ops.
+    nfd_result begin();
+    nfd_result submit();
+    nfd_result sync();
+
+private:
+    Buffers buffers_;
+    Buffer* counters_ = nullptr;
+    std::vector<Buffer*> args_;  // kRecordsPerBuffer VkDispatchIndirectCommand records each
+    uint32_t records_ = 0, next_slot_ = NFD_COUNTER_OVERFLOW + 1;
+};
+
 // Records an exclusive prefix sum of `count` words of `in` (or of their popcounts) into `out`.
 nfd_result record_scan(Device& d, Buffers& scratch, const Buffer& in, const Buffer& out,
                        uint32_t count, bool popcount);
@@ -101,10 +153,11 @@ struct DeviceNetwork {
 
 // NFD_ERROR_UNSUPPORTED_FEATURE for a network beyond the shader's caps.
 nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out);
-// Records the evaluation of `count` points (xyz) into `results` from point `first` on: one float
-// each, or with `gradient` one vec4 each (value, d/dx, d/dy, d/dz).
-nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& results,
-                        uint32_t count, bool gradient, uint32_t first = 0);
+// Records the evaluation of `count`'s points (xyz, from index 0 of `points`) into `results` from
+// index count.first on: one float each, or with `gradient` one vec4 each (value, d/dx, d/dy,
+// d/dz).
+nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, const Buffer& results,
+                        Count count, bool gradient);
 // Creates the pipeline record_field will use (it does so itself on first use): compiling on a
 // CPU implementation takes tens of MB for a while, better spent before the big buffers exist.
 nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient);

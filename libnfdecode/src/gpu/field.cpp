@@ -49,6 +49,8 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
     if (n == 0) return NFD_SUCCESS;
     DeviceNetwork net;
     NFD_TRY(upload_network(device, network, &net));
+    Job job(device, true);
+    NFD_TRY(job.init());
     Buffers buffers(*device.vk);
     const size_t chunk = std::min(n, kEvaluateChunk);
     Buffer *points, *results;
@@ -57,9 +59,9 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
     for (size_t begin = 0; begin < n; begin += chunk) {
         const uint32_t count = uint32_t(std::min(chunk, n - begin));
         std::memcpy(points->data, unit_xyz + 3 * begin, size_t(count) * 12);
-        NFD_TRY(device.vk->begin());
-        NFD_TRY(record_field(device, net, *points, *results, count, gradient));
-        NFD_TRY(device.vk->submit());
+        NFD_TRY(job.begin());
+        NFD_TRY(record_field(job, net, *points, *results, Count{count}, gradient));
+        NFD_TRY(job.submit());
         take(begin, count, results->as<float>());
     }
     return NFD_SUCCESS;
@@ -156,20 +158,21 @@ nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient) {
     return field_pipeline(d, kernel, spec, &variant.pipeline);
 }
 
-nfd_result record_field(Device& d, DeviceNetwork& net, const Buffer& points, const Buffer& results,
-                        uint32_t count, bool gradient, uint32_t first) {
-    NFD_TRY(prepare_field(d, net, gradient));
+nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, const Buffer& results,
+                        Count count, bool gradient) {
+    NFD_TRY(prepare_field(job.device, net, gradient));
     const DeviceNetwork::Variant& variant = gradient ? net.gradients : net.values;
     const Buffer& w = net.weights;
     auto layer = [&](uint32_t l) -> Bind {
         return {NFD_B_FIELD_LAYER0 + l, BufferRange(w, net.offset[l], net.range[l])};
     };
-    const uint32_t push[2] = {count, first};
-    return d.vk->dispatch(*variant.pipeline,
-                          {{NFD_B_FIELD_POINTS, points}, {NFD_B_FIELD_VALUES, results},
-                           {NFD_B_FIELD_FREQUENCIES, net.frequencies}, layer(0), layer(1),
-                           layer(2), layer(3), layer(4), layer(5), layer(6), layer(7)},
-                          push, div_up(count, variant.points_per_invocation));
+    const uint32_t push[3] = {count.capacity, count.first, count.slot};
+    static_assert(sizeof(push) == NFD_FIELD_PUSH_BYTES, "field_eval.comp's Push");
+    return job.dispatch(*variant.pipeline,
+                        {{NFD_B_FIELD_POINTS, points}, {NFD_B_FIELD_VALUES, results},
+                         {NFD_B_FIELD_FREQUENCIES, net.frequencies}, layer(0), layer(1), layer(2),
+                         layer(3), layer(4), layer(5), layer(6), layer(7)},
+                        push, count, variant.points_per_invocation);
 }
 
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,

@@ -6,18 +6,20 @@
 
 namespace nfd::gpu {
 
-nfd_result mesh_level(Device& device, DeviceNetwork& net, FieldType field, FinestLevel& level,
-                      MeshData* mesh, ExtractStats* stats) {
-    MeshData out;
-    const uint32_t parents = level.parents.kept;
+nfd_result mesh_level(Job& job, DeviceNetwork& net, FieldType field, FinestLevel& level,
+                      const Plan* plan, MeshTarget target, ExtractStats* stats) {
+    const uint32_t parents = level.parents.capacity;
     if (parents >= 1u << 26) return NFD_ERROR_LIMIT_EXCEEDED;  // mc_emit's k << 6 | edge records
+    MeshData out;
+    MeshTarget to = target;
+    if (target.host) to.host = &out;
     if (parents > 0) {
         const auto t_mesh = Clock::now();
-        NFD_TRY(field == FieldType::Udf ? mesh_udf(device, net, level, &out, stats)
-                                        : mesh_sdf(device, level, &out, stats));
+        NFD_TRY(field == FieldType::Udf ? mesh_udf(job, net, level, plan, to, stats)
+                                        : mesh_sdf(job, level, to, stats));
         stats->seconds_mesh = seconds_since(t_mesh);
     }
-    *mesh = std::move(out);
+    if (target.host) *target.host = std::move(out);
     return NFD_SUCCESS;
 }
 
@@ -30,12 +32,14 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
     DeviceNetwork net;
     NFD_TRY(upload_network(device, geometry.network, &net));
     if (geometry.field == FieldType::Udf) NFD_TRY(prepare_field(device, net, true));
-    LevelBuilder levels(device, net, geometry, resolution);
+    Job job(device, true);
+    NFD_TRY(job.init());
+    LevelBuilder levels(job, net, geometry, resolution);
     do NFD_TRY(levels.step());
     while (!levels.done());
     st.points_evaluated = levels.level().points_evaluated;
     st.seconds_field = seconds_since(t_field);
-    NFD_TRY(mesh_level(device, net, geometry.field, levels.level(), mesh, &st));
+    NFD_TRY(mesh_level(job, net, geometry.field, levels.level(), nullptr, {mesh, nullptr}, &st));
     if (stats) *stats = st;
     return NFD_SUCCESS;
 }

@@ -49,11 +49,53 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
 nfd_result make_extraction(Device& device, const Geometry& geometry, uint32_t resolution,
                            uint32_t mesh_mask, std::unique_ptr<Extraction>* out);
 
+// ---- a decode recorded into a host's command buffer (recording.cpp; nfd_recording) -------------
+class Recording;
+
+// Capacities of a recording (nfdecode.h, nfd_recording_options): kept cells of level 1 (coarser
+// levels scaled from it, levels.h Plan), the UDF's gradient points, the mesh.
+struct Capacities {
+    uint32_t cells = 0, gradient_points = 0, vertices = 0, triangles = 0;
+};
+// The defaults for a resolution (nfdecode.h documents the formula).
+Capacities default_capacities(uint32_t resolution);
+
+// What a recorded decode produced, read after the host's wait. `needed`: capacities that would
+// have held every total counted (those past the first overflow are not counted).
+struct RecordingTotals {
+    bool overflowed = false;
+    uint32_t vertices = 0, triangles = 0;
+    Capacities needed;
+    ExtractStats stats;
+};
+
+// The mesh buffers (VkBuffer handles as integers) and their capacities.
+struct DeviceMeshHandles {
+    uint64_t positions = 0, normals = 0, indices = 0, draw = 0;
+    uint32_t vertex_capacity = 0, triangle_capacity = 0;
+};
+
+// Uploads the network, makes the pipelines and the mesh buffers. Device and geometry must outlive
+// the recording.
+nfd_result make_recording(Device& device, const Geometry& geometry, uint32_t resolution,
+                          const Capacities& capacities, std::unique_ptr<Recording>* out);
+void destroy_recording(Recording* recording);
+DeviceMeshHandles device_mesh(const Recording& recording);
+// Records the whole decode into `command_buffer` (a VkCommandBuffer in the recording state), once.
+nfd_result record(Recording& recording, void* command_buffer);
+// After the host's wait: the totals; then read_mesh copies the mesh to the host.
+nfd_result finish(Recording& recording, RecordingTotals* totals);
+nfd_result read_mesh(const Recording& recording, MeshData* mesh);
+
 }  // namespace nfd::gpu
 
 namespace std {
 template <>
 struct default_delete<nfd::gpu::Device> {
     void operator()(nfd::gpu::Device* d) const { nfd::gpu::destroy_device(d); }
+};
+template <>
+struct default_delete<nfd::gpu::Recording> {
+    void operator()(nfd::gpu::Recording* r) const { nfd::gpu::destroy_recording(r); }
 };
 }  // namespace std

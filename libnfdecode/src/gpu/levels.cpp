@@ -2,9 +2,11 @@
 // the level above the coarsest evaluated densely, then per level the child grids of the kept
 // cells (refine_count/points.comp + the field), the keep rule on their children
 // (refine_cells.comp), the child level's sorted kept list and corner values (bitmap_compact,
-// gather_corners.comp). The host only sizes buffers between kernels from counts it reads back.
+// gather_corners.comp). Counts stay on the device (Job): a level's buffers are sized up front
+// from its parents' capacity, and own jobs read the counts after the level's batch only.
 #include <algorithm>
 #include <cstring>
+#include <new>
 
 #include "../mc_tables.h"
 #include "levels.h"
@@ -17,30 +19,41 @@ std::vector<Bind> with(std::vector<Bind> b, std::initializer_list<Bind> more) {
     return b;
 }
 
-// Evaluates the new points of the child grids of all kept cells of `parent` into `g` (its
-// buffers from `buffers`, temporaries from `scratch`). Leaves the batch recording: the caller may
-// add work, then submits.
-nfd_result evaluate_child_grids(Device& d, DeviceNetwork& net, const Level& parent,
+constexpr uint32_t kNewPointsPerParent = 19;  // of a child grid's 27, the 8 corners are known
+
+// Records the evaluation of the new points of the child grids of all kept cells of `parent` into
+// `g` (its buffers from `buffers`, temporaries from `scratch`): which points each parent owns
+// (refine_count), their offsets (a scan over the parents' capacity, zero past their count), the
+// total into a fresh counter, then the list itself.
+nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& parent,
                                 const LevelPush& push, Buffers& buffers, Buffers& scratch,
                                 PointList* g) {
+    const uint32_t k = parent.capacity;
     Buffer* counts;
-    NFD_TRY(buffers.make(VkDeviceSize(parent.kept) * 4, &g->owned));
-    NFD_TRY(buffers.make(VkDeviceSize(parent.kept) * 4, &g->offsets));
-    NFD_TRY(scratch.make(VkDeviceSize(parent.kept) * 4, &counts));
-    NFD_TRY(d.vk->begin());
-    NFD_TRY(d.vk->dispatch(d[Kernel::RefineCount],
-                           with(level_bindings(parent), {{NFD_B_OWNED, *g->owned},
-                                                         {NFD_B_COUNTS, *counts}}),
-                           &push, parent.kept));
-    NFD_TRY(record_scan(d, scratch, *counts, *g->offsets, parent.kept, false));
-    NFD_TRY(d.vk->submit());
-    g->count = word(*g->offsets, parent.kept - 1) + word(*counts, parent.kept - 1);
-    NFD_TRY(buffers.make(VkDeviceSize(g->count) * 4, &g->values));
-    NFD_TRY(d.vk->begin());
-    return record_list(d, net, parent, *g, *g->values, false, push, scratch);
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &g->owned));
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &g->offsets));
+    NFD_TRY(scratch.make(VkDeviceSize(k) * 4, &counts));
+    g->capacity = uint32_t(std::min<uint64_t>(uint64_t(k) * kNewPointsPerParent, UINT32_MAX));
+    NFD_TRY(buffers.make(VkDeviceSize(g->capacity) * 4, &g->values));
+    NFD_TRY(job.new_slot(&g->slot));
+    job.device.vk->fill(*counts, 0);
+    NFD_TRY(job.dispatch(Kernel::RefineCount,
+                         with(level_bindings(parent), {{NFD_B_OWNED, *g->owned},
+                                                       {NFD_B_COUNTS, *counts}}),
+                         &push, parent.count()));
+    NFD_TRY(record_scan(job.device, scratch, *counts, *g->offsets, k, false));
+    NFD_TRY(job.total(*counts, *g->offsets, k, false, g->slot, g->capacity));
+    return record_list(job, net, parent, *g, *g->values, false, push, scratch);
 }
 
 }  // namespace
+
+uint32_t Plan::cells(uint32_t level, uint32_t cells_per_axis) const {
+    const uint64_t all = uint64_t(cells_per_axis) * cells_per_axis * cells_per_axis;
+    uint64_t c = finest_cells;
+    if (level > 1) c = 2 * ((c >> (2 * (level - 1))) + 64);
+    return uint32_t(std::min<uint64_t>({c, all, UINT32_MAX}));
+}
 
 std::vector<Bind> level_bindings(const Level& level) {
     return {{NFD_B_KEPT_BITS, *level.bits},
@@ -48,38 +61,29 @@ std::vector<Bind> level_bindings(const Level& level) {
             {NFD_B_KEPT_CELLS, *level.list}};
 }
 
-nfd_result record_list(Device& device, DeviceNetwork& net, const Level& parents,
-                       const PointList& list, const Buffer& results, bool gradient,
-                       const LevelPush& push, Buffers& scratch) {
-    // Chunks of parents whose points fill at most kListChunk: the points buffer (12 bytes a
-    // point, 167 MB for the 14M new points of resolution 1024) stays at 12 MB.
-    constexpr uint32_t kListChunk = 1u << 20, kChunksPerBatch = 64;
-    if (list.count == 0) return NFD_SUCCESS;
+nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const PointList& list,
+                       const Buffer& results, bool gradient, const LevelPush& push,
+                       Buffers& scratch) {
+    // Chunks of kListChunk points: the points buffer (12 bytes a point, 167 MB for the 14M new
+    // points of resolution 1024) stays at 12 MB.
+    constexpr uint32_t kListChunk = 1u << 20;
+    if (list.capacity == 0 || parents.capacity == 0) return NFD_SUCCESS;
     Buffer* points;
-    NFD_TRY(scratch.make(VkDeviceSize(std::min(list.count, kListChunk)) * 12, &points));
-    const uint32_t* offsets = list.offsets->as<uint32_t>();
+    NFD_TRY(scratch.make(VkDeviceSize(std::min(list.capacity, kListChunk)) * 12, &points));
+    // refine_points searches the offsets of the parents' capacity, no further (buffers may be
+    // larger than asked for).
+    const BufferRange offsets(*list.offsets, 0, VkDeviceSize(parents.capacity) * 4);
     LevelPush chunk = push;
-    uint32_t chunks = 0;
-    for (uint32_t first = 0, end; first < parents.kept; first = end) {
-        // A parent owns at most 27 points, so every chunk takes at least one.
-        end = first + 1;
-        while (end < parents.kept && offsets[end] - offsets[first] <= kListChunk - 27) ++end;
-        const uint32_t last = end < parents.kept ? offsets[end] : list.count;
-        chunk.first_parent = first;
-        chunk.count = end - first;
-        NFD_TRY(device.vk->dispatch(device[Kernel::RefinePoints],
-                                    {{NFD_B_KEPT_CELLS, *parents.list},
-                                     {NFD_B_OWNED, *list.owned},
-                                     {NFD_B_OFFSETS, *list.offsets},
-                                     {NFD_B_POINTS, *points}},
-                                    &chunk, chunk.count));
-        NFD_TRY(record_field(device, net, *points, results, last - offsets[first], gradient,
-                             offsets[first]));
-        // A batch holds a bounded number of dispatches (vk_context.cpp): run it, go on.
-        if (++chunks % kChunksPerBatch == 0) {
-            NFD_TRY(device.vk->submit());
-            NFD_TRY(device.vk->begin());
-        }
+    for (uint32_t first = 0; first < list.capacity; first += std::min(kListChunk, list.capacity - first)) {
+        const Count c{std::min(kListChunk, list.capacity - first), list.slot, first};
+        chunk.set(c);
+        NFD_TRY(job.dispatch(Kernel::RefinePoints,
+                             {{NFD_B_KEPT_CELLS, *parents.list},
+                              {NFD_B_OWNED, *list.owned},
+                              {NFD_B_OFFSETS, offsets},
+                              {NFD_B_POINTS, *points}},
+                             &chunk, c));
+        NFD_TRY(record_field(job, net, *points, results, c, gradient));
     }
     return NFD_SUCCESS;
 }
@@ -93,34 +97,34 @@ std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
     return b;
 }
 
-LevelBuilder::LevelBuilder(Device& device, DeviceNetwork& net, const Geometry& geometry,
-                           uint32_t resolution)
-    : device_(device), net_(net), resolution_(resolution), top_(refinement_levels(resolution)),
-      step_(2.0f / float(resolution)), current_(top_), level_(*device.vk), kept_(*device.vk) {
+LevelBuilder::LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry,
+                           uint32_t resolution, const Plan* plan)
+    : job_(job), net_(net), plan_(plan), resolution_(resolution),
+      top_(refinement_levels(resolution)), step_(2.0f / float(resolution)), current_(top_),
+      level_(*job.device.vk), kept_(*job.device.vk) {
     base_.step = step_;
     base_.scale = geometry.scale;
     for (int a = 0; a < 3; ++a) base_.center[a] = geometry.center[a];
 }
 
 LevelPush LevelBuilder::refine_push(uint32_t child_level, uint32_t parent_cells,
-                                    uint32_t count) const {
+                                    Count parents) const {
     LevelPush push = base_;
     push.parent_cells = parent_cells;
     push.child_cells = cells_at_level(resolution_, child_level);
     push.child_level = child_level;
-    push.count = count;
+    push.set(parents);
     push.threshold = kLipschitzMargin * (step_ * float(1u << child_level)) * kHalfDiagonal;
     return push;
 }
 
-// The level above the coarsest, evaluated densely, every cell kept. Only its vertices that are
-// vertices of the coarsest level are evaluated (2 v <= its cells per axis): a last cell whose
-// children past the grid are dropped has corners nothing reads, left 0.
-nfd_result LevelBuilder::evaluate_dense_top() {
+// The level above the coarsest, evaluated densely, every cell kept: its bitmap, list and prefix
+// written by the host, its corners by dense_corners from the field at the vertices that are
+// vertices of the coarsest level (2 v <= its cells per axis).
+nfd_result LevelBuilder::evaluate_dense_top(Buffers& scratch) {
     const uint32_t l = top_ + 1, n = cells_at_level(resolution_, l);
     const uint32_t side = cells_at_level(resolution_, top_) / 2 + 1;  // <= n + 1
     const uint32_t count = side * side * side;
-    Buffers scratch(*device_.vk);
     Buffer *points, *values;
     NFD_TRY(scratch.make(VkDeviceSize(count) * 12, &points));
     NFD_TRY(scratch.make(VkDeviceSize(count) * 4, &values));
@@ -132,14 +136,12 @@ nfd_result LevelBuilder::evaluate_dense_top() {
                 *p++ = -1.0f + float(y << l) * step_;
                 *p++ = -1.0f + float(z << l) * step_;
             }
-    NFD_TRY(device_.vk->begin());
-    NFD_TRY(record_field(device_, net_, *points, *values, count, false));
-    NFD_TRY(device_.vk->submit());
+    NFD_TRY(record_field(job_, net_, *points, *values, Count{count}, false));
     level_.points_evaluated += count;
 
     Level& level = level_.parents;
     level.cells = n;
-    level.kept = n * n * n;
+    level.capacity = level.kept = n * n * n;
     const uint32_t words = level.words();
     NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.bits));
     NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.prefix));
@@ -152,55 +154,55 @@ nfd_result LevelBuilder::evaluate_dense_top() {
         level.list->as<uint32_t>()[c] = c;
     }
     for (uint32_t w = 0; w < words; ++w) level.prefix->as<uint32_t>()[w] = 32 * w;
-    const float* f = values->as<float>();
-    float* corners = level.corners->as<float>();
-    for (uint32_t z = 0; z < n; ++z)
-        for (uint32_t y = 0; y < n; ++y)
-            for (uint32_t x = 0; x < n; ++x)
-                for (int c = 0; c < 8; ++c) {
-                    const uint8_t* o = mc::kCornerOffset[c];
-                    const uint32_t vx = x + o[0], vy = y + o[1], vz = z + o[2];
-                    const bool evaluated = vx < side && vy < side && vz < side;
-                    *corners++ = evaluated ? f[(vz * side + vy) * side + vx] : 0.0f;
-                }
-    return NFD_SUCCESS;
+    LevelPush dense = base_;
+    dense.parent_cells = n;
+    dense.child_cells = side;
+    dense.set(level.count());
+    return job_.dispatch(Kernel::DenseCorners,
+                         {{NFD_B_DENSE_VALUES, *values}, {NFD_B_CHILD_CORNERS, *level.corners}},
+                         &dense, level.count());
 }
 
 // The previous level's kept list and corners (from its child grids), which become the parents of
-// the next; the previous parents and child grids go.
+// the next; the previous parents and child grids go. Own jobs know the kept count by now and
+// size the list exactly; recorded ones take the plan's capacity.
 nfd_result LevelBuilder::gather_kept() {
     Level& child = kept_;
-    NFD_TRY(child.buffers.make(VkDeviceSize(child.kept) * 4, &child.list));
-    NFD_TRY(child.buffers.make(VkDeviceSize(child.kept) * 32, &child.corners));
-    if (child.kept > 0) {
-        LevelPush gather = refine_push(current_, level_.parents.cells, child.kept);
+    child.capacity = plan_ ? plan_->cells(current_, child.cells) : child.kept;
+    NFD_TRY(child.buffers.make(VkDeviceSize(child.capacity) * 4, &child.list));
+    NFD_TRY(child.buffers.make(VkDeviceSize(child.capacity) * 32, &child.corners));
+    if (child.capacity > 0) {
+        LevelPush gather = refine_push(current_, level_.parents.cells, child.count());
         const uint32_t words = child.words();
-        NFD_TRY(device_.vk->begin());
-        NFD_TRY(device_.vk->dispatch(device_[Kernel::BitmapCompact],
-                                     {{NFD_B_KEPT_BITS, *child.bits},
-                                      {NFD_B_KEPT_PREFIX, *child.prefix},
-                                      {NFD_B_KEPT_CELLS, *child.list}},
-                                     &words, words));
-        NFD_TRY(device_.vk->dispatch(device_[Kernel::GatherCorners],
-                                     with(child_grid_bindings(level_.parents, level_.grid),
-                                          {{NFD_B_CHILD_CELLS, *child.list},
-                                           {NFD_B_CHILD_CORNERS, *child.corners}}),
-                                     &gather, child.kept));
-        NFD_TRY(device_.vk->submit());
+        NFD_TRY(job_.begin());
+        NFD_TRY(job_.dispatch(Kernel::BitmapCompact,
+                              {{NFD_B_KEPT_BITS, *child.bits},
+                               {NFD_B_KEPT_PREFIX, *child.prefix},
+                               {NFD_B_KEPT_CELLS, *child.list}},
+                              &words, Count{words}));
+        NFD_TRY(job_.dispatch(Kernel::GatherCorners,
+                              with(child_grid_bindings(level_.parents, level_.grid),
+                                   {{NFD_B_CHILD_CELLS, *child.list},
+                                    {NFD_B_CHILD_CORNERS, *child.corners}}),
+                              &gather, child.count()));
+        NFD_TRY(job_.submit());
     }
     level_.buffers.release();
     level_.grid = PointList();
     level_.parents = std::move(kept_);
-    kept_ = Level(*device_.vk);
+    kept_ = Level(*job_.device.vk);
     return NFD_SUCCESS;
 }
 
 nfd_result LevelBuilder::step() {
+    Buffers scratch(*job_.device.vk);
     if (stepped_) {
         NFD_TRY(gather_kept());
         --current_;
+        NFD_TRY(job_.begin());
     } else {
-        NFD_TRY(evaluate_dense_top());
+        NFD_TRY(job_.begin());
+        NFD_TRY(evaluate_dense_top(scratch));
     }
     stepped_ = true;
     const uint32_t l = current_;
@@ -209,32 +211,46 @@ nfd_result LevelBuilder::step() {
     view = base_;
     view.parent_cells = parents.cells;
     view.child_cells = cells_at_level(resolution_, l);
-    view.count = parents.kept;
+    view.set(parents.count());
     view.step = step_ * float(1u << l);
     level_.keep = l > 0;
-    if (parents.kept == 0) return NFD_SUCCESS;  // nothing kept above: this level is empty
-
-    const LevelPush push = refine_push(l, parents.cells, parents.kept);
-    Buffers scratch(*device_.vk);
-    NFD_TRY(evaluate_child_grids(device_, net_, parents, push, level_.buffers, scratch,
-                                 &level_.grid));
-    level_.points_evaluated += level_.grid.count;
-    if (l == 0) return device_.vk->submit();
-    // The keep rule on this level's cells, recorded with their values.
-    Level& child = kept_;
-    child.cells = push.child_cells;
-    const uint32_t words = child.words();
-    NFD_TRY(child.buffers.make(VkDeviceSize(words) * 4, &child.bits));
-    NFD_TRY(child.buffers.make(VkDeviceSize(words) * 4, &child.prefix));
-    device_.vk->fill(*child.bits, 0);
-    NFD_TRY(device_.vk->dispatch(device_[Kernel::RefineCells],
-                                 with(child_grid_bindings(parents, level_.grid),
-                                      {{NFD_B_CHILD_BITS, *child.bits}}),
-                                 &push, parents.kept));
-    NFD_TRY(record_scan(device_, scratch, *child.bits, *child.prefix, words, true));
-    NFD_TRY(device_.vk->submit());
-    child.kept = word(*child.prefix, words - 1) +
-                 uint32_t(__builtin_popcount(word(*child.bits, words - 1)));
+    const bool empty = !plan_ && parents.kept == 0;  // own jobs: nothing kept above
+    if (!empty) {
+        const LevelPush push = refine_push(l, parents.cells, parents.count());
+        NFD_TRY(evaluate_child_grids(job_, net_, parents, push, level_.buffers, scratch,
+                                     &level_.grid));
+        try {
+            point_slots_.push_back(level_.grid.slot);
+            if (l > 0) kept_slots_.reserve(kept_slots_.size() + 1);
+        } catch (const std::bad_alloc&) {
+            return NFD_ERROR_OUT_OF_MEMORY;
+        }
+        if (l > 0) {
+            // The keep rule on this level's cells, recorded with their values.
+            Level& child = kept_;
+            child.cells = push.child_cells;
+            const uint32_t words = child.words();
+            NFD_TRY(child.buffers.make(VkDeviceSize(words) * 4, &child.bits));
+            NFD_TRY(child.buffers.make(VkDeviceSize(words) * 4, &child.prefix));
+            NFD_TRY(job_.new_slot(&child.slot));
+            kept_slots_.emplace_back(l, child.slot);  // reserved above
+            job_.device.vk->fill(*child.bits, 0);
+            NFD_TRY(job_.dispatch(Kernel::RefineCells,
+                                  with(child_grid_bindings(parents, level_.grid),
+                                       {{NFD_B_CHILD_BITS, *child.bits}}),
+                                  &push, parents.count()));
+            NFD_TRY(record_scan(job_.device, scratch, *child.bits, *child.prefix, words, true));
+            const uint32_t capacity =
+                plan_ ? plan_->cells(l, child.cells) : UINT32_MAX;  // own: sized once known
+            NFD_TRY(job_.total(*child.bits, *child.prefix, words, true, child.slot, capacity));
+        }
+    }
+    NFD_TRY(job_.submit());
+    if (job_.own && !empty) {
+        level_.grid.count = job_.counter(level_.grid.slot);
+        level_.points_evaluated += level_.grid.count;
+        if (l > 0) kept_.kept = job_.counter(kept_.slot);
+    }
     return NFD_SUCCESS;
 }
 
@@ -259,7 +275,8 @@ uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf) const {
     const uint64_t k = kept_.kept, chunk = 1u << 20;
     const uint64_t child_level = current_ - 1;
     auto scan = [](uint64_t count) { return 16 * (count / 64 + 2); };
-    uint64_t bytes = 36 * k + 12 * k + 76 * k + 12 * std::min(19 * k, chunk) + scan(k);
+    // The job's counters and a block of indirect records, made by the first step: 32 KiB.
+    uint64_t bytes = 36 * k + 12 * k + 76 * k + 12 * std::min(19 * k, chunk) + scan(k) + 32768;
     if (child_level > 0) {
         const uint64_t n = cells_at_level(resolution_, uint32_t(child_level));
         const uint64_t words = (n * n * n + 31) / 32;

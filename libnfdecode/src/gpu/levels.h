@@ -3,6 +3,8 @@
 // mesh_sdf_cpu.cpp and mesh_udf_cpu.cpp). Layouts: shaders/extract.glsl's long comment.
 #pragma once
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "../extract.h"
 #include "device.h"
@@ -14,39 +16,60 @@ struct LevelPush {
     float center[4] = {0, 0, 0, 0};
     uint32_t parent_cells = 0, child_cells = 0, count = 0, child_level = 0;
     float step = 0, threshold = 0, scale = 1, edge_limit = 0;
-    uint32_t first_parent = 0;
+    uint32_t first = 0, count_slot = NFD_NO_COUNTER;
+    void set(Count c) {
+        count = c.capacity;
+        count_slot = c.slot;
+        first = c.first;
+    }
 };
 static_assert(sizeof(LevelPush) == NFD_LEVEL_PUSH_BYTES, "extract.glsl's LevelPush");
 
+// Capacities of a decode recorded into a host's command buffer (nfd_recording), where no count
+// is read back before the host's wait: the kept cells of each level, the UDF's gradient list,
+// the mesh. A total beyond its capacity sets the overflow flag (counters.glsl).
+struct Plan {
+    uint32_t finest_cells = 0;  // kept cells of level 1, the meshers' parents
+    uint32_t gradient_points = 0, vertices = 0, triangles = 0;
+    // Level l's capacity: finest_cells scaled by the surface's 4^(1-l) with a factor 2 of margin,
+    // never more than the level's cells.
+    uint32_t cells(uint32_t level, uint32_t cells_per_axis) const;
+};
+
 // The kept cells of one level: a bitmap over its cells with the prefix of its words' popcounts,
-// the sorted list, and 8 corner values per kept cell.
+// the sorted list, and 8 corner values per kept cell. The list holds `capacity` cells, and
+// counter `slot` their number on the device (NFD_NO_COUNTER: exactly `capacity`); `kept` is that
+// number on the host, once known (own jobs: after the level's batch).
 struct Level {
     explicit Level(Context& vk) : buffers(vk) {}
     uint32_t cells = 0;  // per axis
-    uint32_t kept = 0;
+    uint32_t capacity = 0, slot = NFD_NO_COUNTER, kept = 0;
     Buffers buffers;
     Buffer *bits = nullptr, *prefix = nullptr, *list = nullptr, *corners = nullptr;
     uint32_t words() const { return div_up(uint64_t(cells) * cells * cells, 32); }
+    Count count() const { return {capacity, slot}; }
 };
 
 // A list of child-grid points owned by a level's kept parents (extract.glsl): per parent the
-// mask of its local points in the list and the offset of its first one, and the points' values.
+// mask of its local points in the list and the offset of its first one, and the points' values;
+// `capacity` points at most, as many as counter `slot` says (`count` on the host once known).
 struct PointList {
     Buffer *owned = nullptr, *offsets = nullptr, *values = nullptr;
-    uint32_t count = 0;
+    uint32_t capacity = 0, slot = NFD_NO_COUNTER, count = 0;
 };
 
 // A level as the meshers see it, the finest or a coarser one meshed as if it were (progressive.h):
 // the kept cells of the level above (`parents`), the new values of their child grids (whose cells
 // are this level's), and the push constants that describe them as a finest level (child level 0,
-// `step` this level's cell edge: the same f32 coordinates, grid.h's GridLevel::coord).
+// `step` this level's cell edge: the same f32 coordinates, grid.h's GridLevel::coord; the count
+// that of the parents).
 struct FinestLevel {
     explicit FinestLevel(Context& vk) : parents(vk), buffers(vk) {}
     Level parents;
     PointList grid;
     LevelPush push;
     Buffers buffers;  // grid's
-    uint64_t points_evaluated = 0;
+    uint64_t points_evaluated = 0;  // own jobs; recorded ones: LevelBuilder::point_slots()
     // The meshers free the level's storage as soon as they have read it (peak memory), unless
     // `keep`: a coarser level whose kept cells the next step refines.
     bool keep = false;
@@ -54,29 +77,37 @@ struct FinestLevel {
 
 // Coarse-to-fine evaluation one level per step(), the GPU twin of grid.h's GridBuilder:
 // extract_mesh (gpu_decode.cpp) steps it to the finest level, a progressive extraction
-// (progressive.cpp) meshes the levels between.
-// The top step evaluates the level above the coarsest densely with every cell kept, and the
-// coarsest as its child grids, so that every level, the coarsest included, is a FinestLevel.
+// (progressive.cpp) meshes the levels between, a recording (recording.cpp) records every step
+// into a host's command buffer. The top step evaluates the level above the coarsest densely
+// with every cell kept, and the coarsest as its child grids, so that every level, the coarsest
+// included, is a FinestLevel. Own jobs run each step in the context's batches (two: the kept
+// list of the level before, then the level's values and keep rule) and read its counts after
+// them; with a plan (recorded jobs) the sizes are the plan's and nothing is read.
 class LevelBuilder {
 public:
-    LevelBuilder(Device& device, DeviceNetwork& net, const Geometry& geometry, uint32_t resolution);
+    LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry, uint32_t resolution,
+                 const Plan* plan = nullptr);
     // Evaluates the next level (its kept list and corners first from the level before), then,
     // unless it is the finest, the keep rule on its cells.
     nfd_result step();
     bool done() const { return stepped_ && current_ == 0; }
     uint32_t current() const { return current_; }
     FinestLevel& level() { return level_; }  // the current level, `keep` set unless the finest
+    // The counters of each level's new points, and of each kept level's cells (level, slot).
+    const std::vector<uint32_t>& point_slots() const { return point_slots_; }
+    const std::vector<std::pair<uint32_t, uint32_t>>& kept_slots() const { return kept_slots_; }
     // An upper bound of the device bytes the next step() and, with `mesh`, its mesher allocate.
     uint64_t next_step_device_bytes(bool mesh, bool udf) const;
     uint64_t next_step_host_bytes(bool mesh) const;  // the mesh read back
 
 private:
-    LevelPush refine_push(uint32_t child_level, uint32_t parent_cells, uint32_t count) const;
-    nfd_result evaluate_dense_top();
+    LevelPush refine_push(uint32_t child_level, uint32_t parent_cells, Count parents) const;
+    nfd_result evaluate_dense_top(Buffers& scratch);
     nfd_result gather_kept();
 
-    Device& device_;
+    Job& job_;
     DeviceNetwork& net_;
+    const Plan* plan_;
     const uint32_t resolution_, top_;
     const float step_;
     LevelPush base_;  // center, scale, step
@@ -84,34 +115,59 @@ private:
     bool stepped_ = false;
     FinestLevel level_;
     Level kept_;  // the current level's kept cells (bits and prefix; list and corners next step)
+    std::vector<uint32_t> point_slots_;
+    std::vector<std::pair<uint32_t, uint32_t>> kept_slots_;
 };
 
-// Records the evaluation of a point list of `parents` (its masks and offsets, offsets readable
-// on the host) into `results` (as record_field): refine_points and the field kernel, by chunks
-// of parents with a bounded points buffer from `scratch`.
-nfd_result record_list(Device& device, DeviceNetwork& net, const Level& parents,
-                       const PointList& list, const Buffer& results, bool gradient,
-                       const LevelPush& push, Buffers& scratch);
+// Records the evaluation of a point list of `parents` into `results` (as record_field):
+// refine_points and the field kernel by chunks of points, a bounded points buffer from
+// `scratch`, as many chunks as the list's capacity needs (those past its count launch nothing).
+nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const PointList& list,
+                       const Buffer& results, bool gradient, const LevelPush& push,
+                       Buffers& scratch);
 
 // The bindings of extract.glsl's level (kept bits, prefix, cells), and with them its child grids
 // (the level's corners, the new points' masks, offsets and values).
 std::vector<Bind> level_bindings(const Level& level);
 std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g);
 
+// A mesh left on the device (recorded jobs, nfd_recording): buffers of the plan's capacities,
+// which the host's graphics pipeline binds as they are, the indirect draw record, and the
+// counters of its sizes.
+struct DeviceMesh {
+    explicit DeviceMesh(Context& vk) : buffers(vk) {}
+    Buffers buffers;
+    Buffer *positions = nullptr, *normals = nullptr, *indices = nullptr, *draw = nullptr;
+    Buffer* active = nullptr;  // classify's counter of cells with triangles
+    uint32_t vertex_capacity = 0, triangle_capacity = 0;
+    uint32_t vertex_slot = NFD_NO_COUNTER, triangle_slot = NFD_NO_COUNTER;
+    uint32_t gradient_slot = NFD_NO_COUNTER;  // UDF
+    // Makes the buffers of the capacities set above.
+    nfd_result make();
+};
+
+// Where a mesher's results go: read back to `host` (own jobs; device buffers of the exact sizes,
+// freed as soon as copied) or left in `device` (recorded jobs).
+struct MeshTarget {
+    MeshData* host = nullptr;
+    DeviceMesh* device = nullptr;
+};
+
 // Marching cubes of an SDF (mesh_sdf.cpp) and the UDF mesher (mesh_udf.cpp): original-frame mesh.
 // Both release the level's storage before the mesh is read back (peak memory) unless it `keep`s.
-nfd_result mesh_sdf(Device& device, FinestLevel& finest, MeshData* mesh, ExtractStats* stats);
-nfd_result mesh_udf(Device& device, DeviceNetwork& net, FinestLevel& finest, MeshData* mesh,
-                    ExtractStats* stats);
+nfd_result mesh_sdf(Job& job, FinestLevel& finest, MeshTarget target, ExtractStats* stats);
+nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Plan* plan,
+                    MeshTarget target, ExtractStats* stats);
 
 // The mesher of the field type on `level`, positions in the original frame; `stats` gets the
-// mesher's time, active cells and (UDF) gradients added. NFD_ERROR_LIMIT_EXCEEDED past what
-// mc_emit's records address.
-nfd_result mesh_level(Device& device, DeviceNetwork& net, FieldType field, FinestLevel& level,
-                      MeshData* mesh, ExtractStats* stats);
+// mesher's time, active cells and (UDF) gradients added (own jobs). NFD_ERROR_LIMIT_EXCEEDED past
+// what mc_emit's records address.
+nfd_result mesh_level(Job& job, DeviceNetwork& net, FieldType field, FinestLevel& level,
+                      const Plan* plan, MeshTarget target, ExtractStats* stats);
 
 // What a classify kernel (mc_classify.comp, udf_classify.comp) writes per level-1 parent, and
-// the prefix sums of its counts: the input of emit_mesh.
+// the prefix sums of its counts: the input of emit_mesh. Sized for the parents' capacity and
+// zero past their count, so that the scans and totals run on capacities.
 struct Classified {
     explicit Classified(Context& vk) : buffers(vk) {}
     Buffers buffers;
@@ -119,19 +175,24 @@ struct Classified {
     Buffer *edge_masks = nullptr;      // uvec2: owned edges that carry a vertex
     Buffer *vertex_offsets = nullptr;  // per edge-mask word
     Buffer *triangle_counts = nullptr, *triangle_offsets = nullptr, *active = nullptr;
-    // Makes the buffers for `parents` kept parents, 0 in `active`.
-    nfd_result make(uint32_t parents);
-    // Records the two scans once the classify kernel is recorded.
-    nfd_result record_scans(Device& device, Buffers& scratch, uint32_t parents);
+    uint32_t parents = 0;              // capacity
+    // Makes the buffers for `parents` kept parents (`active` from the job when the mesh stays on
+    // the device) and records their clearing.
+    nfd_result make(Job& job, uint32_t parents, DeviceMesh* device);
+    // Records the two scans and the mesh's totals (counters `vertex_slot`, `triangle_slot`, with
+    // the given capacities) once the classify kernel is recorded.
+    nfd_result record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
+                            uint32_t vertex_capacity, uint32_t triangle_slot,
+                            uint32_t triangle_capacity);
 };
 
 // The shared back half of both meshers (marching.cpp, as marching.h on the CPU): mc_emit.comp
 // writes each parent's vertex edges and welded triangles, then `vertices` (McVertices or
 // UdfVertices, bound with `inputs` and the vertex buffers) places each vertex; `classified`'s,
 // `finest`'s and `input_buffers` are released as soon as they are not needed, then the mesh is
-// read back.
-nfd_result emit_mesh(Device& device, FinestLevel& finest, Classified& classified, Kernel vertices,
-                     std::vector<Bind> inputs, Buffers& input_buffers, MeshData* mesh,
+// read back (own jobs) or its draw record written (device targets).
+nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& classified, Kernel vertices,
+                     std::vector<Bind> inputs, Buffers& input_buffers, MeshTarget target,
                      ExtractStats* stats);
 
 }  // namespace nfd::gpu

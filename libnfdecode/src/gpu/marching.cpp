@@ -6,72 +6,123 @@
 
 namespace nfd::gpu {
 
-nfd_result Classified::make(uint32_t parents) {
-    const VkDeviceSize k = parents;
-    NFD_TRY(buffers.make(k * 16, &cases));
-    NFD_TRY(buffers.make(k * 8, &edge_masks));
-    NFD_TRY(buffers.make(k * 8, &vertex_offsets));
-    NFD_TRY(buffers.make(k * 4, &triangle_counts));
-    NFD_TRY(buffers.make(k * 4, &triangle_offsets));
+nfd_result DeviceMesh::make() {
+    NFD_TRY(buffers.make(VkDeviceSize(vertex_capacity) * 12, &positions));
+    NFD_TRY(buffers.make(VkDeviceSize(vertex_capacity) * 12, &normals));
+    NFD_TRY(buffers.make(VkDeviceSize(triangle_capacity) * 12, &indices));
+    NFD_TRY(buffers.make(20, &draw));  // VkDrawIndexedIndirectCommand
     return buffers.make(4, &active);
 }
 
-nfd_result Classified::record_scans(Device& device, Buffers& scratch, uint32_t parents) {
-    NFD_TRY(record_scan(device, scratch, *edge_masks, *vertex_offsets, 2 * parents, true));
-    return record_scan(device, scratch, *triangle_counts, *triangle_offsets, parents, false);
+nfd_result Classified::make(Job& job, uint32_t k, DeviceMesh* device) {
+    parents = k;
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 16, &cases));
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 8, &edge_masks));
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 8, &vertex_offsets));
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &triangle_counts));
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &triangle_offsets));
+    if (device) active = device->active;
+    else NFD_TRY(buffers.make(4, &active));
+    // The scans run over the capacity: what no parent writes must be zero.
+    Context& vk = *job.device.vk;
+    vk.fill(*edge_masks, 0);
+    vk.fill(*triangle_counts, 0);
+    vk.fill(*active, 0);
+    return NFD_SUCCESS;
 }
 
-nfd_result emit_mesh(Device& device, FinestLevel& finest, Classified& c, Kernel vertices,
-                     std::vector<Bind> inputs, Buffers& input_buffers, MeshData* mesh,
+nfd_result Classified::record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
+                                    uint32_t vertex_capacity, uint32_t triangle_slot,
+                                    uint32_t triangle_capacity) {
+    NFD_TRY(record_scan(job.device, scratch, *edge_masks, *vertex_offsets, 2 * parents, true));
+    NFD_TRY(record_scan(job.device, scratch, *triangle_counts, *triangle_offsets, parents, false));
+    NFD_TRY(job.total(*edge_masks, *vertex_offsets, 2 * parents, true, vertex_slot,
+                      vertex_capacity));
+    return job.total(*triangle_counts, *triangle_offsets, parents, false, triangle_slot,
+                     triangle_capacity);
+}
+
+nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& c, Kernel vertices,
+                     std::vector<Bind> inputs, Buffers& input_buffers, MeshTarget target,
                      ExtractStats* stats) {
-    const uint32_t k = finest.parents.kept;
-    const uint32_t vertex_count = word(*c.vertex_offsets, 2 * k - 1) +
-                                  uint32_t(__builtin_popcount(word(*c.edge_masks, 2 * k - 1)));
-    const uint32_t triangles = word(*c.triangle_offsets, k - 1) + word(*c.triangle_counts, k - 1);
-    stats->active_cells = word(*c.active, 0);
-    device.vk->destroy(*c.triangle_counts);
+    Context& vk = *job.device.vk;
+    DeviceMesh* device = target.device;
+    // Own jobs read the sizes here, between the classify and emit batches, and make exact
+    // buffers (peak memory); a mesh left on the device has its capacities.
+    uint32_t vertex_count, triangles, vertex_slot, triangle_slot;
+    if (device) {
+        vertex_count = device->vertex_capacity;
+        triangles = device->triangle_capacity;
+        vertex_slot = device->vertex_slot;
+        triangle_slot = device->triangle_slot;
+    } else {
+        NFD_TRY(job.new_slot(&vertex_slot));
+        NFD_TRY(job.new_slot(&triangle_slot));
+    }
+    Buffers scratch(vk);
+    NFD_TRY(c.record_scans(job, scratch, vertex_slot, device ? vertex_count : UINT32_MAX,
+                           triangle_slot, device ? triangles : UINT32_MAX));
+    if (!device) {
+        NFD_TRY(job.sync());
+        vertex_count = job.counter(vertex_slot);
+        triangles = job.counter(triangle_slot);
+        stats->active_cells = word(*c.active, 0);
+    }
+    scratch.release();
+    vk.destroy(*c.triangle_counts);
 
     // Peak memory: each batch makes its outputs once the previous one's inputs are gone, and the
     // read-back frees each device buffer as soon as it is copied.
-    Buffers out(*device.vk);
+    Buffers out(vk);
     Buffer *edges, *positions, *normals, *indices;
     NFD_TRY(out.make(VkDeviceSize(vertex_count) * 4, &edges));
-    NFD_TRY(out.make(VkDeviceSize(triangles) * 12, &indices));
+    if (device) indices = device->indices;
+    else NFD_TRY(out.make(VkDeviceSize(triangles) * 12, &indices));
     std::vector<Bind> emit = level_bindings(finest.parents);
-    emit.insert(emit.end(), {{NFD_B_MC_TABLES, device.mc_tables},
+    emit.insert(emit.end(), {{NFD_B_MC_TABLES, job.device.mc_tables},
                              {NFD_B_CASES, *c.cases},
                              {NFD_B_EDGE_MASKS, *c.edge_masks},
                              {NFD_B_VERTEX_OFFSETS, *c.vertex_offsets},
                              {NFD_B_TRIANGLE_OFFSETS, *c.triangle_offsets},
                              {NFD_B_VERTEX_EDGES, *edges},
                              {NFD_B_INDICES, *indices}});
-    NFD_TRY(device.vk->begin());
-    NFD_TRY(device.vk->dispatch(device[Kernel::McEmit], emit, &finest.push, k));
-    NFD_TRY(device.vk->submit());
+    NFD_TRY(job.dispatch(Kernel::McEmit, emit, &finest.push, finest.parents.count()));
+    NFD_TRY(job.sync());
     c.buffers.release();
 
-    NFD_TRY(out.make(VkDeviceSize(vertex_count) * 12, &positions));
-    NFD_TRY(out.make(VkDeviceSize(vertex_count) * 12, &normals));
+    if (device) {
+        positions = device->positions;
+        normals = device->normals;
+    } else {
+        NFD_TRY(out.make(VkDeviceSize(vertex_count) * 12, &positions));
+        NFD_TRY(out.make(VkDeviceSize(vertex_count) * 12, &normals));
+    }
     std::vector<Bind> place = std::move(inputs);
     place.insert(place.end(), {{NFD_B_VERTEX_EDGES, *edges},
                                {NFD_B_POSITIONS, *positions},
                                {NFD_B_NORMALS, *normals}});
     LevelPush per_vertex = finest.push;
-    per_vertex.count = vertex_count;
-    NFD_TRY(device.vk->begin());
-    NFD_TRY(device.vk->dispatch(device[vertices], place, &per_vertex, vertex_count));
-    NFD_TRY(device.vk->submit());
+    const Count vertex_items{vertex_count, device ? vertex_slot : NFD_NO_COUNTER};
+    per_vertex.set(vertex_items);
+    NFD_TRY(job.dispatch(vertices, place, &per_vertex, vertex_items));
+    if (device) {
+        const uint32_t draw[2] = {triangle_slot, triangles};
+        NFD_TRY(job.dispatch(Kernel::DrawArgs, {{NFD_B_ARGS, *device->draw}}, draw, Count{1}));
+    }
+    NFD_TRY(job.submit());
     input_buffers.release();
     if (!finest.keep) {
         finest.buffers.release();
         finest.parents.buffers.release();
     }
-    device.vk->destroy(*edges);
+    vk.destroy(*edges);
+    if (device) return NFD_SUCCESS;
 
     try {
+        MeshData* mesh = target.host;
         auto take = [&](Buffer* b, auto* begin, size_t count, auto* out_vector) {
             out_vector->assign(begin, begin + count);
-            device.vk->destroy(*b);
+            vk.destroy(*b);
         };
         take(indices, indices->as<uint32_t>(), 3 * size_t(triangles), &mesh->indices);
         take(positions, positions->as<float>(), 3 * size_t(vertex_count), &mesh->positions);

@@ -4,24 +4,20 @@
 
 namespace nfd::gpu {
 
-nfd_result mesh_sdf(Device& device, FinestLevel& finest, MeshData* mesh, ExtractStats* stats) {
-    const uint32_t k = finest.parents.kept;
-    Classified c(*device.vk);
-    NFD_TRY(c.make(k));
-    Buffers scratch(*device.vk);
+nfd_result mesh_sdf(Job& job, FinestLevel& finest, MeshTarget target, ExtractStats* stats) {
+    Classified c(*job.device.vk);
+    NFD_TRY(job.begin());
+    NFD_TRY(c.make(job, finest.parents.capacity, target.device));
+    Buffers scratch(*job.device.vk);
     std::vector<Bind> classify = child_grid_bindings(finest.parents, finest.grid);
-    classify.insert(classify.end(), {{NFD_B_MC_TABLES, device.mc_tables},
+    classify.insert(classify.end(), {{NFD_B_MC_TABLES, job.device.mc_tables},
                                      {NFD_B_CASES, *c.cases},
                                      {NFD_B_EDGE_MASKS, *c.edge_masks},
                                      {NFD_B_TRIANGLE_COUNTS, *c.triangle_counts},
                                      {NFD_B_ACTIVE, *c.active}});
-    NFD_TRY(device.vk->begin());
-    device.vk->fill(*c.active, 0);
-    NFD_TRY(device.vk->dispatch(device[Kernel::McClassify], classify, &finest.push, k));
-    NFD_TRY(c.record_scans(device, scratch, k));
-    NFD_TRY(device.vk->submit());
-    return emit_mesh(device, finest, c, Kernel::McVertices,
-                     child_grid_bindings(finest.parents, finest.grid), scratch, mesh, stats);
+    NFD_TRY(job.dispatch(Kernel::McClassify, classify, &finest.push, finest.parents.count()));
+    return emit_mesh(job, finest, c, Kernel::McVertices,
+                     child_grid_bindings(finest.parents, finest.grid), scratch, target, stats);
 }
 
 }  // namespace nfd::gpu

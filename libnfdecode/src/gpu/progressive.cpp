@@ -9,11 +9,12 @@ namespace {
 class GpuExtraction final : public Extraction {
 public:
     GpuExtraction(Device& device, const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask)
-        : device_(device), geometry_(geometry), levels_(device, net_, geometry, resolution),
-          mesh_mask_(mesh_mask) {}
+        : device_(device), geometry_(geometry), job_(device, true),
+          levels_(job_, net_, geometry, resolution), mesh_mask_(mesh_mask) {}
 
     // The network and its pipelines before the first step, so that a step's time is its level's.
     nfd_result prepare() {
+        NFD_TRY(job_.init());
         NFD_TRY(upload_network(device_, geometry_.network, &net_));
         NFD_TRY(prepare_field(device_, net_, false));
         return geometry_.field == FieldType::Udf ? prepare_field(device_, net_, true) : NFD_SUCCESS;
@@ -36,7 +37,8 @@ public:
             ExtractStats st;
             st.points_evaluated = levels_.level().points_evaluated;
             st.seconds_field = seconds_field_;
-            NFD_TRY(mesh_level(device_, net_, geometry_.field, levels_.level(), mesh, &st));
+            NFD_TRY(mesh_level(job_, net_, geometry_.field, levels_.level(), nullptr,
+                               {mesh, nullptr}, &st));
             r.gradients_evaluated = st.gradients_evaluated;
             *stats = st;
         }
@@ -55,6 +57,7 @@ private:
     Device& device_;
     const Geometry& geometry_;
     DeviceNetwork net_;
+    Job job_;
     LevelBuilder levels_;
     const uint32_t mesh_mask_;
     double seconds_field_ = 0;

@@ -6,12 +6,14 @@ set(NFD_GPU_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/device.h
   ${CMAKE_CURRENT_LIST_DIR}/device.cpp
   ${CMAKE_CURRENT_LIST_DIR}/field.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/job.cpp
   ${CMAKE_CURRENT_LIST_DIR}/levels.h
   ${CMAKE_CURRENT_LIST_DIR}/levels.cpp
   ${CMAKE_CURRENT_LIST_DIR}/marching.cpp
   ${CMAKE_CURRENT_LIST_DIR}/mesh_sdf.cpp
   ${CMAKE_CURRENT_LIST_DIR}/mesh_udf.cpp
   ${CMAKE_CURRENT_LIST_DIR}/progressive.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/recording.cpp
   ${CMAKE_CURRENT_LIST_DIR}/vk_context.h
   ${CMAKE_CURRENT_LIST_DIR}/vk_context.cpp
 )

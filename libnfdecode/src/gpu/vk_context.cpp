@@ -7,10 +7,11 @@
 
 namespace nfd::gpu {
 
-// Descriptor sets are allocated per dispatch from one pool that submit() resets; one batch (one
-// refinement level) records far fewer dispatches than this.
-constexpr uint32_t kMaxDispatchesPerBatch = 256;
-constexpr uint32_t kMaxBindings = 16;  // per pipeline (the pool is sized for it)
+// Descriptor sets are allocated per dispatch from an arena's pools of this many sets; a batch
+// of the library's own (one level) records about a hundred dispatches, a host's recording of a
+// whole decode a few hundred.
+constexpr uint32_t kSetsPerPool = 256;
+constexpr uint32_t kMaxBindings = 16;  // per pipeline (the pools are sized for it)
 
 nfd_result to_result(VkResult result) {
     switch (result) {
@@ -33,6 +34,11 @@ nfd_result to_result(VkResult result) {
     do {                                                             \
         VkResult vk_result_ = (call);                                \
         if (vk_result_ != VK_SUCCESS) return to_result(vk_result_); \
+    } while (0)
+#define NFD_TRY_RESULT(expr)                          \
+    do {                                              \
+        const nfd_result nfd_try_ = (expr);           \
+        if (nfd_try_ != NFD_SUCCESS) return nfd_try_; \
     } while (0)
 
 nfd_result Context::create(const nfd_vulkan_device* adopt, bool enable_validation,
@@ -228,16 +234,51 @@ nfd_result Context::create_command_objects() {
     VkFenceCreateInfo fence{};
     fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
     NFD_VK_TRY(vkCreateFence(device_, &fence, nullptr, &fence_));
-    VkDescriptorPoolSize sizes[2] = {
-        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kMaxDispatchesPerBatch * kMaxBindings},
-        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, kMaxDispatchesPerBatch * kMaxBindings}};
-    VkDescriptorPoolCreateInfo descriptors{};
-    descriptors.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-    descriptors.maxSets = kMaxDispatchesPerBatch;
-    descriptors.poolSizeCount = 2;
-    descriptors.pPoolSizes = sizes;
-    NFD_VK_TRY(vkCreateDescriptorPool(device_, &descriptors, nullptr, &descriptor_pool_));
     return NFD_SUCCESS;
+}
+
+nfd_result Context::allocate_set(DescriptorArena& arena, VkDescriptorSetLayout layout,
+                                 VkDescriptorSet* out) {
+    VkDescriptorSetAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    alloc.descriptorSetCount = 1;
+    alloc.pSetLayouts = &layout;
+    for (; arena.current < arena.pools.size(); ++arena.current) {
+        alloc.descriptorPool = arena.pools[arena.current];
+        const VkResult r = vkAllocateDescriptorSets(device_, &alloc, out);
+        if (r == VK_SUCCESS) return NFD_SUCCESS;
+        if (r != VK_ERROR_OUT_OF_POOL_MEMORY && r != VK_ERROR_FRAGMENTED_POOL) return to_result(r);
+    }
+    VkDescriptorPoolSize sizes[2] = {
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kSetsPerPool * kMaxBindings},
+        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, kSetsPerPool * kMaxBindings}};
+    VkDescriptorPoolCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    info.maxSets = kSetsPerPool;
+    info.poolSizeCount = 2;
+    info.pPoolSizes = sizes;
+    VkDescriptorPool pool;
+    NFD_VK_TRY(vkCreateDescriptorPool(device_, &info, nullptr, &pool));
+    try {
+        arena.pools.push_back(pool);
+    } catch (...) {
+        vkDestroyDescriptorPool(device_, pool, nullptr);
+        return NFD_ERROR_OUT_OF_MEMORY;
+    }
+    alloc.descriptorPool = pool;
+    NFD_VK_TRY(vkAllocateDescriptorSets(device_, &alloc, out));
+    return NFD_SUCCESS;
+}
+
+nfd_result Context::reset(DescriptorArena& arena) {
+    for (VkDescriptorPool pool : arena.pools) NFD_VK_TRY(vkResetDescriptorPool(device_, pool, 0));
+    arena.current = 0;
+    return NFD_SUCCESS;
+}
+
+void Context::destroy(DescriptorArena& arena) {
+    for (VkDescriptorPool pool : arena.pools) vkDestroyDescriptorPool(device_, pool, nullptr);
+    arena = DescriptorArena{};
 }
 
 Context::~Context() {
@@ -245,7 +286,7 @@ Context::~Context() {
         // An adopted device may be busy with the host's work; only our queue's work matters,
         // and submit() already waited for it.
         if (owns_device_) vkDeviceWaitIdle(device_);
-        if (descriptor_pool_) vkDestroyDescriptorPool(device_, descriptor_pool_, nullptr);
+        destroy(arena_);
         if (fence_) vkDestroyFence(device_, fence_, nullptr);
         if (command_pool_) vkDestroyCommandPool(device_, command_pool_, nullptr);
         if (cache_) vkDestroyPipelineCache(device_, cache_, nullptr);
@@ -262,8 +303,12 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
     VkBufferCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
     info.size = std::max<VkDeviceSize>(size, 16);
+    // Vertex, index and indirect usage: a recording's mesh buffers go to the host's graphics
+    // pipeline as they are (nfd_recording), and dispatch_args records drive dispatches.
     info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
-                 VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+                 VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
+                 VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT | VK_BUFFER_USAGE_VERTEX_BUFFER_BIT |
+                 VK_BUFFER_USAGE_INDEX_BUFFER_BIT;
     info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
     Buffer b;
     b.size = info.size;
@@ -295,6 +340,16 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
 }
 
 void Context::destroy(Buffer& b) {
+    if (external_ && b.buffer) {
+        // The host's commands still use it: kept until release_external(). Without memory for
+        // the list it is leaked rather than freed under a pending command.
+        try {
+            external_->retired.push_back(b);
+        } catch (...) {
+        }
+        b = Buffer{};
+        return;
+    }
     if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
     if (b.memory) vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
     live_bytes_ -= b.allocated;
@@ -311,6 +366,7 @@ nfd_result Context::create_pipeline(const PipelineDesc& desc, Pipeline* out) {
     p.uniform_bindings = desc.uniform_bindings;
     p.push_constant_bytes = desc.push_constant_bytes;
     p.local_size = desc.local_size;
+    p.counters_binding = desc.counters_binding;
     auto fail = [&](VkResult r) {
         destroy(p);
         return to_result(r);
@@ -384,31 +440,75 @@ void Context::destroy(Pipeline& p) {
 
 nfd_result Context::begin() {
     NFD_VK_TRY(vkResetCommandPool(device_, command_pool_, 0));
-    NFD_VK_TRY(vkResetDescriptorPool(device_, descriptor_pool_, 0));
+    NFD_TRY_RESULT(reset(arena_));
     VkCommandBufferBeginInfo info{};
     info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     info.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     NFD_VK_TRY(vkBeginCommandBuffer(commands_, &info));
+    target_ = commands_;
+    target_arena_ = &arena_;
     recording_ = true;
     return NFD_SUCCESS;
 }
 
+nfd_result Context::begin_external(VkCommandBuffer commands, ExternalBatch& batch) {
+    if (recording_ || commands == VK_NULL_HANDLE) return NFD_ERROR_INTERNAL;
+    target_ = commands;
+    target_arena_ = &batch.arena;
+    external_ = &batch;
+    recording_ = true;
+    // Host writes to our buffers (the network, the top level's points) are visible at the
+    // host's submission; no earlier command of the host's touches a recording's buffers.
+    return NFD_SUCCESS;
+}
+
+void Context::release_external(ExternalBatch& batch) {
+    for (Buffer& b : batch.retired) destroy(b);
+    batch.retired.clear();
+    destroy(batch.arena);
+}
+
+void Context::end_external() {
+    // The results are read by the host's vertex input, index fetch, indirect draw, copies or the
+    // host after its wait (nfdecode.h, nfd_recording_record).
+    VkMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT |
+                      VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT |
+                      VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(target_,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_VERTEX_INPUT_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT |
+                             VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
+                             VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT |
+                             VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                         0, 1, &b, 0, nullptr, 0, nullptr);
+    recording_ = false;
+    target_ = VK_NULL_HANDLE;
+    target_arena_ = nullptr;
+    external_ = nullptr;
+}
+
 void Context::barrier() {
-    // Coarse but sufficient: every stage reads what the previous one wrote; host reads happen
-    // after the fence, and host writes before submission are made visible by the submit itself.
+    // Coarse but sufficient: every stage reads what the previous one wrote (dispatch_args'
+    // records as indirect commands too); host reads happen after the fence, and host writes
+    // before submission are made visible by the submit itself.
     VkMemoryBarrier b{};
     b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
     b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
     b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
-                      VK_ACCESS_UNIFORM_READ_BIT | VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(commands_,
+                      VK_ACCESS_UNIFORM_READ_BIT | VK_ACCESS_HOST_READ_BIT |
+                      VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+    vkCmdPipelineBarrier(target_,
                          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
-                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
-                         &b, 0, nullptr, 0, nullptr);
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
+                             VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         0, 1, &b, 0, nullptr, 0, nullptr);
 }
 
-nfd_result Context::dispatch(const Pipeline& pipeline, const Bind* buffers, size_t count,
-                             const void* push, uint64_t invocations) {
+nfd_result Context::bind(const Pipeline& pipeline, const Bind* buffers, size_t count,
+                         const void* push) {
     if (!recording_) return NFD_ERROR_INTERNAL;
     uint32_t given = 0;
     for (const Bind* b = buffers; b != buffers + count; ++b) {
@@ -416,14 +516,8 @@ nfd_result Context::dispatch(const Pipeline& pipeline, const Bind* buffers, size
         given |= 1u << b->binding;
     }
     if (given != (pipeline.storage_bindings | pipeline.uniform_bindings)) return NFD_ERROR_INTERNAL;
-    if (invocations == 0) return NFD_SUCCESS;
-    VkDescriptorSetAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-    alloc.descriptorPool = descriptor_pool_;
-    alloc.descriptorSetCount = 1;
-    alloc.pSetLayouts = &pipeline.set_layout;
     VkDescriptorSet set;
-    NFD_VK_TRY(vkAllocateDescriptorSets(device_, &alloc, &set));
+    NFD_TRY_RESULT(allocate_set(*target_arena_, pipeline.set_layout, &set));
     VkDescriptorBufferInfo infos[kMaxBindings];
     VkWriteDescriptorSet writes[kMaxBindings];
     uint32_t i = 0;
@@ -442,29 +536,45 @@ nfd_result Context::dispatch(const Pipeline& pipeline, const Bind* buffers, size
         ++i;
     }
     vkUpdateDescriptorSets(device_, i, writes, 0, nullptr);
-    vkCmdBindPipeline(commands_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
-    vkCmdBindDescriptorSets(commands_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout, 0, 1, &set,
+    vkCmdBindPipeline(target_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
+    vkCmdBindDescriptorSets(target_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout, 0, 1, &set,
                             0, nullptr);
     if (pipeline.push_constant_bytes)
-        vkCmdPushConstants(commands_, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0,
+        vkCmdPushConstants(target_, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0,
                            pipeline.push_constant_bytes, push);
+    return NFD_SUCCESS;
+}
+
+nfd_result Context::dispatch(const Pipeline& pipeline, const Bind* buffers, size_t count,
+                             const void* push, uint64_t invocations) {
+    if (invocations == 0) return recording_ ? NFD_SUCCESS : NFD_ERROR_INTERNAL;
     uint64_t groups = (invocations + pipeline.local_size - 1) / pipeline.local_size;
     uint64_t max_x = properties_.limits.maxComputeWorkGroupCount[0];
     uint64_t y = (groups + max_x - 1) / max_x;
     uint64_t x = (groups + y - 1) / y;  // x * y >= groups; shaders skip the excess
     if (y > properties_.limits.maxComputeWorkGroupCount[1]) return NFD_ERROR_LIMIT_EXCEEDED;
-    vkCmdDispatch(commands_, uint32_t(x), uint32_t(y), 1);
+    NFD_TRY_RESULT(bind(pipeline, buffers, count, push));
+    vkCmdDispatch(target_, uint32_t(x), uint32_t(y), 1);
+    barrier();
+    return NFD_SUCCESS;
+}
+
+nfd_result Context::dispatch_indirect(const Pipeline& pipeline, const Bind* buffers,
+                                      size_t count, const void* push, const Buffer& args,
+                                      uint32_t record) {
+    NFD_TRY_RESULT(bind(pipeline, buffers, count, push));
+    vkCmdDispatchIndirect(target_, args.buffer, VkDeviceSize(record) * 12);
     barrier();
     return NFD_SUCCESS;
 }
 
 void Context::fill(const Buffer& buffer, uint32_t value) {
-    vkCmdFillBuffer(commands_, buffer.buffer, 0, VK_WHOLE_SIZE, value);
+    vkCmdFillBuffer(target_, buffer.buffer, 0, VK_WHOLE_SIZE, value);
     barrier();
 }
 
 nfd_result Context::submit() {
-    if (!recording_) return NFD_ERROR_DEVICE;
+    if (!recording_ || target_ != commands_) return NFD_ERROR_DEVICE;
     recording_ = false;
     NFD_VK_TRY(vkEndCommandBuffer(commands_));
     VkSubmitInfo info{};

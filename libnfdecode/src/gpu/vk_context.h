@@ -1,6 +1,7 @@
 // The small Vulkan layer under gpu_decode.cpp: a compute device (created headless or adopted from
-// the host), host-visible buffers, compute pipelines with specialization constants, and one
-// command buffer that records dispatches and is submitted synchronously.
+// the host), host-visible buffers, compute pipelines with specialization constants, and
+// recording of dispatches (direct, or indirect from records the device wrote) either into the
+// context's own command buffer, submitted synchronously, or into a host's command buffer.
 //
 // Entry points are loaded at run time from the Vulkan loader (libvulkan.so.1, or the host's
 // vkGetInstanceProcAddr), so a machine without Vulkan still runs the CPU path: creation then
@@ -44,7 +45,7 @@ namespace nfd::gpu {
     X(vkUpdateDescriptorSets) X(vkCreateCommandPool) X(vkDestroyCommandPool)                  \
     X(vkAllocateCommandBuffers) X(vkResetCommandPool) X(vkBeginCommandBuffer)                 \
     X(vkEndCommandBuffer) X(vkCmdBindPipeline) X(vkCmdBindDescriptorSets) X(vkCmdPushConstants) \
-    X(vkCmdDispatch) X(vkCmdPipelineBarrier) X(vkCmdFillBuffer) X(vkQueueSubmit)              \
+    X(vkCmdDispatch) X(vkCmdDispatchIndirect) X(vkCmdPipelineBarrier) X(vkCmdFillBuffer) X(vkQueueSubmit)              \
     X(vkCreateFence) X(vkDestroyFence) X(vkWaitForFences) X(vkResetFences) X(vkDeviceWaitIdle)
 
 nfd_result to_result(VkResult result);
@@ -75,6 +76,8 @@ struct Bind {
     BufferRange buffer;
 };
 
+constexpr uint32_t kNoCounters = UINT32_MAX;
+
 // A pipeline's descriptor set holds the bindings of two masks (bit b: binding b), nothing else.
 struct Pipeline {
     VkPipeline pipeline = VK_NULL_HANDLE;
@@ -83,9 +86,25 @@ struct Pipeline {
     uint32_t storage_bindings = 0, uniform_bindings = 0;
     uint32_t push_constant_bytes = 0;
     uint32_t local_size = 0;  // invocations per workgroup (x only)
+    uint32_t counters_binding = kNoCounters;  // where the job's counters bind (device.h, Job)
 };
 
 constexpr uint32_t kFixedLocalSize = UINT32_MAX;
+
+// Descriptor pools that grow by a pool at a time and are reset together: the descriptor sets of
+// one batch, which live as long as its commands may run.
+struct DescriptorArena {
+    std::vector<VkDescriptorPool> pools;
+    size_t current = 0;  // the pool allocations are tried from
+};
+
+// What a host's command buffer being recorded needs to outlive the recording call: its
+// descriptor sets, and the buffers the library's stages release as they go (which the host's
+// commands still use when they run). Context::release_external() frees both once they have run.
+struct ExternalBatch {
+    DescriptorArena arena;
+    std::vector<Buffer> retired;
+};
 
 struct PipelineDesc {
     const shaders::Spirv* spirv = nullptr;
@@ -94,6 +113,7 @@ struct PipelineDesc {
     uint32_t local_size = 64;                  // must match the shader's local_size_x
     uint32_t local_size_id = kFixedLocalSize;  // constant_id of local_size_x, if specialized
     std::vector<uint32_t> specialization;      // value of constant_id i (floats bit-cast)
+    uint32_t counters_binding = kNoCounters;
 };
 
 class Context {
@@ -117,12 +137,19 @@ public:
     nfd_result create_pipeline(const PipelineDesc& desc, Pipeline* out);
     void destroy(Pipeline& pipeline);
 
-    // Recording. begin() starts a batch; dispatch() binds (each of the pipeline's bindings
-    // exactly once, else NFD_ERROR_INTERNAL), pushes and launches `invocations` invocations
-    // (rounded up to workgroups, folded into 2D past maxComputeWorkGroupCount[0]) and is followed
-    // by a compute->compute barrier so the next dispatch sees its writes; submit() runs the batch
-    // and waits. Zero invocations record nothing.
+    // Recording. begin() starts a batch in the context's command buffer, begin_external() one in
+    // a host's (descriptor sets and buffers destroyed meanwhile are kept in `batch` until
+    // release_external(), after those commands have run; end_external() closes it with a barrier toward vertex input, index, indirect, shader,
+    // transfer and host reads). dispatch() binds (each of the pipeline's bindings exactly once,
+    // else NFD_ERROR_INTERNAL), pushes and launches `invocations` invocations (rounded up to
+    // workgroups, folded into 2D past maxComputeWorkGroupCount[0]) and is followed by a barrier
+    // so the next dispatch (or indirect dispatch) sees its writes; zero invocations record
+    // nothing. dispatch_indirect() launches what VkDispatchIndirectCommand `record` of `args`
+    // holds when it runs. submit() runs the context's batch and waits.
     nfd_result begin();
+    nfd_result begin_external(VkCommandBuffer commands, ExternalBatch& batch);
+    void end_external();
+    void release_external(ExternalBatch& batch);
     nfd_result dispatch(const Pipeline& pipeline, const Bind* buffers, size_t count,
                         const void* push, uint64_t invocations);
     nfd_result dispatch(const Pipeline& pipeline, std::initializer_list<Bind> buffers,
@@ -133,8 +160,16 @@ public:
                         const void* push, uint64_t invocations) {
         return dispatch(pipeline, buffers.data(), buffers.size(), push, invocations);
     }
+    nfd_result dispatch_indirect(const Pipeline& pipeline, const Bind* buffers, size_t count,
+                                 const void* push, const Buffer& args, uint32_t record);
+    nfd_result dispatch_indirect(const Pipeline& pipeline, const std::vector<Bind>& buffers,
+                                 const void* push, const Buffer& args, uint32_t record) {
+        return dispatch_indirect(pipeline, buffers.data(), buffers.size(), push, args, record);
+    }
     void fill(const Buffer& buffer, uint32_t value);  // whole buffer, then a barrier
     nfd_result submit();
+    nfd_result reset(DescriptorArena& arena);
+    void destroy(DescriptorArena& arena);
 
 private:
     Context() = default;
@@ -145,6 +180,9 @@ private:
     nfd_result create_command_objects();
     nfd_result load_functions(bool device_level);
     void barrier();
+    nfd_result bind(const Pipeline& pipeline, const Bind* buffers, size_t count, const void* push);
+    nfd_result allocate_set(DescriptorArena& arena, VkDescriptorSetLayout layout,
+                            VkDescriptorSet* out);
 
     void* library_ = nullptr;  // dlopen handle of the loader, when we opened it
     PFN_vkGetInstanceProcAddr get_instance_proc_addr_ = nullptr;
@@ -171,7 +209,10 @@ private:
     VkCommandPool command_pool_ = VK_NULL_HANDLE;
     VkCommandBuffer commands_ = VK_NULL_HANDLE;
     VkFence fence_ = VK_NULL_HANDLE;
-    VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+    DescriptorArena arena_;  // the descriptor sets of the context's own batch
+    VkCommandBuffer target_ = VK_NULL_HANDLE;  // what dispatches record into
+    DescriptorArena* target_arena_ = nullptr;
+    ExternalBatch* external_ = nullptr;  // while recording a host's command buffer
     bool recording_ = false;
 };
 
