@@ -31,7 +31,8 @@ const char kUsage[] =
     "  --fps N         frame-rate cap (default 60; 0: none)\n"
     "  --frame-log F   write one line per frame: frame milliseconds, assets still loading\n"
     "Mouse: left drag rotates, right drag (or shift + left) pans, wheel zooms.\n"
-    "Keys: R reset camera, W wireframe, N shading (lit / normals / colours), O overlay, Esc quit.\n";
+    "Keys: R reset camera, W wireframe, N shading (lit / normals), O overlay, Esc quit.\n"
+    "Colour chunks are listed in the overlay; libnfdecode 0.2 does not decode them yet.\n";
 
 long parse_int(const std::string& flag, const char* text, long min, long max) {
     char* end = nullptr;

@@ -158,13 +158,19 @@ void VkDeviceContext::create_host_buffer(VkDeviceSize size, VkBufferUsageFlags u
     vk_check(vkCreateBuffer(device_, &info, nullptr, buffer), "vkCreateBuffer");
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(device_, *buffer, &req);
+    *memory = allocate(req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    vk_check(vkBindBufferMemory(device_, *buffer, *memory, 0), "vkBindBufferMemory");
+}
+
+VkDeviceMemory VkDeviceContext::allocate(const VkMemoryRequirements& req,
+                                         VkMemoryPropertyFlags flags) const {
     VkMemoryAllocateInfo alloc{};
     alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
     alloc.allocationSize = req.size;
-    alloc.memoryTypeIndex = memory_type(
-        req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-    vk_check(vkAllocateMemory(device_, &alloc, nullptr, memory), "vkAllocateMemory");
-    vk_check(vkBindBufferMemory(device_, *buffer, *memory, 0), "vkBindBufferMemory");
+    alloc.memoryTypeIndex = memory_type(req.memoryTypeBits, flags);
+    VkDeviceMemory memory;
+    vk_check(vkAllocateMemory(device_, &alloc, nullptr, &memory), "vkAllocateMemory");
+    return memory;
 }
 
 nfd_vulkan_device VkDeviceContext::lend() {

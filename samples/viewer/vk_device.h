@@ -40,6 +40,8 @@ public:
 
     // A memory type among `type_bits` with all of `flags`; throws if none.
     uint32_t memory_type(uint32_t type_bits, VkMemoryPropertyFlags flags) const;
+    // Memory for `req` of a type with all of `flags`; throws if none or if it cannot be had.
+    VkDeviceMemory allocate(const VkMemoryRequirements& req, VkMemoryPropertyFlags flags) const;
     // A buffer with its own host-visible, coherent memory.
     void create_host_buffer(VkDeviceSize size, VkBufferUsageFlags usage, VkBuffer* buffer,
                             VkDeviceMemory* memory) const;

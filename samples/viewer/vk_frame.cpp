@@ -150,11 +150,7 @@ void FrameTarget::create_image(VkFormat format, VkImageUsageFlags usage, VkImage
     vk_check(vkCreateImage(device, &info, nullptr, image), "vkCreateImage");
     VkMemoryRequirements req;
     vkGetImageMemoryRequirements(device, *image, &req);
-    VkMemoryAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    alloc.allocationSize = req.size;
-    alloc.memoryTypeIndex = vk_->memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    vk_check(vkAllocateMemory(device, &alloc, nullptr, memory), "vkAllocateMemory");
+    *memory = vk_->allocate(req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
     vk_check(vkBindImageMemory(device, *image, *memory, 0), "vkBindImageMemory");
     VkImageViewCreateInfo v{};
     v.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
