@@ -10,6 +10,7 @@ APT_PACKAGES=(
   libbrotli-dev libtinygltf-dev nlohmann-json3-dev libglm-dev libglfw3-dev libgtest-dev
   libopenvdb-dev libboost-iostreams-dev libopenvdb-tools
   draco
+  libimgui-dev libstb-dev xvfb xauth
 )
 missing=()
 for p in "${APT_PACKAGES[@]}"; do

@@ -9,6 +9,8 @@
 // bad command line, 1 for anything that failed while decoding.
 #include <nfdecode/nfdecode.h>
 
+#include "../common/cli_values.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -80,17 +82,11 @@ unsigned long long parse_count(const char* flag, const char* text, unsigned long
     return v;
 }
 
-// "256KB/s": a positive number, then B/s, KB/s or MB/s with 1 KB = 1024 B. Bytes per second.
 double parse_bandwidth(const char* text) {
-    char* end = nullptr;
-    errno = 0;
-    const double v = std::strtod(text, &end);
-    const std::string unit = end;
-    const double scale = unit == "B/s" ? 1.0 : unit == "KB/s" ? 1024.0 : unit == "MB/s" ? 1048576.0 : 0;
-    if (end == text || errno || !std::isfinite(v) || !(v > 0) || scale == 0)
-        fail(2, std::string("--bandwidth expects a rate such as 256KB/s (B/s, KB/s or MB/s, "
-                            "1 KB = 1024 B), got '") + text + "'");
-    return v * scale;
+    std::string error;
+    const double v = nfc_cli::parse_bandwidth(text, &error);
+    if (!error.empty()) fail(2, error);
+    return v;
 }
 
 bool ends_with(const std::string& s, const char* suffix) {
@@ -101,27 +97,10 @@ bool ends_with(const std::string& s, const char* suffix) {
     return true;
 }
 
-// --levels: ascending resolutions, each on the ladder of the last (nfd_extraction_ladder).
 std::vector<uint32_t> parse_levels(const char* text) {
-    std::vector<uint32_t> levels;
-    const std::string list = text;
-    for (size_t begin = 0; begin <= list.size();) {
-        const size_t comma = std::min(list.find(',', begin), list.size());
-        const std::string item = list.substr(begin, comma - begin);
-        levels.push_back(
-            uint32_t(parse_count("--levels", item.c_str(), NFD_MIN_RESOLUTION, NFD_MAX_RESOLUTION)));
-        if (levels.size() > 1 && levels.back() <= levels[levels.size() - 2])
-            fail(2, "--levels must be ascending, got '" + list + "'");
-        begin = comma + 1;
-    }
-    uint32_t ladder[NFD_MAX_LADDER_LEVELS], count = 0;
-    check(nfd_extraction_ladder(levels.back(), ladder, NFD_MAX_LADDER_LEVELS, &count), "--levels");
-    std::string rungs;
-    for (uint32_t i = 0; i < count; ++i) rungs += (i ? "," : "") + std::to_string(ladder[i]);
-    for (uint32_t r : levels)
-        if (std::find(ladder, ladder + count, r) == ladder + count)
-            fail(2, "--levels: " + std::to_string(r) + " is not a level of " +
-                        std::to_string(levels.back()) + " (its levels: " + rungs + ")");
+    std::string error;
+    std::vector<uint32_t> levels = nfc_cli::parse_levels(text, &error);
+    if (!error.empty()) fail(2, error);
     return levels;
 }
 
@@ -395,14 +374,10 @@ void decode_progressive(const Options& o, Handles* h) {
     const double cpu0 = process_cpu_ms();
     const Input in = acquire_asset(o, &h->asset);
     const double ms_asset = ms_since(t0);
-    uint32_t ladder[NFD_MAX_LADDER_LEVELS], count = 0;
-    check(nfd_extraction_ladder(o.resolution, ladder, NFD_MAX_LADDER_LEVELS, &count), "--levels");
     nfd_extraction_options eo = {};
     eo.struct_size = sizeof eo;
     eo.resolution = o.resolution;
-    for (uint32_t i = 0; i < count; ++i)
-        if (std::find(o.levels.begin(), o.levels.end(), ladder[i]) != o.levels.end())
-            eo.mesh_levels |= 1u << i;
+    eo.mesh_levels = nfc_cli::ladder_mask(o.levels);
     struct Extraction {
         nfd_extraction* handle = nullptr;
         std::vector<nfd_mesh*> meshes;

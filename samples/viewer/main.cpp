@@ -1,0 +1,189 @@
+// nfc-viewer: streams .nfc assets into a grid and shows each as soon as its first level of detail
+// is decoded, replacing it in place by finer levels while the camera keeps moving. The sample of
+// libnfdecode's streaming API, over the public header only: nfd_stream (streamer.cpp), nfd_queue
+// with progressive levels (nfd_job_options.mesh_levels), device adoption (the viewer's VkDevice,
+// nfd_context_options.adopt). See --help; headless: xvfb-run -a nfc-viewer DIR --screenshot F.png.
+//
+// Errors are one line on stderr ("nfc-viewer: error: ...") and a non-zero exit status: 2 for a
+// bad command line, 1 for no display, no Vulkan or a failure while running. An asset that cannot
+// be read or decoded is shown as failed while the others keep streaming.
+#include <nfdecode/nfdecode.h>
+
+#include <stb_image_write.h>
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+#include "../common/cli_values.h"
+#include "asset_view.h"
+#include "controls.h"
+#include "frame_clock.h"
+#include "mesh_pipeline.h"
+#include "options.h"
+#include "overlay.h"
+#include "scene.h"
+
+namespace nfc_viewer {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_between(Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+}
+
+// The context libnfdecode decodes on. auto: the CPU path on a CPU implementation (lavapipe),
+// whose threads the renderer needs and where the one queue would make frames wait behind
+// decode submissions; the viewer's own device, adopted, on a GPU (bench/RESULTS.md, "Viewer").
+nfd_context* create_decode_context(const Options& o, VkDeviceContext* vk, nfd_vulkan_device* lent) {
+    const bool vulkan = o.decode_device == DecodeDevice::kVulkan ||
+                        (o.decode_device == DecodeDevice::kAuto && !vk->is_cpu_device());
+    nfd_context_options co = {};
+    co.struct_size = sizeof co;
+    co.device = vulkan ? NFD_DEVICE_VULKAN : NFD_DEVICE_CPU;
+    if (vulkan) {
+        *lent = vk->lend();
+        co.adopt = lent;
+    }
+    nfd_context* context = nullptr;
+    const nfd_result r = nfd_context_create(&co, &context);
+    if (r != NFD_SUCCESS)
+        throw std::runtime_error(std::string("libnfdecode context: ") + nfd_result_string(r));
+    return context;
+}
+
+void print_summary(const std::vector<StreamedAsset*>& streamed, const std::vector<AssetView>& views) {
+    for (size_t i = 0; i < views.size(); ++i) {
+        const AssetView& v = views[i];
+        std::printf("asset %s: %s, %u cells, %zu triangles, %llu bytes received, levels",
+                    streamed[i]->name.c_str(),
+                    v.failed() ? ("failed: " + v.error).c_str() : v.final ? "done" : "loading",
+                    v.resolution(), v.triangles(),
+                    (unsigned long long)streamed[i]->bytes_received.load());
+        for (const LevelRecord& l : v.levels) std::printf(" %u:%.1fms", l.resolution, l.decode_ms);
+        std::printf("\n");
+    }
+}
+
+int run(const Options& o) {
+    VkDeviceContext vk(o.width, o.height, "nfc-viewer");
+    FrameTarget frames(&vk, o.width, o.height);
+    MeshPipeline pipeline(vk.device(), frames.render_pass(), vk.wireframe_supported());
+    Controls controls;
+    controls.overlay = o.overlay;
+    controls.install(vk.window());
+    Overlay overlay(&vk, frames);
+
+    nfd_vulkan_device lent{};
+    std::unique_ptr<nfd_context, void (*)(nfd_context*)> context(
+        create_decode_context(o, &vk, &lent), nfd_context_destroy);
+    OverlayStatus status;
+    status.render_device = vk.properties().deviceName;
+    status.decode_device = nfd_context_device_kind(context.get()) == NFD_DEVICE_VULKAN
+                               ? std::string("adopted ") + nfd_context_device_name(context.get())
+                               : std::string("cpu");
+
+    const size_t n = o.inputs.size();
+    std::vector<AssetView> views(n);
+    const Clock::time_point start = Clock::now();
+    auto streamer = std::make_unique<Streamer>(context.get(), o.inputs, o.bandwidth, o.levels.back(),
+                                               nfc_cli::ladder_mask(o.levels), start);
+    std::vector<StreamedAsset*> streamed;
+    for (size_t i = 0; i < n; ++i) streamed.push_back(&streamer->asset(i));
+    auto any_loading = [&] {
+        for (const AssetView& v : views)
+            if (loading(v)) return true;
+        return false;
+    };
+    auto timed_out = [&] { return seconds_between(start, Clock::now()) > o.timeout_s; };
+
+    if (o.preload) {  // the fully loaded baseline: every final mesh before the first frame
+        while (any_loading() && !timed_out()) {
+            for (size_t i = 0; i < n; ++i)
+                refresh_asset(streamed[i], &views[i], &vk, &frames, true, 0);
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+    }
+
+    const VkExtent2D first = frames.extent();
+    controls.home = OrbitCamera::framing(n, float(first.width) / float(first.height));
+    controls.camera = controls.home;
+    FrameClock clock(o.fps, o.frame_log);
+    const bool headless = !o.screenshot.empty();
+    for (int frame = 0;; ++frame) {
+        glfwPollEvents();
+        if (!headless && glfwWindowShouldClose(vk.window())) break;
+        clock.begin_frame();
+        VkCommandBuffer cmd = frames.begin_frame();
+        const double now_s = seconds_between(start, Clock::now());
+        // One upload per frame bounds the frame's copying; a job keeps its newest level meanwhile.
+        bool uploaded = false;
+        for (size_t i = 0; i < n; ++i)
+            uploaded |= refresh_asset(streamed[i], &views[i], &vk, &frames, !uploaded, now_s);
+        const bool loading_now = any_loading();
+        controls.overlay_has_keyboard = overlay.wants_keyboard();
+        controls.update(vk.window(), controls.overlay && overlay.wants_mouse());
+
+        const VkExtent2D extent = frames.extent();
+        const float aspect = float(extent.width) / float(extent.height);
+        const glm::mat4 view_projection = controls.camera.projection(aspect) * controls.camera.view();
+        MeshPush push{};
+        push.light_dir = glm::vec4(controls.camera.eye() - controls.camera.target, 0.0f);
+        pipeline.bind(cmd, extent, controls.wireframe);
+        for (size_t i = 0; i < n; ++i) {
+            if (views[i].mesh.empty()) continue;
+            const nfd_asset_info& info = streamed[i]->info;  // set before the job was published
+            push.mvp = view_projection * model_matrix(i, n, info.center, info.scale);
+            const float hue = float(i) / float(std::max<size_t>(n, 1));
+            push.tint = glm::vec4(0.75f + 0.2f * std::sin(6.2832f * hue),
+                                  0.75f + 0.2f * std::sin(6.2832f * (hue + 0.33f)),
+                                  0.75f + 0.2f * std::sin(6.2832f * (hue + 0.67f)),
+                                  float(int(controls.shading)));
+            pipeline.draw(cmd, views[i].mesh, push);
+        }
+        if (controls.overlay) {
+            status.frame_ms = clock.last_ms();
+            status.frame_ms_average = clock.average_ms();
+            status.shading = controls.shading == Shading::kLit ? "lit" : "normals";
+            status.wireframe = controls.wireframe && pipeline.has_wireframe();
+            overlay.draw(cmd, status, streamed, views);
+        }
+        const bool last = headless && frame + 1 >= o.frames && !(o.wait_loaded && loading_now);
+        frames.end_frame(last);
+        clock.end_frame(loading_now);
+        if (last) break;
+        if (headless && o.wait_loaded && timed_out())
+            throw std::runtime_error("--wait-loaded: assets still loading after --timeout " +
+                                     std::to_string(int(o.timeout_s)) + " s");
+        clock.pace();
+    }
+
+    if (headless) {
+        const std::vector<unsigned char> pixels = frames.read_pixels();
+        const VkExtent2D e = frames.extent();
+        if (!stbi_write_png(o.screenshot.c_str(), int(e.width), int(e.height), 4, pixels.data(),
+                            int(e.width) * 4))
+            throw std::runtime_error(o.screenshot + ": cannot write the PNG");
+    }
+    print_summary(streamed, views);
+    clock.print_summary();
+    frames.wait_idle();
+    streamer.reset();  // cancels jobs still running, joins the workers: before the context goes
+    for (AssetView& v : views) destroy_mesh(vk.device(), &v.mesh);
+    return 0;
+}
+
+}  // namespace
+}  // namespace nfc_viewer
+
+int main(int argc, char** argv) {
+    const nfc_viewer::Options options = nfc_viewer::parse_options(argc, argv);
+    try {
+        return nfc_viewer::run(options);
+    } catch (const std::exception& e) {
+        nfc_viewer::fail(1, e.what());
+    }
+}

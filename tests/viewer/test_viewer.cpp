@@ -1,0 +1,192 @@
+// nfc-viewer as the acceptance uses it: a headless screenshot of the golden vectors under
+// Xvfb whose silhouette matches a CPU rasterisation of the same meshes, decoded through the public
+// API and placed by the viewer's own layout and camera (scene.h), with IoU >= 0.9; a corrupt
+// asset shown as failed while the others load; one-line errors. The comparison itself is tested
+// to reject an empty or shifted image. Only the tests that need a display skip, and only where
+// xvfb-run is not installed (scripts/setup.sh installs it).
+#include <gtest/gtest.h>
+#include <nfdecode/nfdecode.h>
+#include <stb_image.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "scene.h"
+#include "silhouette.h"
+
+namespace nfc_viewer::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kWidth = 320, kHeight = 240;
+const char* const kVectors[] = {"bunny_scans_udf_w16", "bunny_sdf_w16", "bunny_sdf_w32",
+                                "spot_sdf_w24_b6", "tshirt_udf_w16"};
+
+std::string vector_path(const char* name) {
+    return std::string(NFC_TEST_VECTORS_DIR) + "/v1_0_" + name + ".nfc";
+}
+
+std::vector<unsigned char> read_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::vector<unsigned char>(std::istreambuf_iterator<char>(in), {});
+}
+
+struct Outcome {
+    int status;
+    std::string out, err;
+};
+
+// Runs `command` (a shell line) and captures its status and output.
+Outcome run(const std::string& command) {
+    const std::string base = (fs::temp_directory_path() /
+                              ("nfc_viewer_test_" + std::to_string(::getpid()))).string();
+    const int raw = std::system((command + " >" + base + ".out 2>" + base + ".err").c_str());
+    const std::vector<unsigned char> o = read_bytes(base + ".out"), e = read_bytes(base + ".err");
+    fs::remove(base + ".out");
+    fs::remove(base + ".err");
+    return Outcome{WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, std::string(o.begin(), o.end()),
+               std::string(e.begin(), e.end())};
+}
+
+bool have_xvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1") == 0; }
+
+std::string viewer_under_xvfb() {
+    return std::string("xvfb-run -a -s '-screen 0 640x480x24' ") + NFC_VIEWER_PATH;
+}
+
+// The golden vectors decoded on the CPU at `resolution` and rasterised as the viewer lays them out.
+Mask reference_silhouette(const std::vector<std::string>& paths, uint32_t resolution) {
+    nfd_context_options co = {};
+    co.struct_size = sizeof co;
+    co.device = NFD_DEVICE_CPU;
+    nfd_context* context = nullptr;
+    EXPECT_EQ(nfd_context_create(&co, &context), NFD_SUCCESS);
+    const OrbitCamera camera = OrbitCamera::framing(paths.size(), float(kWidth) / float(kHeight));
+    const glm::mat4 view_projection = camera.projection(float(kWidth) / kHeight) * camera.view();
+    Mask mask(kWidth, kHeight);
+    for (size_t i = 0; i < paths.size(); ++i) {
+        const std::vector<unsigned char> bytes = read_bytes(paths[i]);
+        nfd_asset* asset = nullptr;
+        EXPECT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &asset), NFD_SUCCESS) << paths[i];
+        nfd_asset_info info{};
+        nfd_asset_get_info(asset, &info);
+        nfd_mesh_options mo = {};
+        mo.struct_size = sizeof mo;
+        mo.resolution = resolution;
+        nfd_mesh* mesh = nullptr;
+        EXPECT_EQ(nfd_mesh_extract(context, asset, &mo, &mesh), NFD_SUCCESS) << paths[i];
+        nfd_mesh_data data{};
+        nfd_mesh_get_data(mesh, &data);
+        rasterize(data, view_projection * model_matrix(i, paths.size(), info.center, info.scale),
+                  &mask);
+        nfd_mesh_destroy(mesh);
+        nfd_asset_destroy(asset);
+    }
+    nfd_context_destroy(context);
+    return mask;
+}
+
+std::vector<std::string> golden_paths() {
+    std::vector<std::string> paths;
+    for (const char* name : kVectors) paths.push_back(vector_path(name));
+    return paths;
+}
+
+std::string joined(const std::vector<std::string>& paths) {
+    std::string s;
+    for (const std::string& p : paths) s += " '" + p + "'";
+    return s;
+}
+
+// The comparison can fail: an empty image, or the right silhouette moved by a few pixels.
+TEST(Silhouette, RejectsAnEmptyOrShiftedImage) {
+    const Mask reference = reference_silhouette(golden_paths(), 32);
+    ASSERT_GT(reference.coverage(), 0.03);
+    EXPECT_DOUBLE_EQ(iou(reference, reference), 1.0);
+    EXPECT_LT(iou(reference, Mask(kWidth, kHeight)), 0.9);
+    EXPECT_LT(iou(reference, shifted(reference, 6, 0)), 0.9);
+    EXPECT_LT(iou(reference, shifted(reference, 0, -6)), 0.9);
+    std::vector<unsigned char> background(size_t(kWidth) * kHeight * 4);
+    for (size_t i = 0; i < background.size(); i += 4)
+        for (int c = 0; c < 3; ++c) background[i + c] = (unsigned char)std::lround(kBackground[c] * 255);
+    EXPECT_EQ(foreground(background.data(), kWidth, kHeight).coverage(), 0.0);
+}
+
+TEST(Viewer, ScreenshotSilhouetteMatchesTheDecodedMeshes) {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh installs xvfb)";
+    const std::string png = (fs::temp_directory_path() /
+                             ("nfc_viewer_shot_" + std::to_string(::getpid()) + ".png")).string();
+    const Outcome r = run(viewer_under_xvfb() + joined(golden_paths()) + " --screenshot '" + png +
+                      "' --frames 10 --wait-loaded --timeout 120 --no-overlay --levels 32,64" +
+                      " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight));
+    ASSERT_EQ(r.status, 0) << r.err << r.out;
+    for (const char* name : kVectors)
+        EXPECT_NE(r.out.find(std::string("v1_0_") + name + ".nfc: done, 64 cells"), std::string::npos)
+            << r.out;
+    int w = 0, h = 0, channels = 0;
+    unsigned char* pixels = stbi_load(png.c_str(), &w, &h, &channels, 4);
+    ASSERT_NE(pixels, nullptr) << png;
+    fs::remove(png);
+    ASSERT_EQ(w, kWidth);
+    ASSERT_EQ(h, kHeight);
+    const Mask shot = foreground(pixels, w, h);
+    stbi_image_free(pixels);
+    const Mask reference = reference_silhouette(golden_paths(), 64);
+    std::printf("silhouette IoU %.4f, coverage: screenshot %.4f, reference %.4f\n",
+                iou(shot, reference), shot.coverage(), reference.coverage());
+    EXPECT_GT(shot.coverage(), 0.05) << "the shapes cover too little of the image";
+    EXPECT_GE(iou(shot, reference), 0.9)
+        << "coverage: screenshot " << shot.coverage() << ", reference " << reference.coverage();
+}
+
+TEST(Viewer, ACorruptAssetFailsWhileTheOthersLoad) {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh installs xvfb)";
+    const fs::path dir = fs::temp_directory_path() / ("nfc_viewer_dir_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    std::vector<unsigned char> bytes = read_bytes(vector_path("bunny_sdf_w16"));
+    std::ofstream(dir / "a_good.nfc", std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    bytes[bytes.size() / 2] ^= 0x40;  // inside GEOM: its CRC fails
+    std::ofstream(dir / "b_corrupt.nfc", std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    const Outcome r = run(viewer_under_xvfb() + " '" + dir.string() + "' --screenshot '" +
+                      (dir / "shot.png").string() + "' --frames 3 --wait-loaded --levels 32" +
+                      " --width 160 --height 120");
+    fs::remove_all(dir);
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("a_good.nfc: done, 32 cells"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("b_corrupt.nfc: failed: "), std::string::npos) << r.out;
+}
+
+void expect_one_line_error(const Outcome& r, int status, const std::string& fragment) {
+    EXPECT_EQ(r.status, status) << r.err;
+    EXPECT_EQ(r.err.rfind("nfc-viewer: error: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+}
+
+TEST(Viewer, ErrorsAreOneLine) {
+    const std::string viewer = NFC_VIEWER_PATH;
+    expect_one_line_error(run(viewer + " /nonexistent/x.nfc"), 2, "no such file");
+    expect_one_line_error(run(viewer + " " + vector_path("bunny_sdf_w16") + " --levels 32,100"), 2,
+                          "not a level of 100");
+    expect_one_line_error(run(viewer + " " + vector_path("bunny_sdf_w16") + " --frames 3"), 2,
+                          "--screenshot");
+    // No display: no X server at all (and no Wayland one).
+    expect_one_line_error(run("env -u DISPLAY -u WAYLAND_DISPLAY " + viewer + " " +
+                              vector_path("bunny_sdf_w16") + " --screenshot /tmp/x.png"),
+                          1, "display");
+}
+
+}  // namespace
+}  // namespace nfc_viewer::test
