@@ -66,18 +66,8 @@ Overlay::Overlay(VkDeviceContext* vk, const FrameTarget& frames) : device_(vk->d
         throw std::runtime_error("ImGui Vulkan backend failed");
 
     // The font atlas: one-off upload through a command buffer of a pool of its own.
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.queueFamilyIndex = vk->family();
-    VkCommandPool command_pool;
-    vk_check(vkCreateCommandPool(device_, &pool_info, nullptr, &command_pool), "vkCreateCommandPool");
-    VkCommandBufferAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    alloc.commandPool = command_pool;
-    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    alloc.commandBufferCount = 1;
-    VkCommandBuffer cmd;
-    vk_check(vkAllocateCommandBuffers(device_, &alloc, &cmd), "vkAllocateCommandBuffers");
+    const VkCommandPool command_pool = vk->create_command_pool(0);
+    const VkCommandBuffer cmd = vk->allocate_command_buffer(command_pool);
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;

@@ -173,6 +173,27 @@ VkDeviceMemory VkDeviceContext::allocate(const VkMemoryRequirements& req,
     return memory;
 }
 
+VkCommandPool VkDeviceContext::create_command_pool(VkCommandPoolCreateFlags flags) const {
+    VkCommandPoolCreateInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    info.flags = flags;
+    info.queueFamilyIndex = family_;
+    VkCommandPool pool;
+    vk_check(vkCreateCommandPool(device_, &info, nullptr, &pool), "vkCreateCommandPool");
+    return pool;
+}
+
+VkCommandBuffer VkDeviceContext::allocate_command_buffer(VkCommandPool pool) const {
+    VkCommandBufferAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+    alloc.commandPool = pool;
+    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    alloc.commandBufferCount = 1;
+    VkCommandBuffer cmd;
+    vk_check(vkAllocateCommandBuffers(device_, &alloc, &cmd), "vkAllocateCommandBuffers");
+    return cmd;
+}
+
 nfd_vulkan_device VkDeviceContext::lend() {
     g_lent_queue_mutex = &queue_mutex_;
     nfd_vulkan_device d{};

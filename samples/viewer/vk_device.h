@@ -55,6 +55,10 @@ public:
     // The device as libnfdecode adopts it (valid while this object lives).
     nfd_vulkan_device lend();
 
+    // A command pool of the queue's family, and a primary command buffer of it.
+    VkCommandPool create_command_pool(VkCommandPoolCreateFlags flags) const;
+    VkCommandBuffer allocate_command_buffer(VkCommandPool pool) const;
+
     // Submits and waits: one-off work (font upload, screenshot readback) outside the frame loop.
     void submit_and_wait(VkCommandBuffer cmd);
 

@@ -85,18 +85,9 @@ FrameTarget::FrameTarget(VkDeviceContext* vk, int width, int height) : vk_(vk) {
     extent_ = {uint32_t(width), uint32_t(height)};
     const VkDevice device = vk_->device();
     render_pass_ = create_render_pass(device);
-    VkCommandPoolCreateInfo pool_info{};
-    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool_info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    pool_info.queueFamilyIndex = vk_->family();
-    vk_check(vkCreateCommandPool(device, &pool_info, nullptr, &pool_), "vkCreateCommandPool");
+    pool_ = vk_->create_command_pool(VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT);
     for (Slot& s : slots_) {
-        VkCommandBufferAllocateInfo alloc{};
-        alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-        alloc.commandPool = pool_;
-        alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-        alloc.commandBufferCount = 1;
-        vk_check(vkAllocateCommandBuffers(device, &alloc, &s.cmd), "vkAllocateCommandBuffers");
+        s.cmd = vk_->allocate_command_buffer(pool_);
         VkFenceCreateInfo fence{};
         fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
         fence.flags = VK_FENCE_CREATE_SIGNALED_BIT;
@@ -122,7 +113,14 @@ FrameTarget::~FrameTarget() {
 }
 
 void FrameTarget::wait_idle() {
-    for (Slot& s : slots_) vkWaitForFences(vk_->device(), 1, &s.fence, VK_TRUE, UINT64_MAX);
+    for (uint32_t i = 0; i < kFramesInFlight; ++i)
+        if (!(recording_ && i == slot_))  // a frame begun and not submitted (a throw) never signals
+            vkWaitForFences(vk_->device(), 1, &slots_[i].fence, VK_TRUE, UINT64_MAX);
+}
+
+void FrameTarget::drain() {
+    wait_idle();
+    for (Slot& s : slots_) run_retired(&s);
 }
 
 void FrameTarget::run_retired(Slot* slot) {
@@ -279,6 +277,7 @@ VkCommandBuffer FrameTarget::begin_frame() {
         recreate();
     }
     vk_check(vkResetFences(device, 1, &s.fence), "vkResetFences");
+    recording_ = true;
     vk_check(vkResetCommandBuffer(s.cmd, 0), "vkResetCommandBuffer");
     VkCommandBufferBeginInfo begin{};
     begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
@@ -344,6 +343,7 @@ void FrameTarget::end_frame(bool readback) {
     {
         auto lock = vk_->lock_queue();
         vk_check(vkQueueSubmit(vk_->queue(), 1, &submit, s.fence), "vkQueueSubmit");
+        recording_ = false;
         presented = vkQueuePresentKHR(vk_->queue(), &present);
     }
     slot_ = (slot_ + 1) % kFramesInFlight;

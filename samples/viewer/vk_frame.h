@@ -37,6 +37,9 @@ public:
     // Runs `release` once the GPU has finished the frame being recorded (or at destruction).
     void retire(std::function<void()> release);
     void wait_idle();
+    // Between frames: waits for every frame and runs everything retired (before what it frees
+    // depends on goes, e.g. the context of a retired recording).
+    void drain();
 
 private:
     struct Slot {
@@ -58,6 +61,7 @@ private:
     VkCommandPool pool_ = VK_NULL_HANDLE;
     Slot slots_[kFramesInFlight];
     uint32_t slot_ = 0;
+    bool recording_ = false;  // slot_'s frame has begun and is not submitted (its fence unsignalled)
     uint32_t image_index_ = 0;
 
     VkSwapchainKHR swapchain_ = VK_NULL_HANDLE;
