@@ -1,10 +1,11 @@
-// A decoded mesh as the viewer draws it: one interleaved vertex buffer (position, normal) and one
-// index buffer.
-//
-// The single place where a mesh reaches the GPU. libnfdecode 0.2 returns meshes in host memory
-// (nfd_mesh_get_data), so upload_mesh() copies them into buffers of the viewer's own; when the
-// library can leave a job's results on the (adopted) device as VkBuffers, upload_mesh() becomes a
-// wrap of those buffers and nothing else in the viewer changes.
+// A mesh as the frame draws it: a position and a normal vertex stream (3 floats each, bindings 0
+// and 1 of MeshPipeline), 32-bit indices, and either an index count (vkCmdDrawIndexed) or an
+// indirect draw record on the device (vkCmdDrawIndexedIndirect). Two kinds, one draw path:
+//   uploaded  a host mesh (nfd_mesh_data: the queue's levels, or every level on the CPU decode)
+//             copied into buffers of the viewer's own, positions then normals in one buffer;
+//   recorded  the buffers of an nfd_recording the viewer recorded into its command buffer
+//             (recorded_final.h): drawn where the decode left them, zero copy, through the draw
+//             record the decode wrote; no count comes back to the host for drawing.
 #pragma once
 
 #include <nfdecode/nfdecode.h>
@@ -14,17 +15,28 @@
 namespace nfc_viewer {
 
 struct GpuMesh {
-    VkBuffer vertices = VK_NULL_HANDLE, indices = VK_NULL_HANDLE;
+    VkBuffer positions = VK_NULL_HANDLE, normals = VK_NULL_HANDLE, indices = VK_NULL_HANDLE;
+    VkDeviceSize normals_offset = 0;   // into `normals`
+    VkBuffer draw = VK_NULL_HANDLE;    // recorded: one VkDrawIndexedIndirectCommand at offset 0
+    uint32_t index_count = 0;          // uploaded: what is drawn; recorded: what the decode
+                                       // reported (the overlay's; the draw reads the record)
+    // Ownership: the uploaded buffers' memory, or the recording that owns its buffers.
     VkDeviceMemory vertex_memory = VK_NULL_HANDLE, index_memory = VK_NULL_HANDLE;
-    uint32_t index_count = 0;
+    nfd_recording* recording = nullptr;
+
     bool empty() const { return index_count == 0; }
+    bool recorded() const { return recording != nullptr; }
 };
 
 // Copies `data` (positions, normals, indices) into new buffers. An empty mesh gives an empty
 // GpuMesh (no buffers). Throws std::runtime_error if Vulkan cannot allocate them.
 GpuMesh upload_mesh(const VkDeviceContext& vk, const nfd_mesh_data& data);
 
-// Frees the buffers (the GPU must be done with them: see FrameTarget::retire).
+// Takes over `recording` (finished with `result`: NFD_SUCCESS) and draws from its buffers.
+GpuMesh wrap_recording(nfd_recording* recording, const nfd_recording_result& result);
+
+// Frees the buffers, or destroys the recording (the GPU must be done with them: see
+// FrameTarget::retire; a recording's context and asset must still be alive).
 void destroy_mesh(VkDevice device, GpuMesh* mesh);
 
 }  // namespace nfc_viewer

@@ -25,13 +25,16 @@ VkPipeline create_pipeline(VkDevice device, VkRenderPass render_pass, VkPipeline
     stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
     stages[1].module = frag;
     stages[1].pName = "main";
-    const VkVertexInputBindingDescription binding{0, 6 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
+    // Positions and normals as two streams (GpuMesh): the layout of nfd_device_mesh's buffers.
+    const VkVertexInputBindingDescription bindings[2] = {
+        {0, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX},
+        {1, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX}};
     const VkVertexInputAttributeDescription attributes[2] = {
-        {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0}, {1, 0, VK_FORMAT_R32G32B32_SFLOAT, 3 * sizeof(float)}};
+        {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0}, {1, 1, VK_FORMAT_R32G32B32_SFLOAT, 0}};
     VkPipelineVertexInputStateCreateInfo input{};
     input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-    input.vertexBindingDescriptionCount = 1;
-    input.pVertexBindingDescriptions = &binding;
+    input.vertexBindingDescriptionCount = 2;
+    input.pVertexBindingDescriptions = bindings;
     input.vertexAttributeDescriptionCount = 2;
     input.pVertexAttributeDescriptions = attributes;
     VkPipelineInputAssemblyStateCreateInfo assembly{};
@@ -125,10 +128,14 @@ void MeshPipeline::draw(VkCommandBuffer cmd, const GpuMesh& mesh, const MeshPush
     if (mesh.empty()) return;
     vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                        sizeof push, &push);
-    const VkDeviceSize offset = 0;
-    vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertices, &offset);
+    const VkBuffer streams[2] = {mesh.positions, mesh.normals};
+    const VkDeviceSize offsets[2] = {0, mesh.normals_offset};
+    vkCmdBindVertexBuffers(cmd, 0, 2, streams, offsets);
     vkCmdBindIndexBuffer(cmd, mesh.indices, 0, VK_INDEX_TYPE_UINT32);
-    vkCmdDrawIndexed(cmd, mesh.index_count, 1, 0, 0, 0);
+    if (mesh.draw)  // the decode's own record: its count never comes to the host
+        vkCmdDrawIndexedIndirect(cmd, mesh.draw, 0, 1, sizeof(VkDrawIndexedIndirectCommand));
+    else
+        vkCmdDrawIndexed(cmd, mesh.index_count, 1, 0, 0, 0);
 }
 
 }  // namespace nfc_viewer

@@ -27,6 +27,7 @@ public:
     bool has_wireframe() const { return line_ != VK_NULL_HANDLE; }
     // Sets the viewport and scissor to `extent` and binds the filled or wireframe pipeline.
     void bind(VkCommandBuffer cmd, VkExtent2D extent, bool wireframe) const;
+    // An uploaded mesh with vkCmdDrawIndexed, a recorded one with vkCmdDrawIndexedIndirect.
     void draw(VkCommandBuffer cmd, const GpuMesh& mesh, const MeshPush& push) const;
 
 private:
