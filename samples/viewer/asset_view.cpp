@@ -4,7 +4,7 @@ namespace nfc_viewer {
 
 bool refresh_asset(StreamedAsset* streamed, AssetView* view, VkDeviceContext* vk,
                    FrameTarget* frames, bool may_upload, double now_s) {
-    if (view->final || view->failed()) return false;
+    if (view->queue_done || view->failed()) return false;
     const Arrival phase = streamed->phase.load(std::memory_order_acquire);
     if (phase == Arrival::kFailed) {
         view->error = streamed->error;  // the mesh shown so far stays, marked failed
@@ -12,6 +12,10 @@ bool refresh_asset(StreamedAsset* streamed, AssetView* view, VkDeviceContext* vk
     }
     if (phase != Arrival::kSubmitted) return false;
     nfd_job* job = streamed->job;
+    if (!job) {  // no coarser level: the recording decodes them all (recorded_final.h)
+        view->queue_done = true;
+        return false;
+    }
     const nfd_job_status status = nfd_job_poll(job);
     const bool final =
         status == NFD_JOB_DONE || status == NFD_JOB_FAILED || status == NFD_JOB_CANCELLED;
@@ -27,7 +31,7 @@ bool refresh_asset(StreamedAsset* streamed, AssetView* view, VkDeviceContext* vk
         view->error = nfd_result_string(r);
         return false;
     }
-    view->final = final;
+    view->queue_done = final;
     if (!mesh) return false;  // DONE, and its final mesh was taken earlier
     nfd_mesh_data data{};
     nfd_decode_stats stats{};
@@ -41,14 +45,18 @@ bool refresh_asset(StreamedAsset* streamed, AssetView* view, VkDeviceContext* vk
     level.decode_ms = 1e3 * (stats.seconds_field - view->field_seconds + stats.seconds_mesh);
     level.shown_s = now_s;
     view->field_seconds = stats.seconds_field;
-    GpuMesh uploaded = upload_mesh(*vk, data);
+    const GpuMesh uploaded = upload_mesh(*vk, data);
     nfd_mesh_destroy(mesh);
+    show_level(view, uploaded, level, vk->device(), frames);
+    return true;
+}
+
+void show_level(AssetView* view, const GpuMesh& mesh, const LevelRecord& level, VkDevice device,
+                FrameTarget* frames) {
     GpuMesh replaced = view->mesh;
-    view->mesh = uploaded;
-    const VkDevice device = vk->device();
+    view->mesh = mesh;
     frames->retire([device, replaced]() mutable { destroy_mesh(device, &replaced); });
     view->levels.push_back(level);
-    return true;
 }
 
 }  // namespace nfc_viewer

@@ -2,7 +2,9 @@
 // is decoded, replacing it in place by finer levels while the camera keeps moving. The sample of
 // libnfdecode's streaming API, over the public header only: nfd_stream (streamer.cpp), nfd_queue
 // with progressive levels (nfd_job_options.mesh_levels), device adoption (the viewer's VkDevice,
-// nfd_context_options.adopt). See --help; headless: xvfb-run -a nfc-viewer DIR --screenshot F.png.
+// nfd_context_options.adopt) and, on that device, the final level recorded into the viewer's
+// command buffer and drawn in place (nfd_recording, recorded_final.h). See --help; headless:
+// xvfb-run -a nfc-viewer DIR --screenshot F.png.
 //
 // Errors are one line on stderr ("nfc-viewer: error: ...") and a non-zero exit status: 2 for a
 // bad command line, 1 for no display, no Vulkan or a failure while running. An asset that cannot
@@ -13,6 +15,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <thread>
@@ -24,6 +27,7 @@
 #include "mesh_pipeline.h"
 #include "options.h"
 #include "overlay.h"
+#include "recorded_final.h"
 #include "scene.h"
 
 namespace nfc_viewer {
@@ -35,24 +39,27 @@ double seconds_between(Clock::time_point a, Clock::time_point b) {
     return std::chrono::duration<double>(b - a).count();
 }
 
-// The context libnfdecode decodes on. auto: the CPU path on a CPU implementation (lavapipe),
-// whose threads the renderer needs and where the one queue would make frames wait behind
-// decode submissions; the viewer's own device, adopted, on a GPU (bench/RESULTS.md, "Viewer").
-nfd_context* create_decode_context(const Options& o, VkDeviceContext* vk, nfd_vulkan_device* lent) {
-    const bool vulkan = o.decode_device == DecodeDevice::kVulkan ||
-                        (o.decode_device == DecodeDevice::kAuto && !vk->is_cpu_device());
+using ContextPtr = std::unique_ptr<nfd_context, void (*)(nfd_context*)>;
+
+// Whether libnfdecode decodes on the viewer's own device, adopted. auto: the CPU path on a CPU
+// implementation (lavapipe), whose threads the renderer needs and where the one queue would make
+// frames wait behind decode submissions; the device on a GPU (bench/RESULTS.md, "Viewer").
+bool decodes_on_device(const Options& o, const VkDeviceContext& vk) {
+    return o.decode_device == DecodeDevice::kVulkan ||
+           (o.decode_device == DecodeDevice::kAuto && !vk.is_cpu_device());
+}
+
+// A context on the CPU, or on `lent` (the viewer's device) when given.
+ContextPtr create_context(const nfd_vulkan_device* lent) {
     nfd_context_options co = {};
     co.struct_size = sizeof co;
-    co.device = vulkan ? NFD_DEVICE_VULKAN : NFD_DEVICE_CPU;
-    if (vulkan) {
-        *lent = vk->lend();
-        co.adopt = lent;
-    }
+    co.device = lent ? NFD_DEVICE_VULKAN : NFD_DEVICE_CPU;
+    co.adopt = lent;
     nfd_context* context = nullptr;
     const nfd_result r = nfd_context_create(&co, &context);
     if (r != NFD_SUCCESS)
         throw std::runtime_error(std::string("libnfdecode context: ") + nfd_result_string(r));
-    return context;
+    return ContextPtr(context, nfd_context_destroy);
 }
 
 void print_summary(const std::vector<StreamedAsset*>& streamed, const std::vector<AssetView>& views) {
@@ -60,10 +67,12 @@ void print_summary(const std::vector<StreamedAsset*>& streamed, const std::vecto
         const AssetView& v = views[i];
         std::printf("asset %s: %s, %u cells, %zu triangles, %llu bytes received, levels",
                     streamed[i]->name.c_str(),
-                    v.failed() ? ("failed: " + v.error).c_str() : v.final ? "done" : "loading",
+                    v.failed() ? ("failed: " + v.error).c_str() : v.final() ? "done" : "loading",
                     v.resolution(), v.triangles(),
                     (unsigned long long)streamed[i]->bytes_received.load());
         for (const LevelRecord& l : v.levels) std::printf(" %u:%.1fms", l.resolution, l.decode_ms);
+        std::printf(", final mesh %s", final_mesh_source(v));
+        if (v.recording_tries) std::printf(", %u recordings", v.recording_tries);
         std::printf("\n");
     }
 }
@@ -77,20 +86,45 @@ int run(const Options& o) {
     controls.install(vk.window());
     Overlay overlay(&vk, frames);
 
-    nfd_vulkan_device lent{};
-    std::unique_ptr<nfd_context, void (*)(nfd_context*)> context(
-        create_decode_context(o, &vk, &lent), nfd_context_destroy);
+    // On the device: the queue's context decodes the coarser levels on its worker, a second
+    // context on the same device records the final ones on this thread (contexts are not
+    // thread-safe). Destroyed last: after the recordings, the jobs and the assets.
+    const bool on_device = decodes_on_device(o, vk);
+    const nfd_vulkan_device lent = on_device ? vk.lend() : nfd_vulkan_device{};
+    ContextPtr context = create_context(on_device ? &lent : nullptr);
+    ContextPtr recording_context = on_device ? create_context(&lent) : ContextPtr(nullptr, nullptr);
     OverlayStatus status;
     status.render_device = vk.properties().deviceName;
-    status.decode_device = nfd_context_device_kind(context.get()) == NFD_DEVICE_VULKAN
-                               ? std::string("adopted ") + nfd_context_device_name(context.get())
-                               : std::string("cpu");
+    status.decode_device = on_device ? std::string("adopted ") +
+                                           nfd_context_device_name(context.get()) +
+                                           ", final level recorded"
+                                     : std::string("cpu");
 
     const size_t n = o.inputs.size();
     std::vector<AssetView> views(n);
+    for (AssetView& v : views) v.awaits_recording = on_device;
+    // The queue's levels: all of them on the CPU, the coarser ones (maybe none) on the device.
+    std::vector<uint32_t> queue_levels = o.levels;
+    if (on_device) queue_levels.pop_back();
     const Clock::time_point start = Clock::now();
-    auto streamer = std::make_unique<Streamer>(context.get(), o.inputs, o.bandwidth, o.levels.back(),
-                                               nfc_cli::ladder_mask(o.levels), start);
+    auto streamer = std::make_unique<Streamer>(
+        context.get(), o.inputs, o.bandwidth, queue_levels.empty() ? 0 : queue_levels.back(),
+        nfc_cli::ladder_mask(queue_levels), on_device, start);
+    std::unique_ptr<RecordedFinals> finals;
+    if (on_device)
+        finals = std::make_unique<RecordedFinals>(&vk, recording_context.get(), o.levels.back(),
+                                                  o.recording_capacity, n);
+    // Whatever ends the run: the GPU done with every mesh before they go, the recordings (and
+    // the meshes retired into the frames) before the assets and contexts they borrow.
+    struct Teardown {
+        std::function<void()> run;
+        ~Teardown() { run(); }
+    } teardown{[&] {
+        frames.drain();
+        finals.reset();
+        for (AssetView& v : views) destroy_mesh(vk.device(), &v.mesh);
+        streamer.reset();  // cancels jobs still running, joins the workers: before the context
+    }};
     std::vector<StreamedAsset*> streamed;
     for (size_t i = 0; i < n; ++i) streamed.push_back(&streamer->asset(i));
     auto any_loading = [&] {
@@ -104,6 +138,7 @@ int run(const Options& o) {
         while (any_loading() && !timed_out()) {
             for (size_t i = 0; i < n; ++i)
                 refresh_asset(streamed[i], &views[i], &vk, &frames, true, 0);
+            if (finals) finals->update(streamed, &views, &frames, 0);
             std::this_thread::sleep_for(std::chrono::milliseconds(5));
         }
     }
@@ -123,6 +158,7 @@ int run(const Options& o) {
         bool uploaded = false;
         for (size_t i = 0; i < n; ++i)
             uploaded |= refresh_asset(streamed[i], &views[i], &vk, &frames, !uploaded, now_s);
+        if (finals) finals->update(streamed, &views, &frames, now_s);  // polls, never waits
         const bool loading_now = any_loading();
         controls.overlay_has_keyboard = overlay.wants_keyboard();
         controls.update(vk.window(), controls.overlay && overlay.wants_mouse());
@@ -170,9 +206,6 @@ int run(const Options& o) {
     }
     print_summary(streamed, views);
     clock.print_summary();
-    frames.wait_idle();
-    streamer.reset();  // cancels jobs still running, joins the workers: before the context goes
-    for (AssetView& v : views) destroy_mesh(vk.device(), &v.mesh);
     return 0;
 }
 

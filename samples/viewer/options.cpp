@@ -16,13 +16,16 @@ const char kUsage[] =
     "                  [--width W --height H] [--decode-device auto|cpu|vulkan]\n"
     "                  [--screenshot OUT.png --frames N [--wait-loaded] [--timeout S]]\n"
     "                  [--no-overlay] [--preload] [--fps N] [--frame-log FILE]\n"
+    "                  [--recording-capacity N]\n"
     "  DIR|FILE        .nfc files, or directories of them (laid out in a grid, by name)\n"
     "  --bandwidth R   each asset arrives at R (B/s, KB/s, MB/s; 1 KB = 1024 B), default 256KB/s\n"
     "  --levels LIST   progressive levels shown as they decode (ascending, on the last one's\n"
     "                  ladder), default 32,64,128,256\n"
     "  --decode-device where libnfdecode decodes: vulkan (the viewer's own VkDevice, adopted),\n"
     "                  cpu, or auto (default: cpu on a CPU implementation such as lavapipe,\n"
-    "                  whose threads the render shares; vulkan on a GPU; see bench/RESULTS.md)\n"
+    "                  whose threads the render shares; vulkan on a GPU; see bench/RESULTS.md).\n"
+    "                  On vulkan the final level is recorded into the viewer's command buffer\n"
+    "                  (nfd_recording) and drawn from the library's buffers (zero copy)\n"
     "  --screenshot F  headless: render --frames N frames (default 60), write the last as PNG\n"
     "  --wait-loaded   with --screenshot: keep rendering until every asset is final\n"
     "  --timeout S     with --wait-loaded: give up after S seconds (default 300)\n"
@@ -30,6 +33,9 @@ const char kUsage[] =
     "  --preload       decode every asset before the first frame (a fully loaded scene)\n"
     "  --fps N         frame-rate cap (default 60; 0: none)\n"
     "  --frame-log F   write one line per frame: frame milliseconds, assets still loading\n"
+    "  --recording-capacity N  every capacity of a recording's first try (cells, gradient\n"
+    "                  points, vertices, triangles; default 0: libnfdecode's); an overflow is\n"
+    "                  recorded again with the capacities it needed\n"
     "Mouse: left drag rotates, right drag (or shift + left) pans, wheel zooms.\n"
     "Keys: R reset camera, W wireframe, N shading (lit / normals), O overlay, Esc quit.\n"
     "Colour chunks are listed in the overlay; libnfdecode 0.2 does not decode them yet.\n";
@@ -108,6 +114,8 @@ Options parse_options(int argc, char** argv) {
             o.fps = int(parse_int(arg, value(), 0, 1000));
         } else if (arg == "--frame-log") {
             o.frame_log = value();
+        } else if (arg == "--recording-capacity") {
+            o.recording_capacity = uint32_t(parse_int(arg, value(), 0, 1 << 25));
         } else if (arg == "--decode-device") {
             const std::string d = value();
             if (d == "auto") o.decode_device = DecodeDevice::kAuto;

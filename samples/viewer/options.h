@@ -23,6 +23,7 @@ struct Options {
     DecodeDevice decode_device = DecodeDevice::kAuto;
     int fps = 60;              // frame-rate cap; 0: uncapped
     std::string frame_log;     // one line per frame: milliseconds, assets still loading
+    uint32_t recording_capacity = 0;  // first try's nfd_recording capacities; 0: the defaults
 };
 
 // Parses argv; prints the usage and exits 0 for --help, or prints one line and exits 2 for a bad

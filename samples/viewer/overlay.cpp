@@ -27,7 +27,7 @@ std::string thousands(size_t n) {
 
 const char* state_of(const StreamedAsset& s, const AssetView& v) {
     if (v.failed()) return "failed";
-    if (v.final) return "done";
+    if (v.final()) return "done";
     if (s.phase.load(std::memory_order_acquire) == Arrival::kStreaming) return "streaming";
     return v.levels.empty() ? "decoding" : "refining";
 }
@@ -103,12 +103,13 @@ void Overlay::draw(VkCommandBuffer cmd, const OverlayStatus& status,
     ImGui::Text("frame %.2f ms (average %.2f ms)   shading: %s%s", status.frame_ms,
                 status.frame_ms_average, status.shading, status.wireframe ? ", wireframe" : "");
     size_t total_triangles = 0;
-    if (ImGui::BeginTable("assets", 5, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
+    if (ImGui::BeginTable("assets", 6, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
         ImGui::TableSetupColumn("asset");
         ImGui::TableSetupColumn("KiB received");
         ImGui::TableSetupColumn("state");
         ImGui::TableSetupColumn("triangles");
         ImGui::TableSetupColumn("levels: cells / decode ms");
+        ImGui::TableSetupColumn("final mesh");
         ImGui::TableHeadersRow();
         for (size_t i = 0; i < views.size(); ++i) {
             const StreamedAsset& s = *streamed[i];
@@ -138,6 +139,8 @@ void Overlay::draw(VkCommandBuffer cmd, const OverlayStatus& status,
                 levels += text;
             }
             ImGui::TextUnformatted(levels.c_str());
+            ImGui::TableNextColumn();
+            ImGui::TextUnformatted(final_mesh_source(v));
         }
         ImGui::EndTable();
     }

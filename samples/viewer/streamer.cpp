@@ -49,11 +49,13 @@ bool read_file(const std::string& path, std::vector<unsigned char>* bytes, std::
 }  // namespace
 
 Streamer::Streamer(nfd_context* context, const std::vector<std::string>& paths, double bandwidth,
-                   uint32_t resolution, uint32_t mesh_levels, Clock::time_point start)
+                   uint32_t resolution, uint32_t mesh_levels, bool keep_assets,
+                   Clock::time_point start)
     : context_(context),
       bandwidth_(bandwidth),
       resolution_(resolution),
       mesh_levels_(mesh_levels),
+      keep_assets_(keep_assets),
       start_(start) {
     for (const std::string& p : paths) {
         auto a = std::make_unique<StreamedAsset>();
@@ -69,6 +71,7 @@ Streamer::~Streamer() {
     thread_.join();
     for (auto& a : assets_) nfd_job_destroy(a->job);  // cancels jobs still running
     nfd_queue_destroy(queue_);
+    for (auto& a : assets_) nfd_asset_destroy(a->asset);
 }
 
 void Streamer::fail(StreamedAsset* a, const std::string& error) {
@@ -120,7 +123,8 @@ void Streamer::feed(StreamedAsset* a, std::vector<unsigned char>* bytes, nfd_str
     *fed = arrived;
     a->bytes_received.store(p.bytes_consumed, std::memory_order_relaxed);
     a->file_size.store(p.file_size, std::memory_order_relaxed);
-    if (r == NFD_SUCCESS && !a->job && (p.flags & NFD_STREAM_GEOMETRY_READY)) {
+    auto published = [a] { return a->phase.load(std::memory_order_relaxed) != Arrival::kStreaming; };
+    if (r == NFD_SUCCESS && !published() && (p.flags & NFD_STREAM_GEOMETRY_READY)) {
         nfd_asset* asset = nullptr;
         r = nfd_stream_take_asset(*stream, &asset);
         if (r == NFD_SUCCESS) r = nfd_asset_get_info(asset, &a->info);
@@ -130,8 +134,10 @@ void Streamer::feed(StreamedAsset* a, std::vector<unsigned char>* bytes, nfd_str
         nfd_job_options jo = {};
         jo.struct_size = sizeof jo;
         jo.mesh_levels = mesh_levels_;
-        if (r == NFD_SUCCESS) r = nfd_queue_submit(queue_, asset, &mo, &jo, &a->job);
-        nfd_asset_destroy(asset);  // the queue keeps its own copy of the network
+        if (r == NFD_SUCCESS && resolution_)
+            r = nfd_queue_submit(queue_, asset, &mo, &jo, &a->job);
+        if (r == NFD_SUCCESS && keep_assets_) a->asset = asset;
+        else nfd_asset_destroy(asset);  // the queue keeps its own copy of the network
         if (r == NFD_SUCCESS) a->phase.store(Arrival::kSubmitted, std::memory_order_release);
     }
     if (r == NFD_SUCCESS && *fed == bytes->size()) {
@@ -145,7 +151,7 @@ void Streamer::feed(StreamedAsset* a, std::vector<unsigned char>* bytes, nfd_str
         bytes->shrink_to_fit();
     }
     if (r != NFD_SUCCESS)  // a damaged file: before its geometry, or in a later chunk
-        fail(a, std::string(a->job ? "damaged after its geometry: " : "") + nfd_result_string(r));
+        fail(a, std::string(published() ? "damaged after its geometry: " : "") + nfd_result_string(r));
 }
 
 }  // namespace nfc_viewer

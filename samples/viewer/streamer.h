@@ -29,6 +29,9 @@ struct StreamedAsset {
     // Written by the loader thread before phase becomes kSubmitted:
     nfd_asset_info info{};
     nfd_job* job = nullptr;  // owned by the Streamer; the frame thread polls and takes meshes
+                             // (none when the Streamer was given no job resolution)
+    nfd_asset* asset = nullptr;  // with keep_assets: owned by the Streamer, for the frame
+                                 // thread's recordings (recorded_final.h), which it outlives
     // Written before phase becomes kFailed (the stream's or the submit's error):
     std::string error;
     std::atomic<Arrival> phase{Arrival::kStreaming};
@@ -42,10 +45,12 @@ public:
     using Clock = std::chrono::steady_clock;
 
     // Starts the loader thread. `context` must outlive the Streamer and is used only by its
-    // queue. `mesh_levels` is the ladder mask of `resolution` (nfd_job_options.mesh_levels).
+    // queue. `mesh_levels` is the ladder mask of `resolution` (nfd_job_options.mesh_levels);
+    // resolution 0: no job (the asset is only published). `keep_assets`: publish the asset too.
     Streamer(nfd_context* context, const std::vector<std::string>& paths, double bandwidth,
-             uint32_t resolution, uint32_t mesh_levels, Clock::time_point start);
-    // Stops the loader thread, destroys the queue (cancelling what has not finished) and jobs.
+             uint32_t resolution, uint32_t mesh_levels, bool keep_assets, Clock::time_point start);
+    // Stops the loader thread, destroys the queue (cancelling what has not finished), the jobs
+    // and the kept assets.
     ~Streamer();
     Streamer(const Streamer&) = delete;
     Streamer& operator=(const Streamer&) = delete;
@@ -62,6 +67,7 @@ private:
     nfd_context* context_;
     double bandwidth_;
     uint32_t resolution_, mesh_levels_;
+    bool keep_assets_;
     Clock::time_point start_;
     nfd_queue* queue_ = nullptr;
     std::vector<std::unique_ptr<StreamedAsset>> assets_;
