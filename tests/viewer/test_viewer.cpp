@@ -1,6 +1,7 @@
 // nfc-viewer as the acceptance uses it: a headless screenshot of the golden vectors under
 // Xvfb whose silhouette matches a CPU rasterisation of the same meshes, decoded through the public
-// API and placed by the viewer's own layout and camera (scene.h), with IoU >= 0.9; a corrupt
+// API and placed by the viewer's own layout and camera (scene.h), with IoU >= 0.9, by the default
+// decode and by the device's, whose final levels are recorded and drawn in place; a corrupt
 // asset shown as failed while the others load; one-line errors. The comparison itself is tested
 // to reject an empty or shifted image. Only the tests that need a display skip, and only where
 // xvfb-run is not installed (scripts/setup.sh installs it).
@@ -122,31 +123,73 @@ TEST(Silhouette, RejectsAnEmptyOrShiftedImage) {
     EXPECT_EQ(foreground(background.data(), kWidth, kHeight).coverage(), 0.0);
 }
 
-TEST(Viewer, ScreenshotSilhouetteMatchesTheDecodedMeshes) {
-    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh installs xvfb)";
+// The viewer headless on the golden vectors with --levels 32,64 and `options`; its screenshot's
+// foreground in *shot (left empty when there is none).
+Outcome screenshot_of_golden_vectors(const std::string& options, Mask* shot) {
     const std::string png = (fs::temp_directory_path() /
                              ("nfc_viewer_shot_" + std::to_string(::getpid()) + ".png")).string();
     const Outcome r = run(viewer_under_xvfb() + joined(golden_paths()) + " --screenshot '" + png +
                       "' --frames 10 --wait-loaded --timeout 120 --no-overlay --levels 32,64" +
-                      " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight));
-    ASSERT_EQ(r.status, 0) << r.err << r.out;
-    for (const char* name : kVectors)
-        EXPECT_NE(r.out.find(std::string("v1_0_") + name + ".nfc: done, 64 cells"), std::string::npos)
-            << r.out;
+                      " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight) +
+                      options);
     int w = 0, h = 0, channels = 0;
     unsigned char* pixels = stbi_load(png.c_str(), &w, &h, &channels, 4);
-    ASSERT_NE(pixels, nullptr) << png;
     fs::remove(png);
-    ASSERT_EQ(w, kWidth);
-    ASSERT_EQ(h, kHeight);
-    const Mask shot = foreground(pixels, w, h);
+    if (pixels && w == kWidth && h == kHeight) *shot = foreground(pixels, w, h);
     stbi_image_free(pixels);
+    return r;
+}
+
+// The screenshot shows what the CPU decode of the final level (64) rasterises to.
+void expect_silhouette_of_final_level(const Mask& shot) {
     const Mask reference = reference_silhouette(golden_paths(), 64);
     std::printf("silhouette IoU %.4f, coverage: screenshot %.4f, reference %.4f\n",
                 iou(shot, reference), shot.coverage(), reference.coverage());
     EXPECT_GT(shot.coverage(), 0.05) << "the shapes cover too little of the image";
     EXPECT_GE(iou(shot, reference), 0.9)
         << "coverage: screenshot " << shot.coverage() << ", reference " << reference.coverage();
+}
+
+// The summary line of one golden vector (nfc-viewer prints one per asset on exit).
+std::string summary_line(const std::string& out, const char* name) {
+    const std::string key = std::string("asset v1_0_") + name + ".nfc: ";
+    const size_t at = out.find(key);
+    return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+}
+
+TEST(Viewer, ScreenshotSilhouetteMatchesTheDecodedMeshes) {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh installs xvfb)";
+    Mask shot(kWidth, kHeight);
+    const Outcome r = screenshot_of_golden_vectors("", &shot);
+    ASSERT_EQ(r.status, 0) << r.err << r.out;
+    for (const char* name : kVectors)
+        EXPECT_NE(summary_line(r.out, name).find("done, 64 cells"), std::string::npos) << r.out;
+    expect_silhouette_of_final_level(shot);
+}
+
+// On the viewer's device the final level is recorded into the viewer's command buffer and drawn
+// from libnfdecode's buffers: each asset says so, after the queue's coarser level (32), and with
+// a first try's capacities far too small, after at least one overflow recorded again. An upload
+// of the final level would say "final mesh uploaded"; the silhouette is the CPU decode's.
+TEST(Viewer, OnTheDeviceTheFinalLevelIsRecordedAndDrawnInPlace) {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh installs xvfb)";
+    Mask shot(kWidth, kHeight);
+    const Outcome r =
+        screenshot_of_golden_vectors(" --decode-device vulkan --recording-capacity 64", &shot);
+    ASSERT_EQ(r.status, 0) << r.err << r.out;
+    for (const char* name : kVectors) {
+        const std::string line = summary_line(r.out, name);
+        SCOPED_TRACE(line);
+        EXPECT_NE(line.find(": done, 64 cells"), std::string::npos);
+        EXPECT_NE(line.find(" levels 32:"), std::string::npos) << "the coarser level, queued";
+        EXPECT_NE(line.find(", final mesh device (recorded), "), std::string::npos);
+        unsigned recordings = 0;
+        const size_t at = line.find("device (recorded), ");
+        if (at != std::string::npos)
+            std::sscanf(line.c_str() + at, "device (recorded), %u recordings", &recordings);
+        EXPECT_GE(recordings, 2u) << "capacities of 64 must overflow at least once";
+    }
+    expect_silhouette_of_final_level(shot);
 }
 
 TEST(Viewer, ACorruptAssetFailsWhileTheOthersLoad) {
