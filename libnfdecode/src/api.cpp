@@ -647,10 +647,9 @@ nfd_result nfd_queue_create(nfd_context* context, const nfd_queue_options* optio
         return NFD_ERROR_INVALID_ARGUMENT;
     return guarded([&] {
         const nfd::MemoryBytes budget{opts.host_budget_bytes, opts.device_budget_bytes};
-        const bool vulkan = context->kind == NFD_DEVICE_VULKAN;
         try {
             *out_queue = new nfd_queue{
-                context, std::make_unique<nfd::Queue>(opts.worker_threads, vulkan, budget)};
+                context, std::make_unique<nfd::Queue>(opts.worker_threads, budget)};
         } catch (const std::system_error&) {  // a thread could not be started
             return NFD_ERROR_OUT_OF_MEMORY;
         }

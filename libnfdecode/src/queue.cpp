@@ -201,10 +201,10 @@ void Job::release() {
 
 // ---- Queue --------------------------------------------------------------------------------------
 
-Queue::Queue(uint32_t workers, bool one_at_a_time, MemoryBytes budget)
+Queue::Queue(uint32_t workers, MemoryBytes budget)
     : shared_(std::make_shared<Job::Shared>()) {
     shared_->budget = budget;
-    const uint32_t count = one_at_a_time ? 1 : std::max(1u, workers);
+    const uint32_t count = std::max(1u, workers);
     workers_.reserve(count);
     try {
         for (uint32_t i = 0; i < count; ++i) workers_.emplace_back([this] { run_worker(); });
@@ -316,7 +316,7 @@ std::shared_ptr<Job> Queue::next_job(std::unique_lock<std::mutex>& lock) {
 // goes back to pending at its place. The first in order never restarts while another job holds
 // memory, and alone it fits (or its step is over the whole budget, and it fails): it finishes,
 // so every job does, one after the other in the worst case. A restarted job evaluates its levels
-// again; a job of one worker never restarts (Vulkan: one worker).
+// again; a queue of one worker never restarts a job.
 void Queue::run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock) {
     Job::Shared& s = *shared_;
     auto end = [&](nfd_job_status status, nfd_result result) {

@@ -106,10 +106,10 @@ private:
 
 class Queue {
 public:
-    // `workers` threads (at least one); `one_at_a_time`: a single worker, whatever `workers` says
-    // (the Vulkan Device runs one job at a time: one command buffer, shared pipelines). A budget
-    // of 0 is unlimited. Throws std::bad_alloc (or std::system_error) when a thread cannot start.
-    Queue(uint32_t workers, bool one_at_a_time, MemoryBytes budget);
+    // `workers` threads (at least one; on a Vulkan device each job records its own batches, gpu/
+    // job.cpp). A budget of 0 is unlimited. Throws std::bad_alloc (or std::system_error) when a
+    // thread cannot start.
+    Queue(uint32_t workers, MemoryBytes budget);
     // Cancels what has not finished (callbacks of pending jobs on this thread) and joins.
     ~Queue();
     Queue(const Queue&) = delete;

@@ -251,6 +251,61 @@ TEST_F(Gpu, MeshMatchesCpuOnClosedBlob) {
 }
 
 // A random SIREN: a tangle of surfaces touching the domain boundary, many ambiguous cases.
+// The staged path of discrete GPUs (device-local buffers the host reaches by copies), forced on
+// this device: the same values, gradients and meshes, SDF and UDF, as with mapped memory.
+TEST_F(Gpu, StagedMemoryGivesTheSameResults) {
+    setenv("NFD_FORCE_STAGING", "1", 1);
+    std::unique_ptr<gpu::Device> staged;
+    const nfd_result r = gpu::create_device(nullptr, false, &staged);
+    unsetenv("NFD_FORCE_STAGING");
+    ASSERT_EQ(r, NFD_SUCCESS);
+    EXPECT_FALSE(gpu::unified_memory(*staged));
+    for (const char* name : {"bunny_sdf_w32", "tshirt_udf_w16"}) {
+        SCOPED_TRACE(name);
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        MeshData mapped_mesh, staged_mesh;
+        ExtractStats mapped_stats, staged_stats;
+        ASSERT_EQ(gpu::extract_mesh(device(), g, 128, &mapped_mesh, &mapped_stats), NFD_SUCCESS);
+        ASSERT_EQ(gpu::extract_mesh(*staged, g, 128, &staged_mesh, &staged_stats), NFD_SUCCESS);
+        EXPECT_EQ(staged_mesh.positions, mapped_mesh.positions);
+        EXPECT_EQ(staged_mesh.normals, mapped_mesh.normals);
+        EXPECT_EQ(staged_mesh.indices, mapped_mesh.indices);
+        EXPECT_EQ(staged_stats.active_cells, mapped_stats.active_cells);
+        const std::vector<float> points = {0.1f, -0.2f, 0.3f, 0.5f, 0.5f, -0.5f};
+        std::vector<float> a(2), b(2), ga(6), gb(6);
+        ASSERT_EQ(gpu::evaluate_gradient(device(), g.network, points.data(), 2, a.data(),
+                                         ga.data()), NFD_SUCCESS);
+        ASSERT_EQ(gpu::evaluate_gradient(*staged, g.network, points.data(), 2, b.data(),
+                                         gb.data()), NFD_SUCCESS);
+        EXPECT_EQ(a, b);
+        EXPECT_EQ(ga, gb);
+    }
+}
+
+// A network is uploaded once per device: decodes and evaluations of the same content share it
+// (another asset object with equal bytes included), a new network is uploaded, and one evicted
+// from the cache (past 8 others) is uploaded again.
+TEST_F(Gpu, NetworkIsUploadedOncePerDevice) {
+    auto geometry = [](uint64_t seed) { return parse_or_throw(geom_file(random_siren(16, 8, seed))); };
+    const Geometry a = geometry(9001), a_again = geometry(9001), b = geometry(9002);
+    const std::vector<float> point = {0.1f, 0.2f, 0.3f};
+    float value;
+    MeshData mesh;
+    const uint64_t before = gpu::networks_uploaded(device());
+    ASSERT_EQ(gpu::extract_mesh(device(), a, 32, &mesh, nullptr), NFD_SUCCESS);
+    ASSERT_EQ(gpu::extract_mesh(device(), a_again, 48, &mesh, nullptr), NFD_SUCCESS);
+    ASSERT_EQ(gpu::evaluate(device(), a.network, point.data(), 1, &value), NFD_SUCCESS);
+    EXPECT_EQ(gpu::networks_uploaded(device()) - before, 1u);
+    ASSERT_EQ(gpu::evaluate(device(), b.network, point.data(), 1, &value), NFD_SUCCESS);
+    EXPECT_EQ(gpu::networks_uploaded(device()) - before, 2u);
+    for (uint64_t seed = 9100; seed < 9108; ++seed)
+        ASSERT_EQ(gpu::evaluate(device(), geometry(seed).network, point.data(), 1, &value),
+                  NFD_SUCCESS);
+    EXPECT_EQ(gpu::networks_uploaded(device()) - before, 10u);
+    ASSERT_EQ(gpu::evaluate(device(), a.network, point.data(), 1, &value), NFD_SUCCESS);
+    EXPECT_EQ(gpu::networks_uploaded(device()) - before, 11u);  // a was evicted
+}
+
 TEST_F(Gpu, MeshMatchesCpuOnRandomSiren) {
     const Geometry g = parse_or_throw(geom_file(random_siren(16, 8, 11)));
     const MeshPair m = extract_both(device(), g, 64);

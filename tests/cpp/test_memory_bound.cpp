@@ -59,6 +59,11 @@ const uint32_t kResolutions[] = {48, 64, 128, 256};  // first steps at 48 and 32
 void job_stays_within_its_reservations(const Geometry& g, uint32_t r, gpu::Device* device) {
     const uint32_t every_level = (2u << refinement_levels(r)) - 1;
 #if NFD_WITH_VULKAN
+    // The device keeps uploaded networks for later decodes (gpu/device.h, device_network): upload
+    // this one first, so that what the job leaves behind is nothing at all.
+    float value;
+    const float point[3] = {0, 0, 0};
+    if (device) ASSERT_EQ(gpu::evaluate(*device, g.network, point, 1, &value), NFD_SUCCESS);
     const uint64_t device_base = device ? gpu::device_memory(*device).live : 0;
 #endif
     const int64_t base = g_live.load();

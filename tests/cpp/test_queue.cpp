@@ -10,6 +10,7 @@
 #include <cstring>
 #include <future>
 #include <mutex>
+#include <chrono>
 #include <thread>
 #include <vector>
 
@@ -246,7 +247,44 @@ TEST(Queue, TenAssetsAtOnceMatchMeshExtractVulkan) {
         if (std::getenv("NFD_REQUIRE_VULKAN")) FAIL() << "no Vulkan device";
         GTEST_SKIP() << "no Vulkan device";
     }
-    ten_assets_match_mesh_extract(ctx, 4);  // runs one job at a time on the device
+    ten_assets_match_mesh_extract(ctx, 4);  // four jobs at once, each with its own batches
+    nfd_context_destroy(ctx);
+}
+
+// Two workers on a Vulkan context: while one job's worker is held in its first level's
+// callback, with that job's extraction alive on the device, a second job runs to the end on the
+// other worker, and then the first finishes too, both meshes those of nfd_mesh_extract.
+TEST(Queue, VulkanJobsRunOnTwoWorkersAtOnce) {
+    nfd_context* ctx = make_context(NFD_DEVICE_VULKAN);
+    if (!ctx) {
+        if (std::getenv("NFD_REQUIRE_VULKAN")) FAIL() << "no Vulkan device";
+        GTEST_SKIP() << "no Vulkan device";
+    }
+    nfd_asset* a = make_asset(blob(1.0f));
+    nfd_queue* q = make_queue(ctx, 2);
+    const nfd_mesh_options mo = mesh_options(64);
+    nfd_mesh* expected = nullptr;
+    ASSERT_EQ(nfd_mesh_extract(ctx, a, &mo, &expected), NFD_SUCCESS);
+    Gate gate;
+    const nfd_job_options held = gate.job_options(1, 0b11);  // 32 and 64: a callback at 32
+    nfd_job *first = nullptr, *second = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &held, &first), NFD_SUCCESS);
+    while (gate.calls.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, nullptr, &second), NFD_SUCCESS);
+    EXPECT_EQ(nfd_job_wait(second, kForever), NFD_JOB_DONE);
+    EXPECT_EQ(nfd_job_poll(first), NFD_JOB_RUNNING);  // still held
+    gate.open();
+    EXPECT_EQ(nfd_job_wait(first, kForever), NFD_JOB_DONE);
+    for (nfd_job* j : {first, second}) {
+        nfd_mesh* m = nullptr;
+        ASSERT_EQ(nfd_job_take_mesh(j, &m), NFD_SUCCESS);
+        EXPECT_TRUE(same_mesh(m, expected));
+        nfd_mesh_destroy(m);
+        nfd_job_destroy(j);
+    }
+    nfd_mesh_destroy(expected);
+    nfd_queue_destroy(q);
+    nfd_asset_destroy(a);
     nfd_context_destroy(ctx);
 }
 #endif

@@ -618,7 +618,7 @@ NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, co
  * (QUEUED), and later evaluates its levels again, delivering none twice. So two jobs that each
  * fit the budget but not together both finish, one after the other. A step larger than the
  * whole budget can never fit: its job fails with NFD_ERROR_LIMIT_EXCEEDED instead of waiting
- * forever. A queue of one worker (every Vulkan queue) never restarts a job.
+ * forever. A queue of one worker never restarts a job.
  *
  * Streaming: an engine feeds each arriving file to its own nfd_stream on its own thread (the cost
  * of nfd_stream_feed follows the bytes fed; the feed that completes the GEOM chunk decodes it),
@@ -651,10 +651,10 @@ typedef enum nfd_job_status {
 /* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
 typedef struct nfd_queue_options {
     uint32_t struct_size;       /* 0.2: sizeof(nfd_queue_options), or 0 */
-    uint32_t worker_threads;    /* jobs that run at once; 0 = 1. Jobs on a Vulkan context run one
-                                   at a time whatever this says (the device runs one job at a time
-                                   in this version); CPU jobs run concurrently, each with the
-                                   context's cpu_threads. */
+    uint32_t worker_threads;    /* jobs that run at once; 0 = 1. CPU jobs each use the context's
+                                   cpu_threads; Vulkan jobs each record and submit batches of their
+                                   own (0.3; 0.2 ran them one at a time), their submissions taking
+                                   the queue in turn. */
     uint64_t host_budget_bytes;   /* 0 = unlimited */
     uint64_t device_budget_bytes; /* Vulkan buffer memory; 0 = unlimited */
 } nfd_queue_options;

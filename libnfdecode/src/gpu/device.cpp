@@ -166,8 +166,7 @@ nfd_result upload_mc_tables(Device& d) {
     for (int e = 0; e < 12; ++e)
         for (int j = 0; j < 2; ++j) table[4096 + 256 + 2 * e + j] = mc::kEdgeCorners[e][j];
     NFD_TRY(d.vk->create_buffer(table.size() * 4, &d.mc_tables));
-    std::memcpy(d.mc_tables.data, table.data(), table.size() * 4);
-    return NFD_SUCCESS;
+    return d.vk->upload(d.mc_tables, 0, table.data(), table.size() * 4);
 }
 
 }  // namespace
@@ -201,10 +200,10 @@ Buffers& Buffers::operator=(Buffers&& other) noexcept {
     return *this;
 }
 
-nfd_result Buffers::make(VkDeviceSize bytes, Buffer** out) {
+nfd_result Buffers::make(VkDeviceSize bytes, Buffer** out, Memory memory) {
     std::unique_ptr<Buffer> b(new (std::nothrow) Buffer());
     if (!b) return NFD_ERROR_OUT_OF_MEMORY;
-    NFD_TRY(vk_->create_buffer(bytes, b.get()));
+    NFD_TRY(vk_->create_buffer(bytes, b.get(), memory));
     list_.push_back(std::move(b));
     *out = list_.back().get();
     return NFD_SUCCESS;
@@ -215,20 +214,21 @@ void Buffers::release() {
     list_.clear();
 }
 
-nfd_result record_scan(Device& d, Buffers& scratch, const Buffer& in, const Buffer& out,
+nfd_result record_scan(Job& job, Buffers& scratch, const Buffer& in, const Buffer& out,
                        uint32_t count, bool popcount) {
+    Device& d = job.device;
     if (count == 0) return NFD_SUCCESS;
     const uint32_t blocks = div_up(count, NFD_SCAN_BLOCK);
     const uint64_t invocations = uint64_t(blocks) * NFD_SCAN_LOCAL_SIZE;
     Buffer *sums, *scanned;
     NFD_TRY(scratch.make(VkDeviceSize(blocks) * 4, &sums));
-    NFD_TRY(d.vk->dispatch(d[popcount ? Kernel::ScanPopcount : Kernel::Scan],
+    NFD_TRY(d.vk->dispatch(job.batch(), d[popcount ? Kernel::ScanPopcount : Kernel::Scan],
                            {{NFD_B_SCAN_IN, in}, {NFD_B_SCAN_OUT, out}, {NFD_B_SCAN_SUMS, *sums}},
                            &count, invocations));
     if (blocks == 1) return NFD_SUCCESS;
     NFD_TRY(scratch.make(VkDeviceSize(blocks) * 4, &scanned));
-    NFD_TRY(record_scan(d, scratch, *sums, *scanned, blocks, false));
-    return d.vk->dispatch(d[Kernel::ScanAdd], {{NFD_B_SCAN_OUT, out}, {NFD_B_SCAN_SUMS, *scanned}},
+    NFD_TRY(record_scan(job, scratch, *sums, *scanned, blocks, false));
+    return d.vk->dispatch(job.batch(), d[Kernel::ScanAdd], {{NFD_B_SCAN_OUT, out}, {NFD_B_SCAN_SUMS, *scanned}},
                           &count, invocations);
 }
 
@@ -253,5 +253,7 @@ DeviceMemory device_memory(const Device& device) {
     return {device.vk->live_bytes(), device.vk->peak_bytes()};
 }
 void reset_device_memory_peak(Device& device) { device.vk->reset_peak(); }
+uint64_t networks_uploaded(const Device& device) { return device.networks_uploaded; }
+bool unified_memory(const Device& device) { return device.vk->unified(); }
 
 }  // namespace nfd::gpu

@@ -1,11 +1,13 @@
-// Internal to gpu/: the device (context, the kernel table's pipelines, the marching-cubes tables),
-// the buffers of one job, the network as the field kernels read it, and the prefix scan: what
-// every stage (field.cpp, levels.cpp, mesh_sdf.cpp, mesh_udf.cpp) builds on.
+// Internal to gpu/: the device (context, the kernel table's pipelines, the marching-cubes tables,
+// the cached networks), shared by the jobs of several threads; a job (one decode's batch,
+// counters and indirect records; job.cpp); buffers; the network as the field kernels read it; the
+// prefix scan: what every stage (field.cpp, levels.cpp, mesh_sdf.cpp, mesh_udf.cpp) builds on.
 #pragma once
 #include <chrono>
 #include <cstdint>
 #include <list>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "../network.h"
@@ -38,6 +40,8 @@ enum class Kernel : uint32_t {
 };
 constexpr size_t kKernelCount = size_t(Kernel::Count);
 
+struct DeviceNetwork;  // below
+
 // The pipeline description of a kernel; `specialization` completes a field kernel's (its network
 // shape, FIELD_* constant ids 0-13), and must be empty for the others.
 PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization = {});
@@ -54,6 +58,17 @@ public:
     };
     std::list<FieldPipeline> field_pipelines;
     Buffer mc_tables;  // mc.glsl's layout of mc_tables.h
+    // Uploaded networks (field.cpp, device_network), most recently used first, with the network
+    // they hold (compared in full: a cached upload serves exactly that content).
+    struct CachedNetwork {
+        Network network;
+        std::shared_ptr<DeviceNetwork> uploaded;
+    };
+    std::list<CachedNetwork> networks;
+    uint64_t networks_uploaded = 0;
+    // Jobs on several threads share the device: the field pipelines, the networks and their
+    // pipeline choices are made under this lock (field.cpp).
+    std::mutex mutex;
 
     const Pipeline& operator[](Kernel k) const { return kernels[size_t(k)]; }
     ~Device();
@@ -66,7 +81,7 @@ public:
     ~Buffers() { release(); }
     Buffers(Buffers&& other) noexcept : vk_(other.vk_), list_(std::move(other.list_)) {}
     Buffers& operator=(Buffers&& other) noexcept;
-    nfd_result make(VkDeviceSize bytes, Buffer** out);
+    nfd_result make(VkDeviceSize bytes, Buffer** out, Memory memory = Memory::Device);
     void release();
 
 private:
@@ -74,7 +89,6 @@ private:
     std::vector<std::unique_ptr<Buffer>> list_;
 };
 
-inline uint32_t word(const Buffer& b, size_t i) { return b.as<uint32_t>()[i]; }
 
 // ---- one decode's counts on the device (job.cpp; counters.glsl) -------------------------------
 // The items of a counted dispatch: at most `capacity` (what its buffers hold) from item `first`
@@ -93,14 +107,20 @@ struct Count {
 class Job {
 public:
     Job(Device& d, bool own_batches) : device(d), own(own_batches), buffers_(*d.vk) {}
-    nfd_result init();  // the counters, zeroed
+    ~Job();  // a recorded job: after the host's wait
+    Job(const Job&) = delete;
+    Job& operator=(const Job&) = delete;
+    nfd_result init();  // the batch, the counters (zeroed)
     Device& device;
     const bool own;
 
     nfd_result new_slot(uint32_t* slot);  // NFD_ERROR_INTERNAL past NFD_COUNTER_SLOTS
-    uint32_t counter(uint32_t slot) const { return word(*counters_, slot); }  // after the fence
+    // What the device wrote, as of the last refresh(): own jobs refresh after each submit.
+    uint32_t counter(uint32_t slot) const { return mirror_[slot]; }
+    nfd_result refresh();
     bool overflowed() const { return counter(NFD_COUNTER_OVERFLOW) != 0; }
     const Buffer& counters() const { return *counters_; }
+    Batch& batch() { return batch_; }  // what the job records into
 
     // Launches `pipeline` over `count`'s items, `per_invocation` to an invocation, the counters
     // bound where its kernel family has them; its push constants must describe the same count.
@@ -113,6 +133,7 @@ public:
     // prefix sum is `prefix`; the overflow flag when it exceeds `capacity`.
     nfd_result total(const Buffer& in, const Buffer& prefix, uint32_t elements, bool popcount,
                      uint32_t slot, uint32_t capacity);
+    void fill(const Buffer& buffer, uint32_t value) { device.vk->fill(batch_, buffer, value); }
 
     // Own jobs: begin() and submit() are the context's (records are reused after a submit), sync()
     // submits and begins again so that counters can be read. Recorded jobs: no-ops.
@@ -121,14 +142,17 @@ public:
     nfd_result sync();
 
 private:
+    Batch batch_;
     Buffers buffers_;
     Buffer* counters_ = nullptr;
+    uint32_t mirror_[NFD_COUNTER_SLOTS] = {};  // the host's copy of *counters_
     std::vector<Buffer*> args_;  // kRecordsPerBuffer VkDispatchIndirectCommand records each
     uint32_t records_ = 0, next_slot_ = NFD_COUNTER_OVERFLOW + 1;
 };
 
+class Job;
 // Records an exclusive prefix sum of `count` words of `in` (or of their popcounts) into `out`.
-nfd_result record_scan(Device& d, Buffers& scratch, const Buffer& in, const Buffer& out,
+nfd_result record_scan(Job& job, Buffers& scratch, const Buffer& in, const Buffer& out,
                        uint32_t count, bool popcount);
 
 // ---- the network as field_eval.comp reads it (field.cpp) ---------------------------------------
@@ -151,8 +175,12 @@ struct DeviceNetwork {
     ~DeviceNetwork();
 };
 
-// NFD_ERROR_UNSUPPORTED_FEATURE for a network beyond the shader's caps.
-nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out);
+// The network on the device: uploaded once per device and shared by every decode of a network
+// with the same content (Device::networks, the most recently used kCachedNetworks kept), so that
+// the levels of a progressive decode, a decode after an evaluation, or the same asset decoded
+// again at another resolution do not upload it again. NFD_ERROR_UNSUPPORTED_FEATURE for a network
+// beyond the shader's caps.
+nfd_result device_network(Device& d, const Network& net, std::shared_ptr<DeviceNetwork>* out);
 // Records the evaluation of `count`'s points (xyz, from index 0 of `points`) into `results` from
 // index count.first on: one float each, or with `gradient` one vec4 each (value, d/dx, d/dy,
 // d/dz).

@@ -15,6 +15,20 @@ constexpr uint32_t kMaxVec4PerLayer = NFD_GPU_MAX_WIDTH / 4;
 constexpr VkDeviceSize kUniformBlockBytes = NFD_GPU_UNIFORM_VEC4S * 16;
 constexpr VkDeviceSize kFrequencyBytes = NFD_GPU_MAX_FREQUENCIES * 4;
 constexpr size_t kEvaluateChunk = size_t(1) << 22;    // points per dispatch in evaluate()
+// Networks kept on a device: a few hundred KB of weights each at most (width 96: 80 KB).
+constexpr size_t kCachedNetworks = 8;
+
+bool same_network(const Network& a, const Network& b) {
+    if (a.frequencies != b.frequencies || a.omega0 != b.omega0 || a.output != b.output ||
+        a.layers.size() != b.layers.size())
+        return false;
+    for (size_t l = 0; l < a.layers.size(); ++l) {
+        const Layer &x = a.layers[l], &y = b.layers[l];
+        if (x.in != y.in || x.out != y.out || x.weights != y.weights || x.bias != y.bias)
+            return false;
+    }
+    return true;
+}
 
 // Column of layer 0's input element e (FORMAT.md order: u, then per frequency sin xyz, cos xyz)
 // in field_eval.comp's order: vec4 0 = (u, 0), then per block of 4 frequencies the vec4s
@@ -47,15 +61,16 @@ template <class Take>
 nfd_result evaluate_in_chunks(Device& device, const Network& network, const float* unit_xyz,
                               size_t n, bool gradient, Take&& take) {
     if (n == 0) return NFD_SUCCESS;
-    DeviceNetwork net;
-    NFD_TRY(upload_network(device, network, &net));
+    std::shared_ptr<DeviceNetwork> uploaded;
+    NFD_TRY(device_network(device, network, &uploaded));
+    DeviceNetwork& net = *uploaded;
     Job job(device, true);
     NFD_TRY(job.init());
     Buffers buffers(*device.vk);
     const size_t chunk = std::min(n, kEvaluateChunk);
     Buffer *points, *results;
-    NFD_TRY(buffers.make(chunk * 12, &points));
-    NFD_TRY(buffers.make(chunk * (gradient ? 16 : 4), &results));
+    NFD_TRY(buffers.make(chunk * 12, &points, Memory::Host));
+    NFD_TRY(buffers.make(chunk * (gradient ? 16 : 4), &results, Memory::Host));
     for (size_t begin = 0; begin < n; begin += chunk) {
         const uint32_t count = uint32_t(std::min(chunk, n - begin));
         std::memcpy(points->data, unit_xyz + 3 * begin, size_t(count) * 12);
@@ -67,14 +82,7 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
     return NFD_SUCCESS;
 }
 
-}  // namespace
-
-DeviceNetwork::~DeviceNetwork() {
-    if (!device) return;
-    device->vk->destroy(weights);
-    device->vk->destroy(frequencies);
-}
-
+// Per layer, rows of in4 vec4s at aligned offsets (device.h, DeviceNetwork).
 nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     const uint32_t layers = uint32_t(net.layers.size());
     if (layers < 1 || layers > NFD_GPU_MAX_LAYERS ||
@@ -116,12 +124,11 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     out->device = &d;
     NFD_TRY(d.vk->create_buffer(total, &out->weights));
     NFD_TRY(d.vk->create_buffer(kFrequencyBytes, &out->frequencies));
-    std::memset(out->weights.data, 0, total);
-    std::memset(out->frequencies.data, 0, kFrequencyBytes);
-    std::memcpy(out->frequencies.data, net.frequencies.data(), net.frequencies.size() * 4);
+    std::vector<float> weights(total / 4, 0.0f), frequencies(kFrequencyBytes / 4, 0.0f);
+    std::copy(net.frequencies.begin(), net.frequencies.end(), frequencies.begin());
     for (uint32_t l = 0; l < layers; ++l) {
         const Layer& layer = net.layers[l];
-        float* w = reinterpret_cast<float*>(static_cast<char*>(out->weights.data) + out->offset[l]);
+        float* w = weights.data() + out->offset[l] / 4;
         for (uint32_t o = 0; o < layer.out; ++o) {
             float* row = w + size_t(o) * 4 * in4[l];
             for (uint32_t i = 0; i < layer.in; ++i)
@@ -130,6 +137,8 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
         float* bias = w + size_t(out4[l]) * 4 * 4 * in4[l];
         for (uint32_t o = 0; o < layer.out; ++o) bias[o] = layer.bias[o];
     }
+    NFD_TRY(d.vk->upload(out->weights, 0, weights.data(), total));
+    NFD_TRY(d.vk->upload(out->frequencies, 0, frequencies.data(), kFrequencyBytes));
 
     float omega0 = net.omega0;
     uint32_t omega0_bits;
@@ -143,7 +152,38 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     return NFD_SUCCESS;
 }
 
+}  // namespace
+
+DeviceNetwork::~DeviceNetwork() {
+    if (!device) return;
+    device->vk->destroy(weights);
+    device->vk->destroy(frequencies);
+}
+
+nfd_result device_network(Device& d, const Network& net, std::shared_ptr<DeviceNetwork>* out) {
+    std::lock_guard<std::mutex> lock(d.mutex);
+    for (auto it = d.networks.begin(); it != d.networks.end(); ++it) {
+        if (same_network(it->network, net)) {
+            d.networks.splice(d.networks.begin(), d.networks, it);  // most recently used
+            *out = it->uploaded;
+            return NFD_SUCCESS;
+        }
+    }
+    try {
+        auto uploaded = std::make_shared<DeviceNetwork>();
+        NFD_TRY(upload_network(d, net, uploaded.get()));
+        d.networks.push_front({net, uploaded});
+        if (d.networks.size() > kCachedNetworks) d.networks.pop_back();  // users keep theirs alive
+        ++d.networks_uploaded;
+        *out = std::move(uploaded);
+    } catch (const std::bad_alloc&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
+    }
+    return NFD_SUCCESS;
+}
+
 nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient) {
+    std::lock_guard<std::mutex> lock(d.mutex);
     DeviceNetwork::Variant& variant = gradient ? net.gradients : net.values;
     if (variant.pipeline) return NFD_SUCCESS;
     // Fewer points per invocation for wide networks bounds the per-invocation activations. The

@@ -29,8 +29,9 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
         return NFD_ERROR_LIMIT_EXCEEDED;
     ExtractStats st;
     const auto t_field = Clock::now();
-    DeviceNetwork net;
-    NFD_TRY(upload_network(device, geometry.network, &net));
+    std::shared_ptr<DeviceNetwork> uploaded;
+    NFD_TRY(device_network(device, geometry.network, &uploaded));
+    DeviceNetwork& net = *uploaded;
     if (geometry.field == FieldType::Udf) NFD_TRY(prepare_field(device, net, true));
     Job job(device, true);
     NFD_TRY(job.init());

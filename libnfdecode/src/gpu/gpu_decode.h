@@ -29,6 +29,10 @@ struct DeviceMemory {
     uint64_t live = 0, peak = 0;
 };
 DeviceMemory device_memory(const Device& device);
+// Whether the device's buffers are mapped (unified memory) or reached through staging copies.
+bool unified_memory(const Device& device);
+// How many networks the device has uploaded (each once while cached: device.h, device_network).
+uint64_t networks_uploaded(const Device& device);
 void reset_device_memory_peak(Device& device);
 
 // Field values at n unit-frame points (xyz interleaved): the GPU twin of evaluate_cpu.

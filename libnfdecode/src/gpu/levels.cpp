@@ -36,12 +36,12 @@ nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& paren
     g->capacity = uint32_t(std::min<uint64_t>(uint64_t(k) * kNewPointsPerParent, UINT32_MAX));
     NFD_TRY(buffers.make(VkDeviceSize(g->capacity) * 4, &g->values));
     NFD_TRY(job.new_slot(&g->slot));
-    job.device.vk->fill(*counts, 0);
+    job.fill(*counts, 0);
     NFD_TRY(job.dispatch(Kernel::RefineCount,
                          with(level_bindings(parent), {{NFD_B_OWNED, *g->owned},
                                                        {NFD_B_COUNTS, *counts}}),
                          &push, parent.count()));
-    NFD_TRY(record_scan(job.device, scratch, *counts, *g->offsets, k, false));
+    NFD_TRY(record_scan(job, scratch, *counts, *g->offsets, k, false));
     NFD_TRY(job.total(*counts, *g->offsets, k, false, g->slot, g->capacity));
     return record_list(job, net, parent, *g, *g->values, false, push, scratch);
 }
@@ -126,7 +126,7 @@ nfd_result LevelBuilder::evaluate_dense_top(Buffers& scratch) {
     const uint32_t side = cells_at_level(resolution_, top_) / 2 + 1;  // <= n + 1
     const uint32_t count = side * side * side;
     Buffer *points, *values;
-    NFD_TRY(scratch.make(VkDeviceSize(count) * 12, &points));
+    NFD_TRY(scratch.make(VkDeviceSize(count) * 12, &points, Memory::Host));
     NFD_TRY(scratch.make(VkDeviceSize(count) * 4, &values));
     float* p = points->as<float>();
     for (uint32_t z = 0; z < side; ++z)
@@ -143,9 +143,10 @@ nfd_result LevelBuilder::evaluate_dense_top(Buffers& scratch) {
     level.cells = n;
     level.capacity = level.kept = n * n * n;
     const uint32_t words = level.words();
-    NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.bits));
-    NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.prefix));
-    NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 4, &level.list));
+    // Written here, small (at most 64^3 cells): host memory, no staging while recording.
+    NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.bits, Memory::Host));
+    NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.prefix, Memory::Host));
+    NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 4, &level.list, Memory::Host));
     NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 32, &level.corners));
     uint32_t* bits = level.bits->as<uint32_t>();
     std::memset(bits, 0, size_t(words) * 4);
@@ -234,12 +235,12 @@ nfd_result LevelBuilder::step() {
             NFD_TRY(child.buffers.make(VkDeviceSize(words) * 4, &child.prefix));
             NFD_TRY(job_.new_slot(&child.slot));
             kept_slots_.emplace_back(l, child.slot);  // reserved above
-            job_.device.vk->fill(*child.bits, 0);
+            job_.fill(*child.bits, 0);
             NFD_TRY(job_.dispatch(Kernel::RefineCells,
                                   with(child_grid_bindings(parents, level_.grid),
                                        {{NFD_B_CHILD_BITS, *child.bits}}),
                                   &push, parents.count()));
-            NFD_TRY(record_scan(job_.device, scratch, *child.bits, *child.prefix, words, true));
+            NFD_TRY(record_scan(job_, scratch, *child.bits, *child.prefix, words, true));
             const uint32_t capacity =
                 plan_ ? plan_->cells(l, child.cells) : UINT32_MAX;  // own: sized once known
             NFD_TRY(job_.total(*child.bits, *child.prefix, words, true, child.slot, capacity));

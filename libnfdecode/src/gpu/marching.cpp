@@ -24,18 +24,17 @@ nfd_result Classified::make(Job& job, uint32_t k, DeviceMesh* device) {
     if (device) active = device->active;
     else NFD_TRY(buffers.make(4, &active));
     // The scans run over the capacity: what no parent writes must be zero.
-    Context& vk = *job.device.vk;
-    vk.fill(*edge_masks, 0);
-    vk.fill(*triangle_counts, 0);
-    vk.fill(*active, 0);
+    job.fill(*edge_masks, 0);
+    job.fill(*triangle_counts, 0);
+    job.fill(*active, 0);
     return NFD_SUCCESS;
 }
 
 nfd_result Classified::record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
                                     uint32_t vertex_capacity, uint32_t triangle_slot,
                                     uint32_t triangle_capacity) {
-    NFD_TRY(record_scan(job.device, scratch, *edge_masks, *vertex_offsets, 2 * parents, true));
-    NFD_TRY(record_scan(job.device, scratch, *triangle_counts, *triangle_offsets, parents, false));
+    NFD_TRY(record_scan(job, scratch, *edge_masks, *vertex_offsets, 2 * parents, true));
+    NFD_TRY(record_scan(job, scratch, *triangle_counts, *triangle_offsets, parents, false));
     NFD_TRY(job.total(*edge_masks, *vertex_offsets, 2 * parents, true, vertex_slot,
                       vertex_capacity));
     return job.total(*triangle_counts, *triangle_offsets, parents, false, triangle_slot,
@@ -66,7 +65,9 @@ nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& c, Kernel vertic
         NFD_TRY(job.sync());
         vertex_count = job.counter(vertex_slot);
         triangles = job.counter(triangle_slot);
-        stats->active_cells = word(*c.active, 0);
+        uint32_t active = 0;
+        NFD_TRY(vk.download(*c.active, 0, &active, 4));
+        stats->active_cells = active;
     }
     scratch.release();
     vk.destroy(*c.triangle_counts);
@@ -118,19 +119,20 @@ nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& c, Kernel vertic
     vk.destroy(*edges);
     if (device) return NFD_SUCCESS;
 
-    try {
-        MeshData* mesh = target.host;
-        auto take = [&](Buffer* b, auto* begin, size_t count, auto* out_vector) {
-            out_vector->assign(begin, begin + count);
-            vk.destroy(*b);
-        };
-        take(indices, indices->as<uint32_t>(), 3 * size_t(triangles), &mesh->indices);
-        take(positions, positions->as<float>(), 3 * size_t(vertex_count), &mesh->positions);
-        take(normals, normals->as<float>(), 3 * size_t(vertex_count), &mesh->normals);
-    } catch (const std::bad_alloc&) {
-        return NFD_ERROR_OUT_OF_MEMORY;
-    }
-    return NFD_SUCCESS;
+    MeshData* mesh = target.host;
+    auto take = [&](Buffer* b, size_t count, auto* out_vector) -> nfd_result {
+        try {
+            out_vector->resize(count);
+        } catch (const std::bad_alloc&) {
+            return NFD_ERROR_OUT_OF_MEMORY;
+        }
+        const nfd_result r = vk.download(*b, 0, out_vector->data(), count * 4);
+        vk.destroy(*b);
+        return r;
+    };
+    NFD_TRY(take(indices, 3 * size_t(triangles), &mesh->indices));
+    NFD_TRY(take(positions, 3 * size_t(vertex_count), &mesh->positions));
+    return take(normals, 3 * size_t(vertex_count), &mesh->normals);
 }
 
 }  // namespace nfd::gpu

@@ -42,10 +42,10 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     {
         Buffers scratch(vk);
         NFD_TRY(job.begin());
-        vk.fill(*counts, 0);
+        job.fill(*counts, 0);
         NFD_TRY(job.dispatch(Kernel::UdfNear, near_bindings, &push, parents.count()));
         NFD_TRY(job.dispatch(Kernel::UdfGradientCount, count_bindings, &push, parents.count()));
-        NFD_TRY(record_scan(job.device, scratch, *counts, *offsets, k, false));
+        NFD_TRY(record_scan(job, scratch, *counts, *offsets, k, false));
         NFD_TRY(job.total(*counts, *offsets, k, false, gradient_list.slot,
                           gradient_list.capacity));
         NFD_TRY(job.submit());

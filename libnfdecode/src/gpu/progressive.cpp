@@ -1,5 +1,7 @@
 // The GPU path of a progressive extraction (progressive.h): LevelBuilder one level per step, and
 // mesh_level on the levels asked for, which keep their storage for the next step.
+#include <new>
+
 #include "gpu_decode.h"
 #include "levels.h"
 
@@ -9,44 +11,46 @@ namespace {
 class GpuExtraction final : public Extraction {
 public:
     GpuExtraction(Device& device, const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask)
-        : device_(device), geometry_(geometry), job_(device, true),
-          levels_(job_, net_, geometry, resolution), mesh_mask_(mesh_mask) {}
+        : device_(device), geometry_(geometry), resolution_(resolution), job_(device, true),
+          mesh_mask_(mesh_mask) {}
 
     // The network and its pipelines before the first step, so that a step's time is its level's.
     nfd_result prepare() {
         NFD_TRY(job_.init());
-        NFD_TRY(upload_network(device_, geometry_.network, &net_));
-        NFD_TRY(prepare_field(device_, net_, false));
-        return geometry_.field == FieldType::Udf ? prepare_field(device_, net_, true) : NFD_SUCCESS;
+        NFD_TRY(device_network(device_, geometry_.network, &net_));
+        NFD_TRY(prepare_field(device_, *net_, false));
+        if (geometry_.field == FieldType::Udf) NFD_TRY(prepare_field(device_, *net_, true));
+        levels_.reset(new (std::nothrow) LevelBuilder(job_, *net_, geometry_, resolution_));
+        return levels_ ? NFD_SUCCESS : NFD_ERROR_OUT_OF_MEMORY;
     }
 
     nfd_result step(MeshData* mesh, ExtractStats* stats, LevelReport* report) override {
-        if (levels_.done()) return NFD_ERROR_INTERNAL;
+        if (levels_->done()) return NFD_ERROR_INTERNAL;
         const auto t_field = Clock::now();
-        const uint64_t points_before = levels_.level().points_evaluated;
-        NFD_TRY(levels_.step());
+        const uint64_t points_before = levels_->level().points_evaluated;
+        NFD_TRY(levels_->step());
         seconds_field_ += seconds_since(t_field);
-        const uint32_t l = levels_.current();
+        const uint32_t l = levels_->current();
         LevelReport r;
         r.level = l;
-        r.cells_per_axis = levels_.level().push.child_cells;
-        r.done = levels_.done();
+        r.cells_per_axis = levels_->level().push.child_cells;
+        r.done = levels_->done();
         r.meshed = meshes(l);
-        r.points_evaluated = levels_.level().points_evaluated - points_before;
+        r.points_evaluated = levels_->level().points_evaluated - points_before;
         if (r.meshed) {
             ExtractStats st;
-            st.points_evaluated = levels_.level().points_evaluated;
+            st.points_evaluated = levels_->level().points_evaluated;
             st.seconds_field = seconds_field_;
-            NFD_TRY(mesh_level(job_, net_, geometry_.field, levels_.level(), nullptr,
+            NFD_TRY(mesh_level(job_, *net_, geometry_.field, levels_->level(), nullptr,
                                {mesh, nullptr}, &st));
             r.gradients_evaluated = st.gradients_evaluated;
             *stats = st;
         }
         if (!r.done) {
             const bool mesh_next = meshes(l - 1);
-            r.next_host_bytes = levels_.next_step_host_bytes(mesh_next);
+            r.next_host_bytes = levels_->next_step_host_bytes(mesh_next);
             r.next_device_bytes =
-                levels_.next_step_device_bytes(mesh_next, geometry_.field == FieldType::Udf);
+                levels_->next_step_device_bytes(mesh_next, geometry_.field == FieldType::Udf);
         }
         *report = r;
         return NFD_SUCCESS;
@@ -56,9 +60,10 @@ private:
     bool meshes(uint32_t level) const { return mesh_mask_ >> level & 1; }
     Device& device_;
     const Geometry& geometry_;
-    DeviceNetwork net_;
+    const uint32_t resolution_;
+    std::shared_ptr<DeviceNetwork> net_;
     Job job_;
-    LevelBuilder levels_;
+    std::unique_ptr<LevelBuilder> levels_;
     const uint32_t mesh_mask_;
     double seconds_field_ = 0;
 };

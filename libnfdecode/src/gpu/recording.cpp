@@ -32,16 +32,13 @@ public:
         plan_.vertices = c.vertices;
         plan_.triangles = c.triangles;
     }
-    ~Recording() {
-        levels_.reset();
-        device_.vk->release_external(batch_);
-    }
+    ~Recording() { levels_.reset(); }  // job_ then frees what the host's commands used
 
     nfd_result prepare() {
         NFD_TRY(job_.init());
-        NFD_TRY(upload_network(device_, geometry_.network, &net_));
-        NFD_TRY(prepare_field(device_, net_, false));
-        if (geometry_.field == FieldType::Udf) NFD_TRY(prepare_field(device_, net_, true));
+        NFD_TRY(device_network(device_, geometry_.network, &net_));
+        NFD_TRY(prepare_field(device_, *net_, false));
+        if (geometry_.field == FieldType::Udf) NFD_TRY(prepare_field(device_, *net_, true));
         mesh_.vertex_capacity = plan_.vertices;
         mesh_.triangle_capacity = plan_.triangles;
         NFD_TRY(job_.new_slot(&mesh_.vertex_slot));
@@ -53,14 +50,15 @@ public:
     nfd_result record(VkCommandBuffer commands) {
         if (recorded_) return NFD_ERROR_INVALID_ARGUMENT;
         recorded_ = true;
-        NFD_TRY(device_.vk->begin_external(commands, batch_));
+        NFD_TRY(device_.vk->begin_external(job_.batch(), commands));
         const nfd_result r = record_stages();
-        device_.vk->end_external();
+        device_.vk->end_external(job_.batch());
         return r;
     }
 
     nfd_result finish(RecordingTotals* totals) {
         if (!recorded_) return NFD_ERROR_INVALID_ARGUMENT;
+        NFD_TRY(job_.refresh());
         RecordingTotals t;
         t.overflowed = job_.overflowed();
         Capacities& need = t.needed;
@@ -81,7 +79,9 @@ public:
                 t.stats.points_evaluated += job_.counter(slot);
             if (geometry_.field == FieldType::Udf)
                 t.stats.gradients_evaluated = job_.counter(mesh_.gradient_slot);
-            t.stats.active_cells = word(*mesh_.active, 0);
+            uint32_t active = 0;
+            NFD_TRY(device_.vk->download(*mesh_.active, 0, &active, 4));
+            t.stats.active_cells = active;
         }
         totals_ = t;
         finished_ = true;
@@ -91,18 +91,19 @@ public:
 
     nfd_result read_mesh(MeshData* mesh) const {
         if (!finished_ || totals_.overflowed) return NFD_ERROR_INVALID_ARGUMENT;
+        MeshData m;
         try {
-            MeshData m;
-            const float* p = mesh_.positions->as<float>();
-            const float* n = mesh_.normals->as<float>();
-            const uint32_t* i = mesh_.indices->as<uint32_t>();
-            m.positions.assign(p, p + 3 * size_t(totals_.vertices));
-            m.normals.assign(n, n + 3 * size_t(totals_.vertices));
-            m.indices.assign(i, i + 3 * size_t(totals_.triangles));
-            *mesh = std::move(m);
+            m.positions.resize(3 * size_t(totals_.vertices));
+            m.normals.resize(3 * size_t(totals_.vertices));
+            m.indices.resize(3 * size_t(totals_.triangles));
         } catch (const std::bad_alloc&) {
             return NFD_ERROR_OUT_OF_MEMORY;
         }
+        Context& vk = *device_.vk;
+        NFD_TRY(vk.download(*mesh_.positions, 0, m.positions.data(), m.positions.size() * 4));
+        NFD_TRY(vk.download(*mesh_.normals, 0, m.normals.data(), m.normals.size() * 4));
+        NFD_TRY(vk.download(*mesh_.indices, 0, m.indices.data(), m.indices.size() * 4));
+        *mesh = std::move(m);
         return NFD_SUCCESS;
     }
 
@@ -122,11 +123,11 @@ private:
     // plan, so nothing is submitted and nothing read.
     nfd_result record_stages() {
         levels_.reset(new (std::nothrow)
-                          LevelBuilder(job_, net_, geometry_, resolution_, &plan_));
+                          LevelBuilder(job_, *net_, geometry_, resolution_, &plan_));
         if (!levels_) return NFD_ERROR_OUT_OF_MEMORY;
         do NFD_TRY(levels_->step());
         while (!levels_->done());
-        return mesh_level(job_, net_, geometry_.field, levels_->level(), &plan_,
+        return mesh_level(job_, *net_, geometry_.field, levels_->level(), &plan_,
                           {nullptr, &mesh_}, &stats_);
     }
 
@@ -144,9 +145,8 @@ private:
     const Capacities capacities_;
     Plan plan_;
     Job job_;
-    DeviceNetwork net_;
+    std::shared_ptr<DeviceNetwork> net_;
     DeviceMesh mesh_;
-    ExternalBatch batch_;
     std::unique_ptr<LevelBuilder> levels_;
     ExtractStats stats_;
     RecordingTotals totals_;

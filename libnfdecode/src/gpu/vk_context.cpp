@@ -3,9 +3,15 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 
 namespace nfd::gpu {
+
+// The batch this thread records into a host's command buffer (begin_external to end_external),
+// and its context: buffers destroyed meanwhile are kept for the host's commands (destroy).
+thread_local Batch* t_external = nullptr;
+thread_local const Context* t_external_context = nullptr;
 
 // Descriptor sets are allocated per dispatch from an arena's pools of this many sets; a batch
 // of the library's own (one level) records about a hundred dispatches, a host's recording of a
@@ -183,6 +189,44 @@ nfd_result Context::create_logical_device() {
     return NFD_SUCCESS;
 }
 
+// Device memory: a device-local type of the largest device-local heap (the VRAM of a discrete GPU,
+// not its 256 MB BAR window). Host memory: host-visible + coherent, device-local if possible.
+// Unified when the device type is host-visible + coherent too (CPU implementations, integrated
+// GPUs, resizable BAR over the whole heap): then every buffer is mapped and nothing is staged,
+// unless NFD_FORCE_STAGING is set (tests run the staged path on lavapipe with it).
+nfd_result Context::pick_memory_types() {
+    const VkMemoryPropertyFlags host =
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    uint32_t heap = UINT32_MAX;
+    for (uint32_t h = 0; h < memory_.memoryHeapCount; ++h)
+        if ((memory_.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) &&
+            (heap == UINT32_MAX || memory_.memoryHeaps[h].size > memory_.memoryHeaps[heap].size))
+            heap = h;
+    for (uint32_t i = 0; i < memory_.memoryTypeCount; ++i) {
+        const VkMemoryType& t = memory_.memoryTypes[i];
+        if (t.heapIndex != heap || !(t.propertyFlags & local)) continue;
+        const bool mappable = (t.propertyFlags & host) == host;
+        if (device_type_ == UINT32_MAX || (mappable && !unified_)) {
+            device_type_ = i;
+            unified_ = mappable;
+        }
+    }
+    for (int pass = 0; pass < 2 && host_type_ == UINT32_MAX; ++pass)
+        for (uint32_t i = 0; i < memory_.memoryTypeCount && host_type_ == UINT32_MAX; ++i) {
+            const VkMemoryPropertyFlags f = memory_.memoryTypes[i].propertyFlags;
+            if ((f & host) == host && (pass == 1 || (f & local))) host_type_ = i;
+        }
+    if (host_type_ == UINT32_MAX) return NFD_ERROR_DEVICE_UNAVAILABLE;
+    if (device_type_ == UINT32_MAX) {  // no device-local heap: host memory is all there is
+        device_type_ = host_type_;
+        unified_ = true;
+    }
+    const char* force = std::getenv("NFD_FORCE_STAGING");
+    if (force && *force && *force != '0') unified_ = false;
+    return NFD_SUCCESS;
+}
+
 nfd_result Context::create_command_objects() {
     if (!owns_device_) {  // adopted: instance-level functions come from the host's instance
         if (const nfd_result r = load_functions(false); r != NFD_SUCCESS) return r;
@@ -201,40 +245,44 @@ nfd_result Context::create_command_objects() {
     vkGetPhysicalDeviceProperties(physical_, &properties_);
     vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
     name_ = properties_.deviceName;
-    // Host-visible + coherent memory, preferring a type that is also device-local (integrated
-    // GPUs, resizable BAR; every type on CPU implementations).
-    const VkMemoryPropertyFlags need =
-        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-    for (int pass = 0; pass < 2 && memory_type_ == UINT32_MAX; ++pass) {
-        for (uint32_t i = 0; i < memory_.memoryTypeCount; ++i) {
-            VkMemoryPropertyFlags flags = memory_.memoryTypes[i].propertyFlags;
-            bool local = flags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
-            if ((flags & need) == need && (pass == 1 || local)) {
-                memory_type_ = i;
-                break;
-            }
-        }
-    }
-    if (memory_type_ == UINT32_MAX) return NFD_ERROR_DEVICE_UNAVAILABLE;
+    NFD_TRY_RESULT(pick_memory_types());
 
     VkPipelineCacheCreateInfo cache{};
 
     cache.sType = VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO;
     NFD_VK_TRY(vkCreatePipelineCache(device_, &cache, nullptr, &cache_));
-    VkCommandPoolCreateInfo pool{};
-    pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
-    pool.queueFamilyIndex = queue_family_;
-    NFD_VK_TRY(vkCreateCommandPool(device_, &pool, nullptr, &command_pool_));
+    return command_buffer(&transfer_pool_, &transfer_, &transfer_fence_);
+}
+
+nfd_result Context::command_buffer(VkCommandPool* pool, VkCommandBuffer* commands,
+                                   VkFence* fence) {
+    VkCommandPoolCreateInfo pool_info{};
+    pool_info.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
+    pool_info.queueFamilyIndex = queue_family_;
+    NFD_VK_TRY(vkCreateCommandPool(device_, &pool_info, nullptr, pool));
     VkCommandBufferAllocateInfo alloc{};
     alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    alloc.commandPool = command_pool_;
+    alloc.commandPool = *pool;
     alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
     alloc.commandBufferCount = 1;
-    NFD_VK_TRY(vkAllocateCommandBuffers(device_, &alloc, &commands_));
-    VkFenceCreateInfo fence{};
-    fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-    NFD_VK_TRY(vkCreateFence(device_, &fence, nullptr, &fence_));
+    NFD_VK_TRY(vkAllocateCommandBuffers(device_, &alloc, commands));
+    VkFenceCreateInfo fence_info{};
+    fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+    NFD_VK_TRY(vkCreateFence(device_, &fence_info, nullptr, fence));
     return NFD_SUCCESS;
+}
+
+nfd_result Context::create(Batch* batch) {
+    *batch = Batch{};
+    return command_buffer(&batch->pool, &batch->own, &batch->fence);
+}
+
+void Context::destroy(Batch& batch) {
+    for (Buffer& b : batch.retired) destroy_now(b);
+    destroy(batch.arena);
+    if (batch.fence) vkDestroyFence(device_, batch.fence, nullptr);
+    if (batch.pool) vkDestroyCommandPool(device_, batch.pool, nullptr);  // frees its buffer
+    batch = Batch{};
 }
 
 nfd_result Context::allocate_set(DescriptorArena& arena, VkDescriptorSetLayout layout,
@@ -286,9 +334,8 @@ Context::~Context() {
         // An adopted device may be busy with the host's work; only our queue's work matters,
         // and submit() already waited for it.
         if (owns_device_) vkDeviceWaitIdle(device_);
-        destroy(arena_);
-        if (fence_) vkDestroyFence(device_, fence_, nullptr);
-        if (command_pool_) vkDestroyCommandPool(device_, command_pool_, nullptr);
+        if (transfer_fence_) vkDestroyFence(device_, transfer_fence_, nullptr);
+        if (transfer_pool_) vkDestroyCommandPool(device_, transfer_pool_, nullptr);
         if (cache_) vkDestroyPipelineCache(device_, cache_, nullptr);
         if (owns_device_) vkDestroyDevice(device_, nullptr);
     } else if (device_ && owns_device_ && vkDestroyDevice) {
@@ -298,7 +345,7 @@ Context::~Context() {
     if (library_) dlclose(library_);
 }
 
-nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
+nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out, Memory memory) {
     *out = Buffer{};
     VkBufferCreateInfo info{};
     info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
@@ -315,22 +362,26 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
     NFD_VK_TRY(vkCreateBuffer(device_, &info, nullptr, &b.buffer));
     VkMemoryRequirements requirements;
     vkGetBufferMemoryRequirements(device_, b.buffer, &requirements);
-    if (!(requirements.memoryTypeBits & (1u << memory_type_))) {
+    const uint32_t type = memory == Memory::Host ? host_type_ : device_type_;
+    if (!(requirements.memoryTypeBits & (1u << type))) {
         vkDestroyBuffer(device_, b.buffer, nullptr);
         return NFD_ERROR_DEVICE;
     }
     VkMemoryAllocateInfo alloc{};
     alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
     alloc.allocationSize = requirements.size;
-    alloc.memoryTypeIndex = memory_type_;
+    alloc.memoryTypeIndex = type;
     VkResult r = vkAllocateMemory(device_, &alloc, nullptr, &b.memory);
     if (r == VK_SUCCESS) {
         b.allocated = alloc.allocationSize;
-        live_bytes_ += b.allocated;
-        peak_bytes_ = std::max(peak_bytes_, live_bytes_);
+        const VkDeviceSize live = live_bytes_ += b.allocated;
+        VkDeviceSize peak = peak_bytes_.load();
+        while (live > peak && !peak_bytes_.compare_exchange_weak(peak, live)) {
+        }
         r = vkBindBufferMemory(device_, b.buffer, b.memory, 0);
     }
-    if (r == VK_SUCCESS) r = vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.data);
+    if (r == VK_SUCCESS && (memory == Memory::Host || unified_))
+        r = vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.data);
     if (r != VK_SUCCESS) {
         destroy(b);
         return to_result(r);
@@ -339,21 +390,25 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out) {
     return NFD_SUCCESS;
 }
 
+void Context::destroy_now(Buffer& b) {
+    if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
+    if (b.memory) vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
+    live_bytes_ -= b.allocated;
+    b = Buffer{};
+}
+
 void Context::destroy(Buffer& b) {
-    if (external_ && b.buffer) {
-        // The host's commands still use it: kept until release_external(). Without memory for
-        // the list it is leaked rather than freed under a pending command.
+    if (t_external && t_external_context == this && b.buffer) {
+        // The host's commands still use it: kept until its batch is destroyed. Without memory
+        // for the list it is leaked rather than freed under a pending command.
         try {
-            external_->retired.push_back(b);
+            t_external->retired.push_back(b);
         } catch (...) {
         }
         b = Buffer{};
         return;
     }
-    if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
-    if (b.memory) vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
-    live_bytes_ -= b.allocated;
-    b = Buffer{};
+    destroy_now(b);
 }
 
 nfd_result Context::create_pipeline(const PipelineDesc& desc, Pipeline* out) {
@@ -438,37 +493,32 @@ void Context::destroy(Pipeline& p) {
     p = Pipeline{};
 }
 
-nfd_result Context::begin() {
-    NFD_VK_TRY(vkResetCommandPool(device_, command_pool_, 0));
-    NFD_TRY_RESULT(reset(arena_));
+nfd_result Context::begin(Batch& batch) {
+    if (batch.recording) return NFD_ERROR_INTERNAL;
+    NFD_VK_TRY(vkResetCommandPool(device_, batch.pool, 0));
+    NFD_TRY_RESULT(reset(batch.arena));
     VkCommandBufferBeginInfo info{};
     info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
     info.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    NFD_VK_TRY(vkBeginCommandBuffer(commands_, &info));
-    target_ = commands_;
-    target_arena_ = &arena_;
-    recording_ = true;
+    NFD_VK_TRY(vkBeginCommandBuffer(batch.own, &info));
+    batch.commands = batch.own;
+    batch.recording = true;
     return NFD_SUCCESS;
 }
 
-nfd_result Context::begin_external(VkCommandBuffer commands, ExternalBatch& batch) {
-    if (recording_ || commands == VK_NULL_HANDLE) return NFD_ERROR_INTERNAL;
-    target_ = commands;
-    target_arena_ = &batch.arena;
-    external_ = &batch;
-    recording_ = true;
+nfd_result Context::begin_external(Batch& batch, VkCommandBuffer commands) {
+    if (batch.recording || t_external || commands == VK_NULL_HANDLE) return NFD_ERROR_INTERNAL;
+    batch.commands = commands;
+    batch.recording = batch.external = true;
+    // Buffers this thread destroys until end_external are the host's commands' to use still.
     // Host writes to our buffers (the network, the top level's points) are visible at the
     // host's submission; no earlier command of the host's touches a recording's buffers.
+    t_external = &batch;
+    t_external_context = this;
     return NFD_SUCCESS;
 }
 
-void Context::release_external(ExternalBatch& batch) {
-    for (Buffer& b : batch.retired) destroy(b);
-    batch.retired.clear();
-    destroy(batch.arena);
-}
-
-void Context::end_external() {
+void Context::end_external(Batch& batch) {
     // The results are read by the host's vertex input, index fetch, indirect draw, copies or the
     // host after its wait (nfdecode.h, nfd_recording_record).
     VkMemoryBarrier b{};
@@ -477,20 +527,20 @@ void Context::end_external() {
     b.dstAccessMask = VK_ACCESS_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_INDEX_READ_BIT |
                       VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT |
                       VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT;
-    vkCmdPipelineBarrier(target_,
+    vkCmdPipelineBarrier(batch.commands,
                          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                          VK_PIPELINE_STAGE_VERTEX_INPUT_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT |
                              VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
                              VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT |
                              VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
                          0, 1, &b, 0, nullptr, 0, nullptr);
-    recording_ = false;
-    target_ = VK_NULL_HANDLE;
-    target_arena_ = nullptr;
-    external_ = nullptr;
+    batch.recording = false;
+    batch.commands = VK_NULL_HANDLE;
+    t_external = nullptr;
+    t_external_context = nullptr;
 }
 
-void Context::barrier() {
+void Context::barrier(VkCommandBuffer commands) {
     // Coarse but sufficient: every stage reads what the previous one wrote (dispatch_args'
     // records as indirect commands too); host reads happen after the fence, and host writes
     // before submission are made visible by the submit itself.
@@ -500,16 +550,16 @@ void Context::barrier() {
     b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
                       VK_ACCESS_UNIFORM_READ_BIT | VK_ACCESS_HOST_READ_BIT |
                       VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
-    vkCmdPipelineBarrier(target_,
+    vkCmdPipelineBarrier(commands,
                          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                          VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT |
                              VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                          0, 1, &b, 0, nullptr, 0, nullptr);
 }
 
-nfd_result Context::bind(const Pipeline& pipeline, const Bind* buffers, size_t count,
-                         const void* push) {
-    if (!recording_) return NFD_ERROR_INTERNAL;
+nfd_result Context::bind(Batch& batch, const Pipeline& pipeline, const Bind* buffers,
+                         size_t count, const void* push) {
+    if (!batch.recording) return NFD_ERROR_INTERNAL;
     uint32_t given = 0;
     for (const Bind* b = buffers; b != buffers + count; ++b) {
         if (b->binding >= 32 || (given >> b->binding & 1)) return NFD_ERROR_INTERNAL;
@@ -517,7 +567,7 @@ nfd_result Context::bind(const Pipeline& pipeline, const Bind* buffers, size_t c
     }
     if (given != (pipeline.storage_bindings | pipeline.uniform_bindings)) return NFD_ERROR_INTERNAL;
     VkDescriptorSet set;
-    NFD_TRY_RESULT(allocate_set(*target_arena_, pipeline.set_layout, &set));
+    NFD_TRY_RESULT(allocate_set(batch.arena, pipeline.set_layout, &set));
     VkDescriptorBufferInfo infos[kMaxBindings];
     VkWriteDescriptorSet writes[kMaxBindings];
     uint32_t i = 0;
@@ -536,55 +586,116 @@ nfd_result Context::bind(const Pipeline& pipeline, const Bind* buffers, size_t c
         ++i;
     }
     vkUpdateDescriptorSets(device_, i, writes, 0, nullptr);
-    vkCmdBindPipeline(target_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
-    vkCmdBindDescriptorSets(target_, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout, 0, 1, &set,
-                            0, nullptr);
+    vkCmdBindPipeline(batch.commands, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
+    vkCmdBindDescriptorSets(batch.commands, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.layout, 0, 1,
+                            &set, 0, nullptr);
     if (pipeline.push_constant_bytes)
-        vkCmdPushConstants(target_, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0,
+        vkCmdPushConstants(batch.commands, pipeline.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0,
                            pipeline.push_constant_bytes, push);
     return NFD_SUCCESS;
 }
 
-nfd_result Context::dispatch(const Pipeline& pipeline, const Bind* buffers, size_t count,
-                             const void* push, uint64_t invocations) {
-    if (invocations == 0) return recording_ ? NFD_SUCCESS : NFD_ERROR_INTERNAL;
+nfd_result Context::dispatch(Batch& batch, const Pipeline& pipeline, const Bind* buffers,
+                             size_t count, const void* push, uint64_t invocations) {
+    if (invocations == 0) return batch.recording ? NFD_SUCCESS : NFD_ERROR_INTERNAL;
     uint64_t groups = (invocations + pipeline.local_size - 1) / pipeline.local_size;
     uint64_t max_x = properties_.limits.maxComputeWorkGroupCount[0];
     uint64_t y = (groups + max_x - 1) / max_x;
     uint64_t x = (groups + y - 1) / y;  // x * y >= groups; shaders skip the excess
     if (y > properties_.limits.maxComputeWorkGroupCount[1]) return NFD_ERROR_LIMIT_EXCEEDED;
-    NFD_TRY_RESULT(bind(pipeline, buffers, count, push));
-    vkCmdDispatch(target_, uint32_t(x), uint32_t(y), 1);
-    barrier();
+    NFD_TRY_RESULT(bind(batch, pipeline, buffers, count, push));
+    vkCmdDispatch(batch.commands, uint32_t(x), uint32_t(y), 1);
+    barrier(batch.commands);
     return NFD_SUCCESS;
 }
 
-nfd_result Context::dispatch_indirect(const Pipeline& pipeline, const Bind* buffers,
-                                      size_t count, const void* push, const Buffer& args,
-                                      uint32_t record) {
-    NFD_TRY_RESULT(bind(pipeline, buffers, count, push));
-    vkCmdDispatchIndirect(target_, args.buffer, VkDeviceSize(record) * 12);
-    barrier();
+nfd_result Context::dispatch_indirect(Batch& batch, const Pipeline& pipeline,
+                                      const std::vector<Bind>& buffers, const void* push,
+                                      const Buffer& args, uint32_t record) {
+    NFD_TRY_RESULT(bind(batch, pipeline, buffers.data(), buffers.size(), push));
+    vkCmdDispatchIndirect(batch.commands, args.buffer, VkDeviceSize(record) * 12);
+    barrier(batch.commands);
     return NFD_SUCCESS;
 }
 
-void Context::fill(const Buffer& buffer, uint32_t value) {
-    vkCmdFillBuffer(target_, buffer.buffer, 0, VK_WHOLE_SIZE, value);
-    barrier();
+void Context::fill(Batch& batch, const Buffer& buffer, uint32_t value) {
+    vkCmdFillBuffer(batch.commands, buffer.buffer, 0, VK_WHOLE_SIZE, value);
+    barrier(batch.commands);
 }
 
-nfd_result Context::submit() {
-    if (!recording_ || target_ != commands_) return NFD_ERROR_DEVICE;
-    recording_ = false;
-    NFD_VK_TRY(vkEndCommandBuffer(commands_));
+nfd_result Context::submit_and_wait(VkCommandBuffer commands, VkFence fence) {
     VkSubmitInfo info{};
     info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
     info.commandBufferCount = 1;
-    info.pCommandBuffers = &commands_;
-    NFD_VK_TRY(vkResetFences(device_, 1, &fence_));
-    NFD_VK_TRY(vkQueueSubmit(queue_, 1, &info, fence_));
-    NFD_VK_TRY(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
+    info.pCommandBuffers = &commands;
+    NFD_VK_TRY(vkResetFences(device_, 1, &fence));
+    {
+        std::lock_guard<std::mutex> lock(queue_mutex_);
+        NFD_VK_TRY(vkQueueSubmit(queue_, 1, &info, fence));
+    }
+    NFD_VK_TRY(vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX));
     return NFD_SUCCESS;
+}
+
+nfd_result Context::submit(Batch& batch) {
+    if (!batch.recording || batch.external) return NFD_ERROR_DEVICE;
+    batch.recording = false;
+    NFD_VK_TRY(vkEndCommandBuffer(batch.own));
+    return submit_and_wait(batch.own, batch.fence);
+}
+
+nfd_result Context::copy_now(VkBuffer from, VkDeviceSize from_offset, VkBuffer to,
+                             VkDeviceSize to_offset, VkDeviceSize bytes) {
+    // A command buffer of its own: a batch (or a host's buffer) may be half recorded.
+    std::lock_guard<std::mutex> lock(transfer_mutex_);
+    NFD_VK_TRY(vkResetCommandPool(device_, transfer_pool_, 0));
+    VkCommandBufferBeginInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+    info.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    NFD_VK_TRY(vkBeginCommandBuffer(transfer_, &info));
+    const VkBufferCopy region{from_offset, to_offset, bytes};
+    vkCmdCopyBuffer(transfer_, from, to, 1, &region);
+    VkMemoryBarrier b{};
+    b.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
+    b.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_HOST_READ_BIT | VK_ACCESS_SHADER_READ_BIT;
+    vkCmdPipelineBarrier(transfer_, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_PIPELINE_STAGE_HOST_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1,
+                         &b, 0, nullptr, 0, nullptr);
+    NFD_VK_TRY(vkEndCommandBuffer(transfer_));
+    return submit_and_wait(transfer_, transfer_fence_);
+}
+
+nfd_result Context::upload(const Buffer& to, VkDeviceSize offset, const void* data,
+                           VkDeviceSize bytes) {
+    if (bytes == 0) return NFD_SUCCESS;
+    if (offset + bytes > to.size) return NFD_ERROR_INTERNAL;
+    if (to.data) {
+        std::memcpy(static_cast<char*>(to.data) + offset, data, bytes);
+        return NFD_SUCCESS;
+    }
+    Buffer staging;
+    NFD_TRY_RESULT(create_buffer(bytes, &staging, Memory::Host));
+    std::memcpy(staging.data, data, bytes);
+    const nfd_result r = copy_now(staging.buffer, 0, to.buffer, offset, bytes);
+    destroy_now(staging);
+    return r;
+}
+
+nfd_result Context::download(const Buffer& from, VkDeviceSize offset, void* data,
+                             VkDeviceSize bytes) {
+    if (bytes == 0) return NFD_SUCCESS;
+    if (offset + bytes > from.size) return NFD_ERROR_INTERNAL;
+    if (from.data) {
+        std::memcpy(data, static_cast<const char*>(from.data) + offset, bytes);
+        return NFD_SUCCESS;
+    }
+    Buffer staging;
+    NFD_TRY_RESULT(create_buffer(bytes, &staging, Memory::Host));
+    const nfd_result r = copy_now(from.buffer, offset, staging.buffer, 0, bytes);
+    if (r == NFD_SUCCESS) std::memcpy(data, staging.data, bytes);
+    destroy_now(staging);
+    return r;
 }
 
 }  // namespace nfd::gpu

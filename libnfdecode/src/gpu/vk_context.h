@@ -1,7 +1,8 @@
 // The small Vulkan layer under gpu_decode.cpp: a compute device (created headless or adopted from
-// the host), host-visible buffers, compute pipelines with specialization constants, and
-// recording of dispatches (direct, or indirect from records the device wrote) either into the
-// context's own command buffer, submitted synchronously, or into a host's command buffer.
+// the host), buffers in device-local or host-visible memory with staging copies between them,
+// compute pipelines with specialization constants, and recording of dispatches (direct, or
+// indirect from records the device wrote) into batches: a batch's own command buffer, submitted
+// synchronously, or a host's command buffer.
 //
 // Entry points are loaded at run time from the Vulkan loader (libvulkan.so.1, or the host's
 // vkGetInstanceProcAddr), so a machine without Vulkan still runs the CPU path: creation then
@@ -18,9 +19,10 @@
 #define VK_NO_PROTOTYPES
 #include <vulkan/vulkan.h>
 
+#include <atomic>
 #include <cstdint>
-#include <initializer_list>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -45,13 +47,19 @@ namespace nfd::gpu {
     X(vkUpdateDescriptorSets) X(vkCreateCommandPool) X(vkDestroyCommandPool)                  \
     X(vkAllocateCommandBuffers) X(vkResetCommandPool) X(vkBeginCommandBuffer)                 \
     X(vkEndCommandBuffer) X(vkCmdBindPipeline) X(vkCmdBindDescriptorSets) X(vkCmdPushConstants) \
-    X(vkCmdDispatch) X(vkCmdDispatchIndirect) X(vkCmdPipelineBarrier) X(vkCmdFillBuffer) X(vkQueueSubmit)              \
+    X(vkCmdDispatch) X(vkCmdDispatchIndirect) X(vkCmdPipelineBarrier) X(vkCmdFillBuffer)      \
+    X(vkCmdCopyBuffer) X(vkQueueSubmit)                                                       \
     X(vkCreateFence) X(vkDestroyFence) X(vkWaitForFences) X(vkResetFences) X(vkDeviceWaitIdle)
 
 nfd_result to_result(VkResult result);
 
-// A buffer in host-visible, host-coherent memory, mapped for its whole life: uploads and
-// read-backs are memcpy, which on CPU implementations is also the fastest path.
+// Where a buffer lives. Device: device-local memory, mapped only where memory is unified (CPU
+// implementations, integrated GPUs), else reached by the host through staging copies
+// (Context::upload/download). Host: host-visible memory, always mapped, for small buffers the
+// host writes while recording (the top level, a job's chunks of points) or reads often.
+enum class Memory { Device, Host };
+
+// A buffer and its memory; `data` is its mapping, or null where the host reaches it by staging.
 struct Buffer {
     VkBuffer buffer = VK_NULL_HANDLE;
     VkDeviceMemory memory = VK_NULL_HANDLE;
@@ -98,12 +106,18 @@ struct DescriptorArena {
     size_t current = 0;  // the pool allocations are tried from
 };
 
-// What a host's command buffer being recorded needs to outlive the recording call: its
-// descriptor sets, and the buffers the library's stages release as they go (which the host's
-// commands still use when they run). Context::release_external() frees both once they have run.
-struct ExternalBatch {
+// One decode's recording (device.h's Job owns one): a command pool and buffer of its own, a fence
+// and descriptor sets, so that decodes on several threads record and run at once. Recording a
+// host's command buffer (begin_external), it records there instead, and keeps the buffers that
+// the stages release meanwhile (the host's commands still use them) until Context::destroy(Batch&),
+// which must come after the host's wait.
+struct Batch {
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkCommandBuffer own = VK_NULL_HANDLE, commands = VK_NULL_HANDLE;  // commands: where it records
+    VkFence fence = VK_NULL_HANDLE;
     DescriptorArena arena;
     std::vector<Buffer> retired;
+    bool recording = false, external = false;
 };
 
 struct PipelineDesc {
@@ -127,49 +141,50 @@ public:
     const std::string& name() const { return name_; }
     const VkPhysicalDeviceLimits& limits() const { return properties_.limits; }
 
-    nfd_result create_buffer(VkDeviceSize size, Buffer* out);  // storage + uniform + transfer
+    nfd_result create_buffer(VkDeviceSize size, Buffer* out, Memory memory = Memory::Device);
+    // Destroys it, or while a host's command buffer is being recorded, keeps it until
+    // its batch is destroyed (those commands may use it).
     void destroy(Buffer& buffer);
+    bool unified() const { return unified_; }
+    // Host <-> buffer copies: memcpy where the buffer is mapped, else through a staging buffer
+    // and a copy the context submits and waits for (in a command buffer of its own, under a
+    // lock; the copy must not race with a batch in flight that writes the same buffer).
+    nfd_result upload(const Buffer& to, VkDeviceSize offset, const void* data, VkDeviceSize bytes);
+    nfd_result download(const Buffer& from, VkDeviceSize offset, void* data, VkDeviceSize bytes);
     // Device memory of the live buffers, and its peak since reset_peak(): what the memory bounds
     // (nfd_extraction_level.next_device_bytes, the queue's device budget) are checked against.
     VkDeviceSize live_bytes() const { return live_bytes_; }
     VkDeviceSize peak_bytes() const { return peak_bytes_; }
-    void reset_peak() { peak_bytes_ = live_bytes_; }
+    void reset_peak() { peak_bytes_ = live_bytes_.load(); }
     nfd_result create_pipeline(const PipelineDesc& desc, Pipeline* out);
     void destroy(Pipeline& pipeline);
 
-    // Recording. begin() starts a batch in the context's command buffer, begin_external() one in
-    // a host's (descriptor sets and buffers destroyed meanwhile are kept in `batch` until
-    // release_external(), after those commands have run; end_external() closes it with a barrier toward vertex input, index, indirect, shader,
-    // transfer and host reads). dispatch() binds (each of the pipeline's bindings exactly once,
-    // else NFD_ERROR_INTERNAL), pushes and launches `invocations` invocations (rounded up to
-    // workgroups, folded into 2D past maxComputeWorkGroupCount[0]) and is followed by a barrier
-    // so the next dispatch (or indirect dispatch) sees its writes; zero invocations record
-    // nothing. dispatch_indirect() launches what VkDispatchIndirectCommand `record` of `args`
-    // holds when it runs. submit() runs the context's batch and waits.
-    nfd_result begin();
-    nfd_result begin_external(VkCommandBuffer commands, ExternalBatch& batch);
-    void end_external();
-    void release_external(ExternalBatch& batch);
-    nfd_result dispatch(const Pipeline& pipeline, const Bind* buffers, size_t count,
+    // Recording, into a Batch: begin() starts the batch's own command buffer, begin_external() a
+    // host's (end_external() closes it with a barrier toward vertex input, index, indirect,
+    // shader, transfer and host reads). dispatch() binds (each of the pipeline's bindings exactly
+    // once, else NFD_ERROR_INTERNAL), pushes and launches `invocations` invocations (rounded up
+    // to workgroups, folded into 2D past maxComputeWorkGroupCount[0]) and is followed by a
+    // barrier so the next dispatch (or indirect dispatch) sees its writes; zero invocations
+    // record nothing. dispatch_indirect() launches what VkDispatchIndirectCommand `record` of
+    // `args` holds when it runs. submit() runs the batch's own buffer on the queue and waits.
+    // Batches of different threads record and run concurrently: the queue is taken under a lock
+    // for each submission (an adopted queue must not be used by the host meanwhile).
+    nfd_result create(Batch* batch);
+    void destroy(Batch& batch);  // after its commands have run; frees what it kept
+    nfd_result begin(Batch& batch);
+    nfd_result begin_external(Batch& batch, VkCommandBuffer commands);
+    void end_external(Batch& batch);
+    nfd_result dispatch(Batch& batch, const Pipeline& pipeline, const Bind* buffers, size_t count,
                         const void* push, uint64_t invocations);
-    nfd_result dispatch(const Pipeline& pipeline, std::initializer_list<Bind> buffers,
+    nfd_result dispatch(Batch& batch, const Pipeline& pipeline, const std::vector<Bind>& buffers,
                         const void* push, uint64_t invocations) {
-        return dispatch(pipeline, buffers.begin(), buffers.size(), push, invocations);
+        return dispatch(batch, pipeline, buffers.data(), buffers.size(), push, invocations);
     }
-    nfd_result dispatch(const Pipeline& pipeline, const std::vector<Bind>& buffers,
-                        const void* push, uint64_t invocations) {
-        return dispatch(pipeline, buffers.data(), buffers.size(), push, invocations);
-    }
-    nfd_result dispatch_indirect(const Pipeline& pipeline, const Bind* buffers, size_t count,
-                                 const void* push, const Buffer& args, uint32_t record);
-    nfd_result dispatch_indirect(const Pipeline& pipeline, const std::vector<Bind>& buffers,
-                                 const void* push, const Buffer& args, uint32_t record) {
-        return dispatch_indirect(pipeline, buffers.data(), buffers.size(), push, args, record);
-    }
-    void fill(const Buffer& buffer, uint32_t value);  // whole buffer, then a barrier
-    nfd_result submit();
-    nfd_result reset(DescriptorArena& arena);
-    void destroy(DescriptorArena& arena);
+    nfd_result dispatch_indirect(Batch& batch, const Pipeline& pipeline,
+                                 const std::vector<Bind>& buffers, const void* push,
+                                 const Buffer& args, uint32_t record);
+    void fill(Batch& batch, const Buffer& buffer, uint32_t value);  // whole buffer, then a barrier
+    nfd_result submit(Batch& batch);
 
 private:
     Context() = default;
@@ -179,10 +194,19 @@ private:
     nfd_result create_logical_device();
     nfd_result create_command_objects();
     nfd_result load_functions(bool device_level);
-    void barrier();
-    nfd_result bind(const Pipeline& pipeline, const Bind* buffers, size_t count, const void* push);
+    nfd_result pick_memory_types();
+    nfd_result command_buffer(VkCommandPool* pool, VkCommandBuffer* commands, VkFence* fence);
+    nfd_result submit_and_wait(VkCommandBuffer commands, VkFence fence);
+    nfd_result copy_now(VkBuffer from, VkDeviceSize from_offset, VkBuffer to,
+                        VkDeviceSize to_offset, VkDeviceSize bytes);
+    void destroy_now(Buffer& buffer);
+    void barrier(VkCommandBuffer commands);
+    nfd_result bind(Batch& batch, const Pipeline& pipeline, const Bind* buffers, size_t count,
+                    const void* push);
     nfd_result allocate_set(DescriptorArena& arena, VkDescriptorSetLayout layout,
                             VkDescriptorSet* out);
+    nfd_result reset(DescriptorArena& arena);
+    void destroy(DescriptorArena& arena);
 
     void* library_ = nullptr;  // dlopen handle of the loader, when we opened it
     PFN_vkGetInstanceProcAddr get_instance_proc_addr_ = nullptr;
@@ -201,19 +225,17 @@ private:
     uint32_t queue_family_ = 0;
     VkPhysicalDeviceProperties properties_{};
     VkPhysicalDeviceMemoryProperties memory_{};
-    uint32_t memory_type_ = UINT32_MAX;  // host-visible + coherent, device-local if possible
-    VkDeviceSize live_bytes_ = 0, peak_bytes_ = 0;
+    uint32_t device_type_ = UINT32_MAX, host_type_ = UINT32_MAX;  // pick_memory_types()
+    bool unified_ = false;
+    std::atomic<VkDeviceSize> live_bytes_{0}, peak_bytes_{0};
+    std::mutex queue_mutex_;     // vkQueueSubmit: the queue is externally synchronized
+    std::mutex transfer_mutex_;  // upload/download's command buffer and fence
     std::string name_;
 
     VkPipelineCache cache_ = VK_NULL_HANDLE;
-    VkCommandPool command_pool_ = VK_NULL_HANDLE;
-    VkCommandBuffer commands_ = VK_NULL_HANDLE;
-    VkFence fence_ = VK_NULL_HANDLE;
-    DescriptorArena arena_;  // the descriptor sets of the context's own batch
-    VkCommandBuffer target_ = VK_NULL_HANDLE;  // what dispatches record into
-    DescriptorArena* target_arena_ = nullptr;
-    ExternalBatch* external_ = nullptr;  // while recording a host's command buffer
-    bool recording_ = false;
+    VkCommandPool transfer_pool_ = VK_NULL_HANDLE;  // upload/download's staging copies
+    VkCommandBuffer transfer_ = VK_NULL_HANDLE;
+    VkFence transfer_fence_ = VK_NULL_HANDLE;
 };
 
 }  // namespace nfd::gpu
