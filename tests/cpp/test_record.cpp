@@ -150,6 +150,10 @@ protected:
 
         out.result.struct_size = sizeof out.result;
         out.finish = nfd_recording_finish(rec, &out.result);
+        nfd_recording_result again{};
+        EXPECT_EQ(nfd_recording_finish(rec, &again), out.finish);  // the scratch is gone by now
+        EXPECT_EQ(again.triangle_count, out.result.triangle_count);
+        EXPECT_EQ(again.needed_cells, out.result.needed_cells);
         std::memcpy(out.draw, draw.data, 20);
         if (out.finish == NFD_SUCCESS) {
             nfd_mesh* mesh = nullptr;

@@ -797,7 +797,8 @@ NFD_API void nfd_job_destroy(nfd_job* job);
  * recorded: the kept cells of each level of the sampling (max_cells: level 1's, the mesher's
  * parents at r/2 cells per axis; a coarser level l gets 2 * (max_cells / 4^(l-1) + 64), at most
  * its number of cells), the UDF's gradient points, the mesh's vertices and triangles. The buffers
- * are made to these sizes and live until nfd_recording_destroy (about 260 bytes per cell of
+ * are made to these sizes; the decode's scratch lives until nfd_recording_finish, the mesh
+ * buffers until nfd_recording_destroy (about 260 bytes per cell of
  * max_cells, the coarser levels included, 16 per gradient point, 28 per vertex and 12 per
  * triangle, plus the levels' bitmaps, r^3 / 32 bytes at level 1). A decode whose totals exceed
  * them stops at the first total that does (every later kernel does nothing, nothing is written
@@ -817,9 +818,9 @@ NFD_API void nfd_job_destroy(nfd_job* job);
  * recorded after them in the same command buffer, or in a later submission on the same queue,
  * may read the mesh buffers. A submission on another queue needs the engine's semaphore (and, for
  * another family, queue-family ownership is the engine's concern: the buffers are
- * VK_SHARING_MODE_EXCLUSIVE). The host reads (finish, read_mesh) need the engine's wait for that
- * submission to have returned. The library's buffers and descriptor sets stay alive until
- * nfd_recording_destroy, which must come after that wait (or before any submission).
+ * VK_SHARING_MODE_EXCLUSIVE). finish and read_mesh need the engine's wait for that submission
+ * to have returned; finish frees the scratch and descriptor sets, destroy the mesh buffers (after
+ * the engine's last draw from them, or before any submission).
  *
  * Threads: a recording borrows its context and asset (both must outlive it); create, record and
  * destroy use the context's device like any call taking it, so they must not run concurrently
@@ -882,11 +883,12 @@ NFD_API nfd_result nfd_recording_get_mesh(const nfd_recording* recording,
  * then holds part of the decode: do not submit it). */
 NFD_API nfd_result nfd_recording_record(nfd_recording* recording, void* command_buffer);
 
-/* After the engine's wait for the recorded commands: what they produced. Outcomes: NFD_SUCCESS;
- * NFD_ERROR_CAPACITY_EXCEEDED (a total exceeded its capacity: vertex and triangle counts are 0,
- * needed_* say what to try next); NFD_ERROR_INVALID_ARGUMENT (NULL argument, out_result's
- * struct_size below its layout, not recorded). Calling it before the commands have completed is
- * a race on the engine's side: the values are unspecified (never a crash). */
+/* After the engine's wait for the recorded commands (never before: it frees the decode's scratch,
+ * which those commands use): what they produced; a second call gives the same. The recording then
+ * holds only the mesh buffers. Outcomes: NFD_SUCCESS; NFD_ERROR_CAPACITY_EXCEEDED (a total
+ * exceeded its capacity: vertex and triangle counts are 0, needed_* say what to try next);
+ * NFD_ERROR_INVALID_ARGUMENT (NULL argument, out_result's struct_size below its layout, not
+ * recorded); NFD_ERROR_DEVICE (the read-back failed). */
 NFD_API nfd_result nfd_recording_finish(nfd_recording* recording,
                                         nfd_recording_result* out_result);
 

@@ -121,6 +121,7 @@ public:
     bool overflowed() const { return counter(NFD_COUNTER_OVERFLOW) != 0; }
     const Buffer& counters() const { return *counters_; }
     Batch& batch() { return batch_; }  // what the job records into
+    void release_batch() { device.vk->destroy(batch_); }  // and what it kept; after its wait
 
     // Launches `pipeline` over `count`'s items, `per_invocation` to an invocation, the counters
     // bound where its kernel family has them; its push constants must describe the same count.

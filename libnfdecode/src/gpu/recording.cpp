@@ -58,6 +58,10 @@ public:
 
     nfd_result finish(RecordingTotals* totals) {
         if (!recorded_) return NFD_ERROR_INVALID_ARGUMENT;
+        if (finished_) {
+            *totals = totals_;
+            return totals_.overflowed ? NFD_ERROR_CAPACITY_EXCEEDED : NFD_SUCCESS;
+        }
         NFD_TRY(job_.refresh());
         RecordingTotals t;
         t.overflowed = job_.overflowed();
@@ -86,6 +90,10 @@ public:
         totals_ = t;
         finished_ = true;
         *totals = t;
+        // The host has waited: the levels, the scratch its commands used and their descriptor
+        // sets go; the mesh buffers stay, as the engine may still draw from them.
+        levels_.reset();
+        job_.release_batch();
         return t.overflowed ? NFD_ERROR_CAPACITY_EXCEEDED : NFD_SUCCESS;
     }
 
