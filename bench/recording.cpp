@@ -50,35 +50,20 @@ Try record_once(nfd::test::HostVulkan& host, VkCommandPool pool, nfd_context* ct
     nfd_recording* rec = nullptr;
     t.result = nfd_recording_create(ctx, asset, &options, &rec);
     if (t.result != NFD_SUCCESS) return t;
-    VkCommandBufferAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-    alloc.commandPool = pool;
-    alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    alloc.commandBufferCount = 1;
-    VkCommandBuffer cmd = VK_NULL_HANDLE;
-    vkAllocateCommandBuffers(host.device, &alloc, &cmd);
-    VkCommandBufferBeginInfo begin{};
-    begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-    vkBeginCommandBuffer(cmd, &begin);
+    VkCommandBuffer cmd = host.begin_commands(pool);
     const double c0 = thread_cpu();
     t.result = nfd_recording_record(rec, cmd);
     t.record_cpu_s = thread_cpu() - c0;
-    vkEndCommandBuffer(cmd);
     if (t.result == NFD_SUCCESS) {
-        VkFenceCreateInfo fence_info{};
-        fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-        VkFence fence;
-        vkCreateFence(host.device, &fence_info, nullptr, &fence);
-        VkSubmitInfo submit{};
-        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-        submit.commandBufferCount = 1;
-        submit.pCommandBuffers = &cmd;
         const auto t0 = Clock::now();
-        vkQueueSubmit(host.queue, 1, &submit, fence);
-        vkWaitForFences(host.device, 1, &fence, VK_TRUE, UINT64_MAX);
+        const bool ran = host.submit_and_wait(cmd);
         t.gpu_wall_s = seconds_since(t0);
-        vkDestroyFence(host.device, fence, nullptr);
         t.totals.struct_size = sizeof t.totals;
+        // Without the wait the commands may still run: the recording is then leaked, not freed.
+        if (!ran) {
+            t.result = NFD_ERROR_DEVICE;
+            return t;
+        }
         t.result = nfd_recording_finish(rec, &t.totals);
         nfd_mesh* mesh = nullptr;
         if (t.result == NFD_SUCCESS && nfd_recording_read_mesh(rec, &mesh) == NFD_SUCCESS) {

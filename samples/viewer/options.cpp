@@ -38,7 +38,7 @@ const char kUsage[] =
     "                  recorded again with the capacities it needed\n"
     "Mouse: left drag rotates, right drag (or shift + left) pans, wheel zooms.\n"
     "Keys: R reset camera, W wireframe, N shading (lit / normals), O overlay, Esc quit.\n"
-    "Colour chunks are listed in the overlay; libnfdecode 0.2 does not decode them yet.\n";
+    "Colour chunks are listed in the overlay; libnfdecode does not decode them yet.\n";
 
 long parse_int(const std::string& flag, const char* text, long min, long max) {
     char* end = nullptr;

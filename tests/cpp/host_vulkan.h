@@ -112,6 +112,38 @@ struct HostVulkan {
         b = HostBuffer{};
     }
 
+    // A primary command buffer of `pool`, begun for one submission (VK_NULL_HANDLE on failure).
+    VkCommandBuffer begin_commands(VkCommandPool pool) const {
+        VkCommandBufferAllocateInfo alloc{};
+        alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
+        alloc.commandPool = pool;
+        alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+        alloc.commandBufferCount = 1;
+        VkCommandBuffer commands = VK_NULL_HANDLE;
+        if (vkAllocateCommandBuffers(device, &alloc, &commands) != VK_SUCCESS) return VK_NULL_HANDLE;
+        VkCommandBufferBeginInfo begin{};
+        begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
+        begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+        vkBeginCommandBuffer(commands, &begin);
+        return commands;
+    }
+    // Ends `commands`, submits them on the queue and waits for them; false on any failure.
+    bool submit_and_wait(VkCommandBuffer commands) const {
+        if (vkEndCommandBuffer(commands) != VK_SUCCESS) return false;
+        VkFenceCreateInfo fence_info{};
+        fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
+        VkFence fence = VK_NULL_HANDLE;
+        if (vkCreateFence(device, &fence_info, nullptr, &fence) != VK_SUCCESS) return false;
+        VkSubmitInfo submit{};
+        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
+        submit.commandBufferCount = 1;
+        submit.pCommandBuffers = &commands;
+        const bool ok = vkQueueSubmit(queue, 1, &submit, fence) == VK_SUCCESS &&
+                        vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX) == VK_SUCCESS;
+        vkDestroyFence(device, fence, nullptr);
+        return ok;
+    }
+
     nfd_vulkan_device lend() const {
         nfd_vulkan_device d{};
         d.instance = instance;

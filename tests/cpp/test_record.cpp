@@ -99,17 +99,8 @@ protected:
         nfd_device_mesh dm;
         EXPECT_EQ(nfd_recording_get_mesh(rec, &dm), NFD_SUCCESS);
 
-        VkCommandBufferAllocateInfo alloc{};
-        alloc.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO;
-        alloc.commandPool = pool_;
-        alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-        alloc.commandBufferCount = 1;
-        VkCommandBuffer cmd = VK_NULL_HANDLE;
-        EXPECT_EQ(vkAllocateCommandBuffers(host_.device, &alloc, &cmd), VK_SUCCESS);
-        VkCommandBufferBeginInfo begin{};
-        begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
-        begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-        EXPECT_EQ(vkBeginCommandBuffer(cmd, &begin), VK_SUCCESS);
+        VkCommandBuffer cmd = host_.begin_commands(pool_);
+        EXPECT_NE(cmd, VK_NULL_HANDLE);
         r = nfd_recording_record(rec, cmd);
         EXPECT_EQ(r, NFD_SUCCESS) << nfd_result_string(r);
         EXPECT_EQ(nfd_recording_record(rec, cmd), NFD_ERROR_INVALID_ARGUMENT);  // once
@@ -134,19 +125,7 @@ protected:
         to_host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
         vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
                              &to_host, 0, nullptr, 0, nullptr);
-        EXPECT_EQ(vkEndCommandBuffer(cmd), VK_SUCCESS);
-        VkFenceCreateInfo fence_info{};
-        fence_info.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
-        VkFence fence = VK_NULL_HANDLE;
-        EXPECT_EQ(vkCreateFence(host_.device, &fence_info, nullptr, &fence), VK_SUCCESS);
-        VkSubmitInfo submit{};
-        submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
-        submit.commandBufferCount = 1;
-        submit.pCommandBuffers = &cmd;
-        EXPECT_EQ(vkQueueSubmit(host_.queue, 1, &submit, fence), VK_SUCCESS);
-        EXPECT_EQ(vkWaitForFences(host_.device, 1, &fence, VK_TRUE, 600'000'000'000ull),
-                  VK_SUCCESS);
-        vkDestroyFence(host_.device, fence, nullptr);
+        EXPECT_TRUE(host_.submit_and_wait(cmd));
 
         out.result.struct_size = sizeof out.result;
         out.finish = nfd_recording_finish(rec, &out.result);

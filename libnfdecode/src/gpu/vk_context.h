@@ -200,7 +200,9 @@ private:
     nfd_result copy_now(VkBuffer from, VkDeviceSize from_offset, VkBuffer to,
                         VkDeviceSize to_offset, VkDeviceSize bytes);
     void destroy_now(Buffer& buffer);
-    void barrier(VkCommandBuffer commands);
+    void barrier(VkCommandBuffer commands);  // between a batch's dispatches
+    // A global barrier from shader and transfer writes to `access` in `stages`.
+    void after_writes(VkCommandBuffer commands, VkPipelineStageFlags stages, VkAccessFlags access);
     nfd_result bind(Batch& batch, const Pipeline& pipeline, const Bind* buffers, size_t count,
                     const void* push);
     nfd_result allocate_set(DescriptorArena& arena, VkDescriptorSetLayout layout,
