@@ -33,6 +33,7 @@
 struct nfd_context {
     nfd_device_kind kind = NFD_DEVICE_CPU;
     std::string name = "cpu";
+    std::string reason;  // nfd_context_device_reason
     unsigned cpu_threads = 0;
 #if NFD_WITH_VULKAN
     std::unique_ptr<nfd::gpu::Device> gpu;
@@ -282,19 +283,28 @@ nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** 
     return guarded([&] {
         auto ctx = std::make_unique<nfd_context>();
         ctx->cpu_threads = opts.cpu_threads;
+        ctx->reason = opts.device == NFD_DEVICE_CPU ? "requested" : "auto: no Vulkan device";
         if (opts.device != NFD_DEVICE_CPU) {
 #if NFD_WITH_VULKAN
-            const nfd_result r =
-                nfd::gpu::create_device(opts.adopt, opts.enable_validation != 0, &ctx->gpu);
+            // AUTO without a device to adopt takes a hardware GPU only: on a CPU implementation
+            // (lavapipe) the C++ path decodes faster (bench/RESULTS.md, "Decode speed").
+            const bool automatic = opts.device == NFD_DEVICE_AUTO && !opts.adopt;
+            std::string refused;
+            const nfd_result r = nfd::gpu::create_device(
+                opts.adopt, opts.enable_validation != 0, &ctx->gpu, automatic, &refused);
             if (r == NFD_SUCCESS) {
                 ctx->kind = NFD_DEVICE_VULKAN;
                 ctx->name = nfd::gpu::device_name(*ctx->gpu);
+                ctx->reason = opts.adopt ? "adopted" : automatic ? "auto: a GPU" : "requested";
             } else {
                 // AUTO falls back to the CPU when no device can be made; an adopted device that
                 // fails, or an explicit VULKAN request, reports why instead.
-                const bool fallback = opts.device == NFD_DEVICE_AUTO && !opts.adopt &&
-                                      (r == NFD_ERROR_DEVICE_UNAVAILABLE || r == NFD_ERROR_DEVICE);
-                if (!fallback) return r;
+                ctx->gpu.reset();
+                if (!automatic || (r != NFD_ERROR_DEVICE_UNAVAILABLE && r != NFD_ERROR_DEVICE))
+                    return r;
+                if (!refused.empty())
+                    ctx->reason = "auto: the only Vulkan device, " + refused +
+                                  ", is a CPU implementation (slower than this path)";
             }
 #else
             if (opts.device == NFD_DEVICE_VULKAN || opts.adopt) return NFD_ERROR_DEVICE_UNAVAILABLE;
@@ -313,6 +323,10 @@ nfd_device_kind nfd_context_device_kind(const nfd_context* context) {
 
 const char* nfd_context_device_name(const nfd_context* context) {
     return context ? context->name.c_str() : "";
+}
+
+const char* nfd_context_device_reason(const nfd_context* context) {
+    return context ? context->reason.c_str() : "";
 }
 
 nfd_result nfd_asset_create(const void* bytes, size_t size, nfd_asset** out_asset) {

@@ -35,7 +35,7 @@ const char kUsage[] =
     "                  around it (OpenVDB)\n"
     "  --resolution N  grid cells per axis over the unit cube (8..1024, default 256)\n"
     "  --points N      write N points sampled uniformly on the surface (PLY) instead of the mesh\n"
-    "  --device D      auto (Vulkan, else CPU; default), vulkan, or cpu\n"
+    "  --device D      auto (a GPU, else the CPU path; default), vulkan (lavapipe too), or cpu\n"
     "  --stream-chunk N\n"
     "                  feed the file to nfd_stream N bytes at a time, never holding it whole;\n"
     "                  meshing starts from the asset the stream yields\n"
@@ -447,7 +447,8 @@ void run(const Options& o) {
         std::printf("file        %u bytes (format %u.%u, %s, %u-bit, %u layers, width %u)\n",
                     info.file_size, info.format_major, info.format_minor, field_name(info),
                     info.bits, info.num_layers, info.layer_widths[0]);
-        std::printf("device      %s\n", nfd_context_device_name(h.context));
+        std::printf("device      %s (%s)\n", nfd_context_device_name(h.context),
+                    nfd_context_device_reason(h.context));
         std::printf("read        %9.2f ms\n", in.ms_read);
         std::printf("parse       %9.2f ms\n", in.ms_parse);
         if (in.ms_geometry >= 0)

@@ -251,6 +251,34 @@ TEST_F(Gpu, MeshMatchesCpuOnClosedBlob) {
 }
 
 // A random SIREN: a tangle of surfaces touching the domain boundary, many ambiguous cases.
+// NFD_DEVICE_AUTO takes a hardware GPU and declines a CPU implementation (lavapipe), whose name
+// its reason then gives; NFD_DEVICE_VULKAN takes either.
+TEST_F(Gpu, AutoDeclinesACpuImplementation) {
+    std::unique_ptr<gpu::Device> hardware;
+    std::string refused;
+    const nfd_result r = gpu::create_device(nullptr, false, &hardware, true, &refused);
+    nfd_context* automatic = nullptr;
+    nfd_context* vulkan = nullptr;
+    nfd_context_options o{};
+    ASSERT_EQ(nfd_context_create(&o, &automatic), NFD_SUCCESS);
+    o.device = NFD_DEVICE_VULKAN;
+    ASSERT_EQ(nfd_context_create(&o, &vulkan), NFD_SUCCESS);
+    EXPECT_STREQ(nfd_context_device_reason(vulkan), "requested");
+    if (r == NFD_SUCCESS) {
+        EXPECT_EQ(nfd_context_device_kind(automatic), NFD_DEVICE_VULKAN);
+        EXPECT_STREQ(nfd_context_device_reason(automatic), "auto: a GPU");
+    } else {
+        ASSERT_EQ(r, NFD_ERROR_DEVICE_UNAVAILABLE);
+        ASSERT_FALSE(refused.empty());
+        EXPECT_EQ(refused, std::string(nfd_context_device_name(vulkan)));
+        EXPECT_EQ(nfd_context_device_kind(automatic), NFD_DEVICE_CPU);
+        EXPECT_NE(std::string(nfd_context_device_reason(automatic)).find(refused),
+                  std::string::npos);
+    }
+    nfd_context_destroy(automatic);
+    nfd_context_destroy(vulkan);
+}
+
 // The staged path of discrete GPUs (device-local buffers the host reaches by copies), forced on
 // this device: the same values, gradients and meshes, SDF and UDF, as with mapped memory.
 TEST_F(Gpu, StagedMemoryGivesTheSameResults) {

@@ -233,10 +233,14 @@ nfd_result record_scan(Job& job, Buffers& scratch, const Buffer& in, const Buffe
 }
 
 nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
-                         std::unique_ptr<Device>* out) {
+                         std::unique_ptr<Device>* out, bool hardware_only, std::string* refused) {
     std::unique_ptr<Device> d(new (std::nothrow) Device());
     if (!d) return NFD_ERROR_OUT_OF_MEMORY;
     NFD_TRY(Context::create(adopt, enable_validation, &d->vk));
+    if (hardware_only && d->vk->cpu_implementation()) {
+        if (refused) *refused = d->vk->name();
+        return NFD_ERROR_DEVICE_UNAVAILABLE;
+    }
     for (size_t i = 0; i < kKernelCount; ++i)
         if (!is_field_kernel(Kernel(i)))
             NFD_TRY(d->vk->create_pipeline(kernel_pipeline(Kernel(i)), &d->kernels[i]));

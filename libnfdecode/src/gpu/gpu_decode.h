@@ -5,6 +5,7 @@
 #pragma once
 #include <cstddef>
 #include <memory>
+#include <string>
 
 #include "../extract.h"
 #include "../mesh.h"
@@ -17,9 +18,12 @@ namespace nfd::gpu {
 class Device;  // Vulkan instance/device/queue (own or adopted), pipelines, scratch buffers
 
 // Creates a headless compute device, or adopts the host's when `adopt` is not null.
-// NFD_ERROR_DEVICE_UNAVAILABLE when no Vulkan loader/ICD/device with a compute queue exists.
+// NFD_ERROR_DEVICE_UNAVAILABLE when no Vulkan loader/ICD/device with a compute queue exists, and
+// with `hardware_only` when the device picked is a CPU implementation (lavapipe), refused before
+// any pipeline is made; its name then goes to *refused.
 nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
-                         std::unique_ptr<Device>* out);
+                         std::unique_ptr<Device>* out, bool hardware_only = false,
+                         std::string* refused = nullptr);
 void destroy_device(Device* device);  // also what the unique_ptr's deleter calls
 const char* device_name(const Device& device);
 // The device memory its buffers hold, and the peak since the last reset: what the progressive

@@ -146,6 +146,9 @@ public:
     // its batch is destroyed (those commands may use it).
     void destroy(Buffer& buffer);
     bool unified() const { return unified_; }
+    bool cpu_implementation() const {
+        return properties_.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    }
     // Host <-> buffer copies: memcpy where the buffer is mapped, else through a staging buffer
     // and a copy the context submits and waits for (in a command buffer of its own, under a
     // lock; the copy must not race with a batch in flight that writes the same buffer).
