@@ -74,8 +74,9 @@ nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const
     // larger than asked for).
     const BufferRange offsets(*list.offsets, 0, VkDeviceSize(parents.capacity) * 4);
     LevelPush chunk = push;
-    for (uint32_t first = 0; first < list.capacity; first += std::min(kListChunk, list.capacity - first)) {
-        const Count c{std::min(kListChunk, list.capacity - first), list.slot, first};
+    for (uint64_t first = 0; first < list.capacity; first += kListChunk) {
+        const Count c{uint32_t(std::min<uint64_t>(kListChunk, list.capacity - first)), list.slot,
+                      uint32_t(first)};
         chunk.set(c);
         NFD_TRY(job.dispatch(Kernel::RefinePoints,
                              {{NFD_B_KEPT_CELLS, *parents.list},
@@ -143,7 +144,7 @@ nfd_result LevelBuilder::evaluate_dense_top(Buffers& scratch) {
     level.cells = n;
     level.capacity = level.kept = n * n * n;
     const uint32_t words = level.words();
-    // Written here, small (at most 64^3 cells): host memory, no staging while recording.
+    // Written here, small (at most 32^3 cells): host memory, no staging while recording.
     NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.bits, Memory::Host));
     NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.prefix, Memory::Host));
     NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 4, &level.list, Memory::Host));
