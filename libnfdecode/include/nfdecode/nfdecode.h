@@ -830,9 +830,10 @@ NFD_API void nfd_job_destroy(nfd_job* job);
  * to have returned; finish frees the scratch and descriptor sets, destroy the mesh buffers (after
  * the engine's last draw from them, or before any submission).
  *
- * Threads: a recording borrows its context and asset (both must outlive it); create, record and
- * destroy use the context's device like any call taking it, so they must not run concurrently
- * with another call on the same context; get_mesh, finish and read_mesh only read.
+ * Threads: a recording borrows its context and asset (both must outlive it); create, record,
+ * finish, read_mesh and destroy use the context's device like any call taking it (finish and
+ * read_mesh copy through a staging buffer on the context's queue where memory is not unified), so
+ * they must not run concurrently with another call on the same context; get_mesh only reads.
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_recording nfd_recording;
 
