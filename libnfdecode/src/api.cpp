@@ -65,9 +65,7 @@ struct nfd_extraction {
 struct nfd_recording {
 #if NFD_WITH_VULKAN
     std::unique_ptr<nfd::gpu::Recording> impl;
-    nfd::gpu::RecordingTotals totals;
 #endif
-    bool finished = false;
 };
 
 struct nfd_queue {
@@ -789,7 +787,9 @@ nfd_result nfd_recording_create(nfd_context* context, const nfd_asset* asset,
     if (opts.max_gradient_points) c.gradient_points = opts.max_gradient_points;
     if (opts.max_vertices) c.vertices = opts.max_vertices;
     if (opts.max_triangles) c.triangles = opts.max_triangles;
-    if (c.cells >= 1u << 26) return NFD_ERROR_LIMIT_EXCEEDED;  // mc_emit's k << 6 | edge records
+    if (c.cells > NFD_MAX_RECORDING_CELLS || c.gradient_points > NFD_MAX_RECORDING_ITEMS ||
+        c.vertices > NFD_MAX_RECORDING_ITEMS || c.triangles > NFD_MAX_RECORDING_ITEMS)
+        return NFD_ERROR_LIMIT_EXCEEDED;
     if (asset->file.geometry.field != nfd::FieldType::Udf) c.gradient_points = 0;
     return guarded([&] {
         auto recording = std::make_unique<nfd_recording>();
@@ -829,10 +829,9 @@ nfd_result nfd_recording_finish(nfd_recording* recording, nfd_recording_result* 
     const uint32_t caller_size = out_result->struct_size;
     if (caller_size && caller_size < kRecordingResult03) return NFD_ERROR_INVALID_ARGUMENT;
 #if NFD_WITH_VULKAN
-    nfd::gpu::RecordingTotals& t = recording->totals;
+    nfd::gpu::RecordingTotals t;
     const nfd_result r = nfd::gpu::finish(*recording->impl, &t);
     if (r != NFD_SUCCESS && r != NFD_ERROR_CAPACITY_EXCEEDED) return r;
-    recording->finished = r == NFD_SUCCESS;
     nfd_recording_result out{};
     out.vertex_count = t.vertices;
     out.triangle_count = t.triangles;
@@ -853,13 +852,12 @@ nfd_result nfd_recording_finish(nfd_recording* recording, nfd_recording_result* 
 nfd_result nfd_recording_read_mesh(const nfd_recording* recording, nfd_mesh** out_mesh) {
     if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
     *out_mesh = nullptr;
-    if (!recording || !recording->finished) return NFD_ERROR_INVALID_ARGUMENT;
+    if (!recording) return NFD_ERROR_INVALID_ARGUMENT;
 #if NFD_WITH_VULKAN
     return guarded([&] {
         auto mesh = std::make_unique<nfd_mesh>();
-        const nfd_result r = nfd::gpu::read_mesh(*recording->impl, &mesh->data);
+        const nfd_result r = nfd::gpu::read_mesh(*recording->impl, &mesh->data, &mesh->stats);
         if (r != NFD_SUCCESS) return r;
-        mesh->stats = recording->totals.stats;
         *out_mesh = mesh.release();
         return NFD_SUCCESS;
     });

@@ -240,26 +240,25 @@ TEST(Queue, TenAssetsAtOnceMatchMeshExtractCpu) {
     nfd_context_destroy(ctx);
 }
 
-#if NFD_WITH_VULKAN
-TEST(Queue, TenAssetsAtOnceMatchMeshExtractVulkan) {
-    nfd_context* ctx = make_context(NFD_DEVICE_VULKAN);
-    if (!ctx) {
-        if (std::getenv("NFD_REQUIRE_VULKAN")) FAIL() << "no Vulkan device";
-        GTEST_SKIP() << "no Vulkan device";
+// A context on the Vulkan device (lavapipe here); skips without one unless NFD_REQUIRE_VULKAN.
+struct QueueVulkan : ::testing::Test {
+    nfd_context* ctx = nullptr;
+    void SetUp() override {
+        ctx = make_context(NFD_DEVICE_VULKAN);
+        skip_without_vulkan(ctx ? "" : "no Vulkan device");
     }
+    void TearDown() override { nfd_context_destroy(ctx); }
+};
+
+#if NFD_WITH_VULKAN
+TEST_F(QueueVulkan, TenAssetsAtOnceMatchMeshExtractVulkan) {
     ten_assets_match_mesh_extract(ctx, 4);  // four jobs at once, each with its own batches
-    nfd_context_destroy(ctx);
 }
 
 // Two workers on a Vulkan context: while one job's worker is held in its first level's
 // callback, with that job's extraction alive on the device, a second job runs to the end on the
 // other worker, and then the first finishes too, both meshes those of nfd_mesh_extract.
-TEST(Queue, VulkanJobsRunOnTwoWorkersAtOnce) {
-    nfd_context* ctx = make_context(NFD_DEVICE_VULKAN);
-    if (!ctx) {
-        if (std::getenv("NFD_REQUIRE_VULKAN")) FAIL() << "no Vulkan device";
-        GTEST_SKIP() << "no Vulkan device";
-    }
+TEST_F(QueueVulkan, JobsRunOnTwoWorkersAtOnceVulkan) {
     nfd_asset* a = make_asset(blob(1.0f));
     nfd_queue* q = make_queue(ctx, 2);
     const nfd_mesh_options mo = mesh_options(64);
@@ -285,7 +284,6 @@ TEST(Queue, VulkanJobsRunOnTwoWorkersAtOnce) {
     nfd_mesh_destroy(expected);
     nfd_queue_destroy(q);
     nfd_asset_destroy(a);
-    nfd_context_destroy(ctx);
 }
 #endif
 
@@ -715,14 +713,8 @@ TEST(Queue, LevelsInOrderMatchMeshExtractCpu) {
     nfd_context_destroy(ctx);
 }
 
-TEST(Queue, LevelsInOrderMatchMeshExtractVulkan) {
-    nfd_context* ctx = make_context(NFD_DEVICE_VULKAN);
-    if (!ctx) {
-        if (std::getenv("NFD_REQUIRE_VULKAN")) FAIL() << "no Vulkan device";
-        GTEST_SKIP() << "no Vulkan device";
-    }
+TEST_F(QueueVulkan, LevelsInOrderMatchMeshExtractVulkan) {
     levels_match_mesh_extract(ctx, 1);
-    nfd_context_destroy(ctx);
 }
 
 // Cancelled while its first level's callback runs: the job ends CANCELLED at that level's

@@ -224,6 +224,35 @@ TEST_F(Record, OverflowGivesNeededCapacitiesThatWork) {
     }
 }
 
+// Hostile values that pass the CRC (flipped bytes of SDF and UDF networks, re-sealed), recorded
+// at 16 cells: each ends in a finite mesh, a capacity overflow, or an error code, never a crash.
+TEST_F(Record, AcceptedDamageRecordsFiniteMeshesOrErrors) {
+    size_t meshed = 0, files = 0;
+    for (uint32_t field : {0u, 1u}) {
+        for_each_accepted_damaged_file(
+            geom_payload(random_siren(8, 8, 7, field)), 53, {0xFF},
+            [&](size_t i, const Bytes& bytes, const Geometry&) {
+                SCOPED_TRACE(i);
+                nfd_asset* asset = nullptr;
+                ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &asset), NFD_SUCCESS);
+                assets_.push_back(asset);
+                nfd_recording_options options{};
+                options.resolution = 16;
+                const Run rec = run(asset, options);
+                ++files;
+                ASSERT_TRUE(rec.finish == NFD_SUCCESS || rec.finish == NFD_ERROR_CAPACITY_EXCEEDED)
+                    << nfd_result_string(rec.finish);
+                for (float v : rec.read_back.positions) ASSERT_TRUE(std::isfinite(v));
+                for (float v : rec.read_back.normals) ASSERT_TRUE(std::isfinite(v));
+                for (uint32_t k : rec.read_back.indices)
+                    ASSERT_LT(k, rec.read_back.positions.size() / 3);
+                meshed += !rec.read_back.indices.empty();
+            });
+    }
+    EXPECT_GT(files, 10u);
+    EXPECT_GT(meshed, 0u);
+}
+
 TEST_F(Record, RejectsWhatItCannotRecord) {
     const nfd_asset* asset = golden("bunny_sdf_w16");
     nfd_recording* rec = reinterpret_cast<nfd_recording*>(0x1);
@@ -240,9 +269,25 @@ TEST_F(Record, RejectsWhatItCannotRecord) {
     options.resolution = 4096;
     EXPECT_EQ(nfd_recording_create(ctx_, asset, &options, &rec), NFD_ERROR_LIMIT_EXCEEDED);
     options.resolution = 64;
-    options.max_cells = 1u << 26;
+    options.max_cells = NFD_MAX_RECORDING_CELLS + 1;
     EXPECT_EQ(nfd_recording_create(ctx_, asset, &options, &rec), NFD_ERROR_LIMIT_EXCEEDED);
     options.max_cells = 0;
+    for (uint32_t* capacity :
+         {&options.max_gradient_points, &options.max_vertices, &options.max_triangles}) {
+        *capacity = NFD_MAX_RECORDING_ITEMS + 1;
+        EXPECT_EQ(nfd_recording_create(ctx_, asset, &options, &rec), NFD_ERROR_LIMIT_EXCEEDED);
+        *capacity = UINT32_MAX;
+        EXPECT_EQ(nfd_recording_create(ctx_, asset, &options, &rec), NFD_ERROR_LIMIT_EXCEEDED);
+        *capacity = 0;
+    }
+    options.struct_size = sizeof options + 8;  // a newer header's struct: its unknown tail...
+    std::vector<uint8_t> newer(sizeof options + 8, 0xFF);  // ...not zero
+    std::memcpy(newer.data(), &options, sizeof options);
+    EXPECT_EQ(nfd_recording_create(ctx_, asset,
+                                   reinterpret_cast<const nfd_recording_options*>(newer.data()),
+                                   &rec),
+              NFD_ERROR_INVALID_ARGUMENT);
+    options.struct_size = 0;
     ASSERT_EQ(nfd_recording_create(ctx_, asset, &options, &rec), NFD_SUCCESS);
     nfd_recording_result result{};
     EXPECT_EQ(nfd_recording_finish(rec, &result), NFD_ERROR_INVALID_ARGUMENT);  // not recorded

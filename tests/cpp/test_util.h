@@ -462,21 +462,29 @@ inline double chamfer(const std::vector<float>& a, const std::vector<float>& b) 
 // ---- golden vectors (tests/vectors, produced by the Python encoder) ------------------------------
 
 // tests/vectors, or $NFD_TEST_VECTORS_DIR to run the same checks on another vector set.
-// The geometries of every CRC-consistent variant of a GEOM payload with byte i ^ pattern (i = 0,
-// stride, 2 stride, ...) that the parser accepts: fn(i, geometry). Hostile values (steps, frame,
-// levels) that no CRC catches, for the decoding stages behind the parser.
+// Every CRC-consistent variant of a GEOM payload with byte i ^ pattern (i = 0, stride,
+// 2 stride, ...) that the parser accepts: fn(i, file bytes, geometry). Hostile values (steps,
+// frame, levels) that no CRC catches, for the decoding stages behind the parser.
 template <class Fn>
-void for_each_accepted_damage(const Bytes& payload, size_t stride,
-                              std::initializer_list<uint8_t> patterns, Fn&& fn) {
+void for_each_accepted_damaged_file(const Bytes& payload, size_t stride,
+                                    std::initializer_list<uint8_t> patterns, Fn&& fn) {
     for (size_t i = 0; i < payload.size(); i += stride) {
         for (uint8_t p : patterns) {
             Bytes damaged = payload;
             damaged[i] ^= p;
             const Bytes bytes = file({chunk("GEOM", damaged)});
             ParsedFile parsed;
-            if (parse_file(bytes.data(), bytes.size(), &parsed) == NFD_SUCCESS) fn(i, parsed.geometry);
+            if (parse_file(bytes.data(), bytes.size(), &parsed) == NFD_SUCCESS)
+                fn(i, bytes, parsed.geometry);
         }
     }
+}
+// The same, the geometry only: fn(i, geometry).
+template <class Fn>
+void for_each_accepted_damage(const Bytes& payload, size_t stride,
+                              std::initializer_list<uint8_t> patterns, Fn&& fn) {
+    for_each_accepted_damaged_file(payload, stride, patterns,
+                                   [&](size_t i, const Bytes&, const Geometry& g) { fn(i, g); });
 }
 
 // Finite positions and normals, indices in range.

@@ -225,6 +225,10 @@ TEST(Viewer, ErrorsAreOneLine) {
                           "not a level of 100");
     expect_one_line_error(run(viewer + " " + vector_path("bunny_sdf_w16") + " --frames 3"), 2,
                           "--screenshot");
+    for (const char* bad : {"x", "-1", "99999999999"})
+        expect_one_line_error(run(viewer + " " + vector_path("bunny_sdf_w16") +
+                                  " --recording-capacity " + bad),
+                              2, "--recording-capacity expects an integer");
     // No display: no X server at all (and no Wayland one).
     expect_one_line_error(run("env -u DISPLAY -u WAYLAND_DISPLAY " + viewer + " " +
                               vector_path("bunny_sdf_w16") + " --screenshot /tmp/x.png"),

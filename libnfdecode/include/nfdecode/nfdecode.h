@@ -837,6 +837,11 @@ NFD_API void nfd_job_destroy(nfd_job* job);
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_recording nfd_recording;
 
+/* Caps of a recording's capacities: cells below 2^26 (what the meshers address), the others at
+ * most 2^28 (6 GB of vertices); above them nfd_recording_create gives NFD_ERROR_LIMIT_EXCEEDED. */
+#define NFD_MAX_RECORDING_CELLS ((1u << 26) - 1u)
+#define NFD_MAX_RECORDING_ITEMS (1u << 28)
+
 /* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
 typedef struct nfd_recording_options {
     uint32_t struct_size;         /* 0.3: sizeof(nfd_recording_options), or 0 */
@@ -868,15 +873,16 @@ typedef struct nfd_recording_result {
     uint32_t triangle_count;
     /* Capacities that would have held every total the decode counted: the ones given, raised
      * where a total exceeded them. Totals after the first overflow were not counted, so a decode
-     * may need more than one more try, each raising at least one capacity. */
+     * may need more than one more try, each raising at least one capacity; one above its cap
+     * (NFD_MAX_RECORDING_*) means the decode cannot be recorded at this resolution. */
     uint32_t needed_cells, needed_gradient_points, needed_vertices, needed_triangles;
     nfd_decode_stats stats;     /* points_evaluated, active_cells; times are 0 (the engine's) */
 } nfd_recording_result;
 
 /* Makes the recording: uploads the network, makes the pipelines and the mesh buffers; records
  * nothing yet. Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (NULL argument, a CPU context);
- * NFD_ERROR_LIMIT_EXCEEDED (resolution outside the caps, or a capacity of 2^26 cells or more,
- * beyond what the meshers address); NFD_ERROR_UNSUPPORTED_FEATURE (a network beyond the shaders'
+ * NFD_ERROR_LIMIT_EXCEEDED (resolution outside the caps, a capacity above its cap above);
+ * NFD_ERROR_UNSUPPORTED_FEATURE (a network beyond the shaders'
  * caps); NFD_ERROR_OUT_OF_MEMORY; NFD_ERROR_DEVICE. */
 NFD_API nfd_result nfd_recording_create(nfd_context* context, const nfd_asset* asset,
                                         const nfd_recording_options* options,

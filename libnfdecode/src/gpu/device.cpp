@@ -23,6 +23,8 @@ static_assert(uint64_t(NFD_MAX_RESOLUTION) * NFD_MAX_RESOLUTION * NFD_MAX_RESOLU
               "cell indices");
 static_assert(NFD_MAX_RESOLUTION <= 1024, "11-bit coordinates");
 static_assert(NFD_SCAN_BLOCK % NFD_SCAN_LOCAL_SIZE == 0, "scan.comp's per-invocation elements");
+// A recording's mesher parents are addressed as k << 6 | edge in mc_emit's 32-bit records.
+static_assert(uint64_t(NFD_MAX_RECORDING_CELLS) < 1ull << 26, "mc_emit's parent ranks");
 
 namespace {
 

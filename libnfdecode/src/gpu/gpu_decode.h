@@ -91,9 +91,10 @@ void destroy_recording(Recording* recording);
 DeviceMeshHandles device_mesh(const Recording& recording);
 // Records the whole decode into `command_buffer` (a VkCommandBuffer in the recording state), once.
 nfd_result record(Recording& recording, void* command_buffer);
-// After the host's wait: the totals; then read_mesh copies the mesh to the host.
+// After the host's wait: the totals; then read_mesh copies the mesh (and its stats) to the host,
+// NFD_ERROR_INVALID_ARGUMENT before a finish without overflow.
 nfd_result finish(Recording& recording, RecordingTotals* totals);
-nfd_result read_mesh(const Recording& recording, MeshData* mesh);
+nfd_result read_mesh(const Recording& recording, MeshData* mesh, ExtractStats* stats);
 
 }  // namespace nfd::gpu
 

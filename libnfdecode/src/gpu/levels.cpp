@@ -48,9 +48,9 @@ nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& paren
 
 }  // namespace
 
-uint32_t Plan::cells(uint32_t level, uint32_t cells_per_axis) const {
+uint32_t Plan::level_cells(uint32_t level, uint32_t cells_per_axis) const {
     const uint64_t all = uint64_t(cells_per_axis) * cells_per_axis * cells_per_axis;
-    uint64_t c = finest_cells;
+    uint64_t c = cells;
     if (level > 1) c = 2 * ((c >> (2 * (level - 1))) + 64);
     return uint32_t(std::min<uint64_t>({c, all, UINT32_MAX}));
 }
@@ -170,7 +170,7 @@ nfd_result LevelBuilder::evaluate_dense_top(Buffers& scratch) {
 // size the list exactly; recorded ones take the plan's capacity.
 nfd_result LevelBuilder::gather_kept() {
     Level& child = kept_;
-    child.capacity = plan_ ? plan_->cells(current_, child.cells) : child.kept;
+    child.capacity = plan_ ? plan_->level_cells(current_, child.cells) : child.kept;
     NFD_TRY(child.buffers.make(VkDeviceSize(child.capacity) * 4, &child.list));
     NFD_TRY(child.buffers.make(VkDeviceSize(child.capacity) * 32, &child.corners));
     if (child.capacity > 0) {
@@ -243,7 +243,7 @@ nfd_result LevelBuilder::step() {
                                   &push, parents.count()));
             NFD_TRY(record_scan(job_, scratch, *child.bits, *child.prefix, words, true));
             const uint32_t capacity =
-                plan_ ? plan_->cells(l, child.cells) : UINT32_MAX;  // own: sized once known
+                plan_ ? plan_->level_cells(l, child.cells) : UINT32_MAX;  // own: sized once known
             NFD_TRY(job_.total(*child.bits, *child.prefix, words, true, child.slot, capacity));
         }
     }

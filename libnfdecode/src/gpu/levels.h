@@ -8,6 +8,7 @@
 
 #include "../extract.h"
 #include "device.h"
+#include "gpu_decode.h"
 
 namespace nfd::gpu {
 
@@ -25,15 +26,14 @@ struct LevelPush {
 };
 static_assert(sizeof(LevelPush) == NFD_LEVEL_PUSH_BYTES, "extract.glsl's LevelPush");
 
-// Capacities of a decode recorded into a host's command buffer (nfd_recording), where no count
-// is read back before the host's wait: the kept cells of each level, the UDF's gradient list,
-// the mesh. A total beyond its capacity sets the overflow flag (counters.glsl).
-struct Plan {
-    uint32_t finest_cells = 0;  // kept cells of level 1, the meshers' parents
-    uint32_t gradient_points = 0, vertices = 0, triangles = 0;
-    // Level l's capacity: finest_cells scaled by the surface's 4^(1-l) with a factor 2 of margin,
+// The sizes of a decode recorded into a host's command buffer (nfd_recording), where no count
+// is read back before the host's wait: its Capacities (gpu_decode.h; `cells` those of level 1,
+// the meshers' parents) spread over the levels. A total beyond its capacity sets the overflow
+// flag (counters.glsl).
+struct Plan : Capacities {
+    // Level l's capacity: `cells` scaled by the surface's 4^(1-l) with a factor 2 of margin,
     // never more than the level's cells.
-    uint32_t cells(uint32_t level, uint32_t cells_per_axis) const;
+    uint32_t level_cells(uint32_t level, uint32_t cells_per_axis) const;
 };
 
 // The kept cells of one level: a bitmap over its cells with the prefix of its words' popcounts,

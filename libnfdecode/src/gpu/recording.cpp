@@ -25,13 +25,8 @@ constexpr uint64_t kDefaultCellsPerQ = 16384, kDefaultGradientsPerQ = 49152,
 class Recording {
 public:
     Recording(Device& device, const Geometry& geometry, uint32_t resolution, const Capacities& c)
-        : device_(device), geometry_(geometry), resolution_(resolution), capacities_(c),
-          job_(device, false), mesh_(*device.vk) {
-        plan_.finest_cells = c.cells;
-        plan_.gradient_points = c.gradient_points;
-        plan_.vertices = c.vertices;
-        plan_.triangles = c.triangles;
-    }
+        : device_(device), geometry_(geometry), resolution_(resolution), plan_{c},
+          job_(device, false), mesh_(*device.vk) {}
     ~Recording() { levels_.reset(); }  // job_ then frees what the host's commands used
 
     nfd_result prepare() {
@@ -66,7 +61,7 @@ public:
         RecordingTotals t;
         t.overflowed = job_.overflowed();
         Capacities& need = t.needed;
-        need = capacities_;
+        need = plan_;
         for (const auto& [level, slot] : levels_->kept_slots())
             need.cells = std::max(need.cells, cells_for(level, job_.counter(slot)));
         need.vertices = std::max(need.vertices, job_.counter(mesh_.vertex_slot));
@@ -97,7 +92,7 @@ public:
         return t.overflowed ? NFD_ERROR_CAPACITY_EXCEEDED : NFD_SUCCESS;
     }
 
-    nfd_result read_mesh(MeshData* mesh) const {
+    nfd_result read_mesh(MeshData* mesh, ExtractStats* stats) const {
         if (!finished_ || totals_.overflowed) return NFD_ERROR_INVALID_ARGUMENT;
         MeshData m;
         try {
@@ -112,6 +107,7 @@ public:
         NFD_TRY(vk.download(*mesh_.normals, 0, m.normals.data(), m.normals.size() * 4));
         NFD_TRY(vk.download(*mesh_.indices, 0, m.indices.data(), m.indices.size() * 4));
         *mesh = std::move(m);
+        *stats = totals_.stats;
         return NFD_SUCCESS;
     }
 
@@ -150,8 +146,7 @@ private:
     Device& device_;
     const Geometry& geometry_;
     const uint32_t resolution_;
-    const Capacities capacities_;
-    Plan plan_;
+    const Plan plan_;
     Job job_;
     std::shared_ptr<DeviceNetwork> net_;
     DeviceMesh mesh_;
@@ -188,8 +183,8 @@ nfd_result record(Recording& recording, void* command_buffer) {
 nfd_result finish(Recording& recording, RecordingTotals* totals) {
     return recording.finish(totals);
 }
-nfd_result read_mesh(const Recording& recording, MeshData* mesh) {
-    return recording.read_mesh(mesh);
+nfd_result read_mesh(const Recording& recording, MeshData* mesh, ExtractStats* stats) {
+    return recording.read_mesh(mesh, stats);
 }
 
 }  // namespace nfd::gpu
