@@ -1,4 +1,4 @@
-"""The `.nfc` bitstream: writer and verifying reader of libnfdecode/FORMAT.md, version 1.
+"""The `.nfc` bitstream: writer and verifying reader of libnfdecode/FORMAT.md, version 1.1.
 
 This is the only Python module that knows the byte layout. The reader treats its input as untrusted:
 every rule and cap of FORMAT.md is checked, every failure is a `FormatError` with FORMAT.md's error
@@ -20,10 +20,12 @@ from .errors import FormatError
 
 MAGIC = b"\x89NFC"
 FORMAT_MAJOR = 1
-FORMAT_MINOR = 0
+FORMAT_MINOR = 0  # what a geometry-only file is written as: byte for byte a 1.0 file
+COLOR_MINOR = 1  # a file with a `colr` chunk
 HEADER_SIZE = 16
 CHUNK_OVERHEAD = 12  # tag, length, crc
 TAG_GEOM = "GEOM"
+TAG_COLOR = "colr"
 
 # Hard caps of version 1 (FORMAT.md, "Hard caps").
 MAX_FILE_SIZE = 64 * 1024 * 1024
@@ -45,6 +47,11 @@ OUTPUT_ABS = 1
 OUTPUT_SIGMOID = 2
 OUTPUT_NAMES = {OUTPUT_IDENTITY: "identity", OUTPUT_ABS: "abs", OUTPUT_SIGMOID: "sigmoid"}
 GEOM_OUTPUT_FOR_FIELD = {FIELD_SDF: OUTPUT_IDENTITY, FIELD_UDF: OUTPUT_ABS}
+
+COLOR_SPACE_RGB = 0  # the input's RGB divided by 255, no transfer function (FORMAT.md, `colr`)
+COLOR_SPACE_NAMES = {COLOR_SPACE_RGB: "rgb"}
+COLOR_OUTPUT = OUTPUT_SIGMOID
+COLOR_CHANNELS = 3
 
 BROTLI_QUALITY = 11
 
@@ -85,11 +92,21 @@ class GeometryChunk:
 
 
 @dataclass
+class ColorChunk:
+    color_space: int  # COLOR_SPACE_RGB
+    network: NetworkBlock  # sigmoid output, 3 channels (red, green, blue in [0, 1])
+
+
+@dataclass
 class NfcFile:
+    """A parsed file. `major` and `minor` are the version the reader found; the writer writes the
+    version the content needs (1.1 with a colour chunk, else 1.0), whatever they say."""
+
     geometry: GeometryChunk
     major: int = FORMAT_MAJOR
     minor: int = FORMAT_MINOR
     skipped_chunks: list[str] = field(default_factory=list)  # optional tags a reader skipped
+    color: ColorChunk | None = None
 
 
 def layer_inputs(num_frequencies: int, out_features: list[int]) -> list[int]:
@@ -175,13 +192,27 @@ def _check_omega0(omega0: float) -> None:
         raise _corrupt(f"omega0 {omega0} outside (0, 1000]")
 
 
-def _check_output(output: int, field_type: int) -> None:
+@dataclass(frozen=True)
+class _Role:
+    """What a chunk requires of its network block: the output activation and the output count."""
+
+    chunk: str  # "geometry" or "colour", for messages
+    output: int
+    outputs: int
+    output_reason: str  # why that activation, for messages
+
+
+def _geometry_role(field_type: int) -> _Role:
     """GEOM's rule: the activation that matches the field type (identity for SDF, abs for UDF)."""
-    if output != GEOM_OUTPUT_FOR_FIELD[field_type]:
-        raise _corrupt(
-            f"output activation {OUTPUT_NAMES.get(output, output)} does not match field type "
-            f"{FIELD_NAMES[field_type]}"
-        )
+    return _Role("geometry", GEOM_OUTPUT_FOR_FIELD[field_type], 1, f"field type {FIELD_NAMES[field_type]}")
+
+
+COLOR_ROLE = _Role("colour", COLOR_OUTPUT, COLOR_CHANNELS, "a colour network")
+
+
+def _check_output(output: int, role: _Role) -> None:
+    if output != role.output:
+        raise _corrupt(f"output activation {OUTPUT_NAMES.get(output, output)} does not match {role.output_reason}")
 
 
 def _check_bits(bits: int) -> None:
@@ -199,9 +230,14 @@ def _check_width(width: int) -> None:
         raise _corrupt(f"layer width {width} outside [1, {MAX_WIDTH}]")
 
 
-def _check_geometry_outputs(out_features: list[int]) -> None:
-    if out_features[-1] != 1:
-        raise _corrupt(f"geometry network has {out_features[-1]} outputs (must be 1)")
+def _check_network_outputs(out_features: list[int], role: _Role) -> None:
+    if out_features[-1] != role.outputs:
+        raise _corrupt(f"{role.chunk} network has {out_features[-1]} outputs (must be {role.outputs})")
+
+
+def _check_color_space(color_space: int) -> None:
+    if color_space not in COLOR_SPACE_NAMES:
+        raise _corrupt(f"unknown colour space {color_space}")
 
 
 def _check_step(step: float) -> None:
@@ -217,7 +253,6 @@ def _check_parameter_count(num_frequencies: int, out_features: list[int]) -> Non
 
 def _check_geometry(g: GeometryChunk) -> None:
     """Every rule of FORMAT.md on a GEOM chunk, in the order the reader meets them in the bytes."""
-    net = g.network
     _check_field_type(g.field_type)
     _check_truncation(g.truncation)
     if len(g.center) != 3:
@@ -225,15 +260,20 @@ def _check_geometry(g: GeometryChunk) -> None:
     for c in g.center:
         _check_center_coordinate(c)
     _check_scale(g.scale)
+    _check_network(g.network, _geometry_role(g.field_type))
+
+
+def _check_network(net: NetworkBlock, role: _Role) -> None:
+    """Every rule of FORMAT.md on a network block, in byte order."""
     _check_frequencies(net.num_frequencies)
     _check_frequency_base(net.frequency_base)
     _check_omega0(net.omega0)
-    _check_output(net.output, g.field_type)
+    _check_output(net.output, role)
     _check_bits(net.bits)
     _check_layer_count(len(net.out_features))
     for w in net.out_features:
         _check_width(w)
-    _check_geometry_outputs(net.out_features)
+    _check_network_outputs(net.out_features, role)
     if len(net.steps) != len(net.out_features):
         raise _corrupt(f"{len(net.steps)} step pairs for {len(net.out_features)} layers")
     for pair in net.steps:
@@ -315,6 +355,20 @@ def geometry_payload(g: GeometryChunk, check: bool = True) -> bytes:
     return head + _network_bytes(rounded.network, check)
 
 
+def color_payload(c: ColorChunk, check: bool = True) -> bytes:
+    """The `colr` chunk payload; check=False as for geometry_payload."""
+    network = _rounded_network(c.network)
+    if check:
+        _check_color_space(int(c.color_space))
+        _check_network(network, COLOR_ROLE)
+    return struct.pack("<B", int(c.color_space)) + _network_bytes(network, check)
+
+
+def required_minor(f: NfcFile) -> int:
+    """The minor version the content of `f` needs: 1 with a colour chunk, else 0."""
+    return COLOR_MINOR if f.color is not None else FORMAT_MINOR
+
+
 def encode_chunk(tag: str, payload: bytes) -> bytes:
     """One chunk: tag, length, payload, CRC-32 of all three."""
     body = tag.encode("ascii") + struct.pack("<I", len(payload)) + payload
@@ -329,16 +383,20 @@ def assemble(chunks: list[bytes], major: int = FORMAT_MAJOR, minor: int = FORMAT
 
 
 def write_nfc(f: NfcFile) -> bytes:
-    """Serialise `f`. Raises ValueError for values FORMAT.md forbids (the reader would reject them)."""
-    if f.major != FORMAT_MAJOR or not 0 <= f.minor <= 255:
+    """Serialise `f`: GEOM, then `colr` when `f.color` is set, at version 1.required_minor(f).
+    Raises ValueError for values FORMAT.md forbids (the reader would reject them)."""
+    if f.major != FORMAT_MAJOR:
         raise ValueError(f"cannot write .nfc version {f.major}.{f.minor}: this writer writes {FORMAT_MAJOR}.x")
     try:
-        payload = geometry_payload(f.geometry)
+        payloads = [(TAG_GEOM, geometry_payload(f.geometry))]
+        if f.color is not None:
+            payloads.append((TAG_COLOR, color_payload(f.color)))
     except FormatError as e:
         raise ValueError(f"cannot write .nfc: {e.detail}") from None
-    if len(payload) > MAX_CHUNK_SIZE:
-        raise ValueError(f"cannot write .nfc: GEOM chunk of {len(payload)} bytes exceeds {MAX_CHUNK_SIZE}")
-    return assemble([encode_chunk(TAG_GEOM, payload)], f.major, f.minor)
+    for tag, payload in payloads:
+        if len(payload) > MAX_CHUNK_SIZE:
+            raise ValueError(f"cannot write .nfc: {tag} chunk of {len(payload)} bytes exceeds {MAX_CHUNK_SIZE}")
+    return assemble([encode_chunk(tag, payload) for tag, payload in payloads], FORMAT_MAJOR, required_minor(f))
 
 
 # --------------------------------------------------------------------------------------------
@@ -382,9 +440,9 @@ def _read_levels(payload: memoryview, net_bits: int, count: int) -> np.ndarray:
     return flat
 
 
-def _read_network(cur: _Cursor, field_type: int) -> NetworkBlock:
-    """GEOM's network block. Each value is checked as soon as it is read, like libnfdecode does, so
-    that both readers report the same error kind for the same bytes."""
+def _read_network(cur: _Cursor, role: _Role) -> NetworkBlock:
+    """A network block (GEOM's or colr's). Each value is checked as soon as it is read, like
+    libnfdecode does, so that both readers report the same error kind for the same bytes."""
     (num_frequencies,) = cur.unpack("B")
     _check_frequencies(num_frequencies)
     (frequency_base,) = cur.unpack("f")
@@ -392,7 +450,7 @@ def _read_network(cur: _Cursor, field_type: int) -> NetworkBlock:
     (omega0,) = cur.unpack("f")
     _check_omega0(omega0)
     (output,) = cur.unpack("B")
-    _check_output(output, field_type)
+    _check_output(output, role)
     (bits,) = cur.unpack("B")
     _check_bits(bits)
     (num_layers,) = cur.unpack("B")
@@ -402,7 +460,7 @@ def _read_network(cur: _Cursor, field_type: int) -> NetworkBlock:
         (width,) = cur.unpack("H")
         _check_width(width)
         out_features.append(width)
-    _check_geometry_outputs(out_features)
+    _check_network_outputs(out_features, role)
     flat_steps = []
     for _ in range(2 * num_layers):
         (step,) = cur.unpack("f")
@@ -439,8 +497,15 @@ def _read_geometry(data: memoryview, start: int, end: int) -> GeometryChunk:
         center.append(c)
     (scale,) = cur.unpack("f")
     _check_scale(scale)
-    network = _read_network(cur, field_type)
+    network = _read_network(cur, _geometry_role(field_type))
     return GeometryChunk(field_type, truncation, (center[0], center[1], center[2]), scale, network)
+
+
+def _read_color(data: memoryview, start: int, end: int) -> ColorChunk:
+    cur = _Cursor(data, start, end, "colr chunk")
+    (color_space,) = cur.unpack("B")
+    _check_color_space(color_space)
+    return ColorChunk(color_space, _read_network(cur, COLOR_ROLE))
 
 
 def _read_header(data: memoryview) -> tuple[int, int, int]:
@@ -469,6 +534,7 @@ def read_nfc(data: bytes) -> NfcFile:
     view = memoryview(bytes(data))
     major, minor, file_size = _read_header(view)
     geometry: GeometryChunk | None = None
+    color: ColorChunk | None = None
     seen: set[str] = set()
     skipped: list[str] = []
     pos = HEADER_SIZE
@@ -491,10 +557,12 @@ def read_nfc(data: bytes) -> NfcFile:
         seen.add(tag)
         if tag == TAG_GEOM:
             geometry = _read_geometry(view, pos + 8, pos + 8 + length)
+        elif tag == TAG_COLOR:
+            color = _read_color(view, pos + 8, pos + 8 + length)
         elif tag[0].isupper():
             raise FormatError("unsupported_feature", f"unknown critical chunk {tag}")
         else:
             skipped.append(tag)
         pos = cur.pos
     assert geometry is not None  # file_size >= 28 guarantees one chunk, and the first is GEOM
-    return NfcFile(geometry=geometry, major=major, minor=minor, skipped_chunks=skipped)
+    return NfcFile(geometry=geometry, major=major, minor=minor, skipped_chunks=skipped, color=color)

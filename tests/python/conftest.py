@@ -9,10 +9,13 @@ import numpy as np
 import pytest
 
 from nfencode.bitstream import (
+    COLOR_SPACE_RGB,
     FIELD_SDF,
     FIELD_UDF,
     OUTPUT_ABS,
     OUTPUT_IDENTITY,
+    OUTPUT_SIGMOID,
+    ColorChunk,
     GeometryChunk,
     NetworkBlock,
     NfcFile,
@@ -48,6 +51,14 @@ def random_file(field_type: int = FIELD_SDF, **network_args) -> NfcFile:
     output = OUTPUT_IDENTITY if field_type == FIELD_SDF else OUTPUT_ABS
     net = random_network(output=output, **network_args)
     return NfcFile(GeometryChunk(field_type, 0.1, (0.25, -1.5, 3.0), 0.75, net))
+
+
+def random_color_file(field_type: int = FIELD_SDF, widths: tuple[int, ...] = (8, 8, 3), seed: int = 1) -> NfcFile:
+    """`random_file` plus a colour chunk with random levels (sigmoid, 3 outputs)."""
+    f = random_file(field_type)
+    f.color = ColorChunk(COLOR_SPACE_RGB, random_network(num_frequencies=3, widths=widths, output=OUTPUT_SIGMOID,
+                                                         seed=seed))
+    return f
 
 
 COS_BLOB_LEVEL = 3.0 - 0.18  # zero set of g(u) = c - sum(cos u_i): nearly a sphere of radius ~0.6

@@ -6,12 +6,15 @@ import dataclasses
 import math
 import struct
 
+from pathlib import Path
+
 import brotli
 import numpy as np
 import pytest
-from conftest import random_file, random_network
+from conftest import random_color_file, random_file, random_network
 
 from nfencode.bitstream import (
+    COLOR_SPACE_RGB,
     FIELD_SDF,
     FIELD_UDF,
     HEADER_SIZE,
@@ -20,11 +23,14 @@ from nfencode.bitstream import (
     MAX_PARAMETERS,
     MAX_WIDTH,
     OUTPUT_ABS,
+    OUTPUT_IDENTITY,
     OUTPUT_SIGMOID,
+    TAG_COLOR,
     TAG_GEOM,
     GeometryChunk,
     NfcFile,
     assemble,
+    color_payload,
     crc32,
     encode_chunk,
     geometry_payload,
@@ -153,15 +159,15 @@ def test_reserved_flags_and_bad_file_sizes_are_corrupt(sdf_bytes: bytes) -> None
 
 def test_newer_minor_with_unknown_optional_chunk_decodes(sdf_bytes: bytes) -> None:
     f = random_file()
-    data = file_with([geom_chunk(f), encode_chunk("colr", b"future colour network"), encode_chunk("zzzz", b"")],
+    data = file_with([geom_chunk(f), encode_chunk("futr", b"future feature"), encode_chunk("zzzz", b"")],
                      minor=3)
     decoded = read_nfc(data)
-    assert decoded.minor == 3 and decoded.skipped_chunks == ["colr", "zzzz"]
+    assert decoded.minor == 3 and decoded.skipped_chunks == ["futr", "zzzz"]
     assert decoded.geometry.network.out_features == f.geometry.network.out_features
 
 
 def test_damaged_optional_chunk_is_still_verified() -> None:
-    data = bytearray(file_with([geom_chunk(random_file()), encode_chunk("colr", b"abc")]))
+    data = bytearray(file_with([geom_chunk(random_file()), encode_chunk("futr", b"abc")]))
     data[-5] ^= 0x10  # inside the optional payload
     reject(bytes(data), "corrupt")
 
@@ -173,9 +179,9 @@ def test_unknown_critical_chunk_is_unsupported_feature() -> None:
 @pytest.mark.parametrize(
     "chunks",
     [
-        ["colr", "GEOM"],  # GEOM not first
+        ["futr", "GEOM"],  # GEOM not first
         ["GEOM", "GEOM"],  # duplicate
-        ["GEOM", "colr", "colr"],  # duplicate optional chunk
+        ["GEOM", "futr", "futr"],  # duplicate optional chunk
         ["GEOM", "c0lr"],  # not four letters
     ],
 )
@@ -307,3 +313,122 @@ def test_format_error_has_a_kind_and_one_line() -> None:
     with pytest.raises(ValueError):
         FormatError("broken", "x")
     assert HEADER_SIZE == 16
+
+
+# ---------------------------------------------------------------------------------------------
+# The colour chunk (FORMAT.md 1.1, `colr`)
+
+VECTORS = Path(__file__).resolve().parents[1] / "vectors"
+
+
+def color_chunk(f: NfcFile, check: bool = True) -> bytes:
+    assert f.color is not None
+    return encode_chunk(TAG_COLOR, color_payload(f.color, check=check))
+
+
+def test_color_round_trip_is_version_1_1() -> None:
+    original = random_color_file()
+    data = write_nfc(original)
+    assert (data[4], data[5]) == (1, 1)
+    geometry_only = write_nfc(dataclasses.replace(original, color=None))
+    assert data[16:].startswith(geometry_only[16:])  # GEOM first, then colr
+    assert data[len(geometry_only):len(geometry_only) + 4] == b"colr"
+    decoded = read_nfc(data)
+    assert (decoded.major, decoded.minor, decoded.skipped_chunks) == (1, 1, [])
+    assert decoded.color is not None and original.color is not None
+    assert decoded.color.color_space == COLOR_SPACE_RGB
+    n, m = original.color.network, decoded.color.network
+    assert (m.num_frequencies, m.output, m.bits, m.out_features) == (3, OUTPUT_SIGMOID, 8, [8, 8, 3])
+    assert m.steps == [(f32(a), f32(b)) for a, b in n.steps]
+    for (w0, b0), (w1, b1) in zip(n.levels, m.levels):
+        np.testing.assert_array_equal(w0, w1)
+        np.testing.assert_array_equal(b0, b1)
+    assert write_nfc(decoded) == data
+
+
+def test_minor_follows_the_content_not_the_field() -> None:
+    f = random_color_file()
+    assert write_nfc(dataclasses.replace(f, minor=0))[5] == 1
+    assert write_nfc(dataclasses.replace(f, color=None, minor=3))[5] == 0
+
+
+def test_golden_1_0_file_reads_unchanged_and_rewrites_byte_identically() -> None:
+    for path in sorted(VECTORS.glob("v1_0_*.nfc")):
+        data = path.read_bytes()
+        decoded = read_nfc(data)
+        assert (decoded.minor, decoded.color, decoded.skipped_chunks) == (0, None, []), path.name
+        assert write_nfc(decoded) == data, path.name
+
+
+def _bad_color(field: str, value) -> NfcFile:
+    f = random_color_file()
+    assert f.color is not None
+    if field == "color_space":
+        return dataclasses.replace(f, color=dataclasses.replace(f.color, color_space=value))
+    return dataclasses.replace(f, color=dataclasses.replace(f.color, network=dataclasses.replace(f.color.network,
+                                                                                              **{field: value})))
+
+
+@pytest.mark.parametrize(
+    "field,value",
+    [("color_space", 1), ("color_space", 255), ("output", OUTPUT_IDENTITY), ("output", OUTPUT_ABS), ("output", 3),
+     ("bits", 1), ("omega0", 0.0), ("steps", [(0.01, 0.0)] * 3)],
+)
+def test_invalid_color_values_are_corrupt_and_unwritable(field: str, value) -> None:
+    f = _bad_color(field, value)
+    reject(file_with([geom_chunk(f), color_chunk(f, check=False)], minor=1), "corrupt")
+    with pytest.raises(ValueError):
+        write_nfc(f)
+
+
+@pytest.mark.parametrize("widths", [(8, 8, 1), (8, 8, 4), (8, 2)])
+def test_color_network_must_have_three_outputs(widths: tuple[int, ...]) -> None:
+    f = random_color_file(widths=widths)
+    err = reject(file_with([geom_chunk(f), color_chunk(f, check=False)], minor=1), "corrupt")
+    assert "colour network" in err.detail and "must be 3" in err.detail
+    with pytest.raises(ValueError):
+        write_nfc(f)
+
+
+def test_color_caps_are_enforced() -> None:
+    f = random_color_file()
+    assert f.color is not None
+    f.color.network.out_features = [MAX_WIDTH + 1, 8, 3]
+    reject(file_with([geom_chunk(f), color_chunk(f, check=False)], minor=1), "corrupt")
+
+
+def test_truncation_inside_the_color_chunk() -> None:
+    f = random_color_file()
+    payload = color_payload(f.color)  # type: ignore[arg-type]
+    head = 1 + 12 + 2 * 3 + 8 * 3  # colour space, network scalars, 3 widths, 3 step pairs
+    geom = geom_chunk(f)
+    for cut in (0, 1, 5, 12, 20, head):  # CRC-consistent chunks whose structure ends early
+        reject(file_with([geom, encode_chunk(TAG_COLOR, payload[:cut])], minor=1), "truncated")
+    data = write_nfc(f)
+    for n in range(len(write_nfc(dataclasses.replace(f, color=None))), len(data)):
+        reject(data[:n], "truncated")
+
+
+def test_color_payload_of_the_wrong_size_is_corrupt() -> None:
+    f = random_color_file()
+    payload = color_payload(f.color)  # type: ignore[arg-type]
+    reject(file_with([geom_chunk(f), encode_chunk(TAG_COLOR, payload[:-1])], minor=1), "corrupt")  # brotli cut
+
+
+def test_color_crc_and_every_byte_of_the_chunk_are_verified() -> None:
+    f = random_color_file()
+    data = write_nfc(f)
+    start = len(write_nfc(dataclasses.replace(f, color=None)))
+    damaged = bytearray(data)
+    damaged[-1] ^= 0x01  # the stored CRC
+    reject(bytes(damaged), "corrupt")
+    for i in range(start, len(data)):
+        damaged = bytearray(data)
+        damaged[i] ^= 0x80
+        reject(bytes(damaged))
+
+
+def test_color_chunk_order() -> None:
+    f = random_color_file()
+    reject(file_with([color_chunk(f), geom_chunk(f)], minor=1), "corrupt")  # GEOM not first
+    reject(file_with([geom_chunk(f), color_chunk(f), color_chunk(f)], minor=1), "corrupt")  # duplicate
