@@ -7,7 +7,7 @@
 
 // ---- field_eval.comp (all four variants) --------------------------------------------------------
 #define NFD_B_FIELD_POINTS 0       // xyz per point
-#define NFD_B_FIELD_VALUES 1       // a float per point, or (value, gradient) as a vec4
+#define NFD_B_FIELD_VALUES 1       // OUTPUTS floats per point, or (value, gradient) as a vec4
 #define NFD_B_FIELD_FREQUENCIES 2  // uniform: NFD_GPU_MAX_FREQUENCIES / 4 vec4s
 #define NFD_B_FIELD_LAYER0 3       // layer l's weights at binding NFD_B_FIELD_LAYER0 + l
 #define NFD_GPU_MAX_LAYERS 8       // = NFD_MAX_LAYERS: one weight block per layer
@@ -15,7 +15,7 @@
 #define NFD_GPU_MAX_WIDTH 512      // >= NFD_MAX_WIDTH: activations are sized for it
 #define NFD_GPU_UNIFORM_VEC4S 4096 // a uniform weight block: 64 KiB
 #define NFD_FIELD_LOCAL_SIZE 32
-#define NFD_FIELD_LOCAL_SIZE_ID 14 // constant_id of local_size_x (after the network's sizes)
+#define NFD_FIELD_LOCAL_SIZE_ID 15 // constant_id of local_size_x (after the network and POINTS)
 #define NFD_B_FIELD_COUNTERS 11    // the job's counters (counters.glsl)
 #define NFD_FIELD_PUSH_BYTES 12    // capacity, the first result's index, the count's slot
 

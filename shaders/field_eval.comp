@@ -21,7 +21,8 @@
 // Defining WEIGHTS_IN_STORAGE_BUFFER gives the variant for layers larger than the device's
 // maxUniformBufferRange.
 //
-// Defining WITH_GRADIENT gives the value + gradient variant (network.h, evaluate_gradient_cpu),
+// Defining WITH_GRADIENT gives the value + gradient variant (network.h, evaluate_gradient_cpu) of
+// a network with one output,
 // in reverse mode: the forward pass is the value kernel's (the same rows, so the same value bit
 // for bit) and also keeps each hidden unit's slope omega0 cos(omega0 z); the backward pass sends
 // the output's derivative back through the transposed weights (each weight vec4 again feeding
@@ -49,7 +50,8 @@ layout(constant_id = 9) const uint OUT4_7 = 1;
 layout(constant_id = 10) const float OMEGA0 = 30.0;
 layout(constant_id = 11) const uint OUTPUT_ACTIVATION = 0;  // 0 identity, 1 abs, 2 sigmoid
 layout(constant_id = 12) const uint MAX4 = 25;       // widest layer input/output, in vec4s
-layout(constant_id = 13) const uint POINTS = 8;      // points per invocation
+layout(constant_id = 13) const uint OUTPUTS = 1;     // 1 (geometry) or 3 (colour); at most 4
+layout(constant_id = 14) const uint POINTS = 8;      // points per invocation
 layout(local_size_x_id = NFD_FIELD_LOCAL_SIZE_ID) in;
 
 const uint ENC4 = 1 + 6 * FREQ4;
@@ -58,6 +60,7 @@ layout(std430, binding = NFD_B_FIELD_POINTS) readonly buffer Points { float poin
 #ifdef WITH_GRADIENT
 layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { vec4 values[]; };
 #else
+// OUTPUTS floats per point (a colour's RGB), point-major.
 layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { float values[]; };
 #endif
 layout(std140, binding = NFD_B_FIELD_FREQUENCIES) uniform Frequencies {
@@ -223,9 +226,11 @@ void main() {
 
     // The output layer K = NUM_LAYERS - 1 wrote pong when K is even, ping when odd.
 #ifndef WITH_GRADIENT
-    for (uint p = 0; p < POINTS && first + p < count; ++p)
-        values[push.first + first + p] = activate_output(
-            (NUM_LAYERS & 1) == 1 ? pong[p * MAX4].x : ping[p * MAX4].x);
+    for (uint p = 0; p < POINTS && first + p < count; ++p) {
+        vec4 y = (NUM_LAYERS & 1) == 1 ? pong[p * MAX4] : ping[p * MAX4];
+        for (uint k = 0; k < OUTPUTS; ++k)
+            values[(push.first + first + p) * OUTPUTS + k] = activate_output(y[k]);
+    }
 #else
     // Backward from the output (one unit in lane x of vec4 0) down to the inputs of layer 1; the
     // output's array holds y, and the derivative d activate / dy replaces it there.

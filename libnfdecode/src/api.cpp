@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "bitstream.h"
+#include "colour.h"
 #include "export.h"
 #include "extract.h"
 #include "grid.h"
@@ -46,7 +47,7 @@ struct nfd_asset {
 
 struct nfd_stream {
     nfd::StreamReader reader;
-    bool asset_taken = false;
+    bool asset_taken = false, complete_asset_taken = false;
 };
 
 struct nfd_mesh {
@@ -58,6 +59,8 @@ struct nfd_mesh {
 // `top - i`. A failed step leaves the implementation mid-level: only destroy is allowed after it.
 struct nfd_extraction {
     std::unique_ptr<nfd::Extraction> impl;
+    nfd_context* context = nullptr;
+    std::optional<nfd::ColourField> colour;  // colours each mesh unless skip_colour
     uint32_t top = 0;
     bool done = false, failed = false;
 };
@@ -82,7 +85,8 @@ struct nfd_job {
 // pointers, and what the VDB metadata needs of the asset, which the grid may outlive.
 struct nfd_grid {
     std::vector<int32_t> ijk;
-    std::vector<float> values;  // original units
+    std::vector<float> values;   // original units
+    std::vector<float> colours;  // rgb per voxel, or empty
     nfd_grid_voxels voxels{};   // points into ijk and values
     uint32_t format_major = 0, format_minor = 0;
 };
@@ -102,25 +106,43 @@ nfd_result guarded(Fn&& fn) noexcept {
     }
 }
 
-// Points per evaluate call through the API: bounds the unit-frame copy whatever `count` is.
-constexpr size_t kEvaluateBlock = size_t(1) << 20;
-
-// Maps original-frame points to the unit frame kEvaluateBlock at a time and calls
+// Maps original-frame points to the unit frame in bounded blocks (colour.h) and calls
 // fn(unit_xyz, n, first point index) on each block, inside the exception guard.
 template <class Fn>
 nfd_result evaluate_in_blocks(const nfd_asset& asset, const float* points, size_t count, Fn&& fn) {
     return guarded([&] {
         const nfd::Geometry& g = asset.file.geometry;
-        std::vector<float> unit(3 * std::min(count, kEvaluateBlock));
-        for (size_t begin = 0; begin < count; begin += kEvaluateBlock) {
-            const size_t n = std::min(kEvaluateBlock, count - begin);
-            for (size_t i = 0; i < 3 * n; ++i)
-                unit[i] = (points[3 * begin + i] - g.center[i % 3]) / g.scale;
-            const nfd_result r = fn(unit.data(), n, begin);
-            if (r != NFD_SUCCESS) return r;
-        }
-        return NFD_SUCCESS;
+        return nfd::for_each_unit_block(g.center, g.scale, points, count, fn);
     });
+}
+
+// The context's Vulkan device, or null for the CPU path.
+nfd::gpu::Device* device_of(const nfd_context& context) {
+#if NFD_WITH_VULKAN
+    return context.gpu.get();
+#else
+    (void)context;
+    return nullptr;
+#endif
+}
+
+// The grid's colour at every voxel, from its indices (unit vertex i is -1 + i * step), in blocks
+// so that a grid of 17M voxels at 1024 holds one block of unit positions at a time.
+nfd_result colour_voxels(const nfd::ColourField& colour, float step, nfd_context& context,
+                         nfd_grid* grid) {
+    constexpr size_t kBlock = size_t(1) << 20;
+    const size_t count = grid->values.size();
+    std::vector<float> rgb(3 * count), unit(3 * std::min(count, kBlock));
+    for (size_t begin = 0; begin < count; begin += kBlock) {
+        const size_t n = std::min(kBlock, count - begin);
+        for (size_t i = 0; i < 3 * n; ++i) unit[i] = -1.0f + float(grid->ijk[3 * begin + i]) * step;
+        const nfd_result r = nfd::evaluate_colour_unit(colour.network, unit.data(), n,
+                                                       device_of(context), context.cpu_threads,
+                                                       rgb.data() + 3 * begin);
+        if (r != NFD_SUCCESS) return r;
+    }
+    grid->colours = std::move(rgb);
+    return NFD_SUCCESS;
 }
 
 // nfd_grid_voxels of a grid's finest level: indices, distances in original units, transform.
@@ -201,7 +223,7 @@ nfd_stream_progress progress_of(const nfd_stream& stream) {
         p.flags |= NFD_STREAM_HEADER_READ;
     }
     if (parser.geometry_read()) p.flags |= NFD_STREAM_GEOMETRY_READY;
-    if (parser.file().has_colour) p.flags |= NFD_STREAM_COLOUR_SEEN;
+    if (parser.file().has_colour()) p.flags |= NFD_STREAM_COLOUR_SEEN;
     if (parser.complete()) p.flags |= NFD_STREAM_COMPLETE;
     return p;
 }
@@ -255,6 +277,7 @@ const char* nfd_result_string(nfd_result result) {
         case NFD_ERROR_NOT_READY: return "the job has no result yet";
         case NFD_ERROR_CAPACITY_EXCEEDED:
             return "the recorded decode outgrew its capacities (record again with the needed ones)";
+        case NFD_ERROR_NO_COLOUR: return "the asset has no colour";
         case NFD_ERROR_OUT_OF_MEMORY: return "out of memory";
         case NFD_ERROR_DEVICE_UNAVAILABLE: return "no usable Vulkan device";
         case NFD_ERROR_DEVICE: return "Vulkan device error";
@@ -362,7 +385,7 @@ nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info) 
         info.parameter_count += layer.in * layer.out + layer.out;
     }
     info.bits = g.network.bits;
-    info.has_colour = f.has_colour ? 1 : 0;
+    info.has_colour = f.has_colour() ? 1 : 0;
     *out_info = info;
     return NFD_SUCCESS;
 }
@@ -402,14 +425,31 @@ nfd_result nfd_stream_take_asset(nfd_stream* stream, nfd_asset** out_asset) {
     *out_asset = nullptr;
     if (!stream) return NFD_ERROR_INVALID_ARGUMENT;
     if (stream->reader.error() != NFD_SUCCESS) return stream->reader.error();
-    if (!stream->reader.parser().geometry_read() || stream->asset_taken)
+    if (!stream->reader.parser().geometry_read() || stream->asset_taken ||
+        stream->complete_asset_taken)  // the geometry went with the complete asset
+        return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        // A copy: the parser keeps the geometry for the complete asset, and goes on with the
+        // chunks after GEOM.
+        auto asset = std::make_unique<nfd_asset>();
+        asset->file = stream->reader.parser().file();
+        stream->asset_taken = true;
+        *out_asset = asset.release();
+        return NFD_SUCCESS;
+    });
+}
+
+nfd_result nfd_stream_take_complete_asset(nfd_stream* stream, nfd_asset** out_asset) {
+    if (!out_asset) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_asset = nullptr;
+    if (!stream) return NFD_ERROR_INVALID_ARGUMENT;
+    if (stream->reader.error() != NFD_SUCCESS) return stream->reader.error();
+    if (!stream->reader.parser().complete() || stream->complete_asset_taken)
         return NFD_ERROR_INVALID_ARGUMENT;
     return guarded([&] {
         auto asset = std::make_unique<nfd_asset>();
-        // The geometry moves out: the parser needs only the header's fields and has_colour for
-        // the chunks after GEOM, and those are plain values that stay in place.
         asset->file = std::move(stream->reader.parser().file());
-        stream->asset_taken = true;
+        stream->complete_asset_taken = true;
         *out_asset = asset.release();
         return NFD_SUCCESS;
     });
@@ -457,6 +497,18 @@ nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_asset* as
     });
 }
 
+nfd_result nfd_asset_evaluate_colour(nfd_context* context, const nfd_asset* asset,
+                                     const float* points, size_t count, float* out_rgb) {
+    if (!context || !asset) return NFD_ERROR_INVALID_ARGUMENT;
+    if (!asset->file.has_colour()) return NFD_ERROR_NO_COLOUR;
+    if (count == 0) return NFD_SUCCESS;
+    if (!points || !out_rgb) return NFD_ERROR_INVALID_ARGUMENT;
+    return evaluate_in_blocks(*asset, points, count, [&](const float* unit, size_t n, size_t begin) {
+        return nfd::evaluate_colour_unit(*asset->file.colour, unit, n, device_of(*context),
+                                         context->cpu_threads, out_rgb + 3 * begin);
+    });
+}
+
 nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
                             const nfd_mesh_options* options, nfd_mesh** out_mesh) {
     if (!out_mesh) return NFD_ERROR_INVALID_ARGUMENT;
@@ -478,6 +530,10 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
 #endif
             r = nfd::extract_mesh_cpu(g, resolution, &mesh->data, &mesh->stats,
                                       context->cpu_threads);
+        const std::optional<nfd::ColourField> colour =
+            nfd::colour_field(asset->file, opts.skip_colour != 0);
+        if (r == NFD_SUCCESS && colour)
+            r = nfd::colour_mesh(*colour, device_of(*context), context->cpu_threads, &mesh->data);
         if (r == NFD_SUCCESS) *out_mesh = mesh.release();
         return r;
     });
@@ -493,6 +549,22 @@ nfd_result nfd_mesh_get_data(const nfd_mesh* mesh, nfd_mesh_data* out_data) {
     out_data->vertex_count = mesh->data.vertex_count();
     out_data->triangle_count = mesh->data.triangle_count();
     return NFD_SUCCESS;
+}
+
+nfd_result nfd_mesh_get_colours(const nfd_mesh* mesh, const float** out_colours) {
+    if (!mesh || !out_colours) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_colours = mesh->data.colours.empty() ? nullptr : mesh->data.colours.data();
+    return NFD_SUCCESS;
+}
+
+nfd_result nfd_mesh_evaluate_colours(nfd_context* context, const nfd_asset* asset,
+                                     nfd_mesh* mesh) {
+    if (!context || !asset || !mesh) return NFD_ERROR_INVALID_ARGUMENT;
+    const std::optional<nfd::ColourField> colour = nfd::colour_field(asset->file);
+    if (!colour) return NFD_ERROR_NO_COLOUR;
+    return guarded([&] {
+        return nfd::colour_mesh(*colour, device_of(*context), context->cpu_threads, &mesh->data);
+    });
 }
 
 nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats) {
@@ -525,7 +597,13 @@ nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path) {
 nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
                                 const char* path) {
     if (!path || (count > 0 && !points)) return NFD_ERROR_INVALID_ARGUMENT;
-    return guarded([&] { return nfd::write_points_ply(points, normals, count, path); });
+    return guarded([&] { return nfd::write_points_ply(points, normals, nullptr, count, path); });
+}
+
+nfd_result nfd_points_write_coloured_ply(const float* points, const float* normals,
+                                         const float* colours, size_t count, const char* path) {
+    if (!path || (count > 0 && !points)) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] { return nfd::write_points_ply(points, normals, colours, count, path); });
 }
 
 nfd_result nfd_extraction_ladder(uint32_t resolution, uint32_t* out_resolutions, uint32_t capacity,
@@ -559,6 +637,8 @@ nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
     return guarded([&] {
         auto extraction = std::make_unique<nfd_extraction>();
         extraction->top = top;
+        extraction->context = context;
+        extraction->colour = nfd::colour_field(asset->file, opts.skip_colour != 0);
 #if NFD_WITH_VULKAN
         if (context->gpu) {
             const nfd_result r =
@@ -597,7 +677,14 @@ nfd_result nfd_extraction_step(nfd_extraction* extraction, nfd_mesh** out_mesh,
             info.next_device_bytes = report.next_device_bytes;
             write_level_info(info, out_info);
         }
-        if (report.meshed) *out_mesh = mesh.release();
+        if (!report.meshed) return NFD_SUCCESS;
+        if (extraction->colour) {
+            const nfd_context& ctx = *extraction->context;
+            const nfd_result c = nfd::colour_mesh(*extraction->colour, device_of(ctx),
+                                                  ctx.cpu_threads, &mesh->data);
+            if (c != NFD_SUCCESS) return c;
+        }
+        *out_mesh = mesh.release();
         return NFD_SUCCESS;
     });
     extraction->failed = r != NFD_SUCCESS;
@@ -624,7 +711,15 @@ nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
         const nfd_result r =
             nfd::build_grid_cpu(g, resolution, nfd::GridOptions{}, &sparse, context->cpu_threads);
         if (r != NFD_SUCCESS) return r;
-        *out_grid = finest_voxels(std::move(sparse), asset->file).release();
+        const float step = sparse.step;
+        std::unique_ptr<nfd_grid> grid = finest_voxels(std::move(sparse), asset->file);
+        const std::optional<nfd::ColourField> colour =
+            nfd::colour_field(asset->file, opts.skip_colour != 0);
+        if (colour) {
+            const nfd_result c = colour_voxels(*colour, step, *context, grid.get());
+            if (c != NFD_SUCCESS) return c;
+        }
+        *out_grid = grid.release();
         return NFD_SUCCESS;
     });
 }
@@ -637,11 +732,18 @@ nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels
     return NFD_SUCCESS;
 }
 
+nfd_result nfd_grid_get_colours(const nfd_grid* grid, const float** out_colours) {
+    if (!grid || !out_colours) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_colours = grid->colours.empty() ? nullptr : grid->colours.data();
+    return NFD_SUCCESS;
+}
+
 nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char* source_name) {
     if (!grid || !path) return NFD_ERROR_INVALID_ARGUMENT;
 #if NFD_WITH_OPENVDB
     const nfd::VdbSource source{source_name, grid->format_major, grid->format_minor};
-    return guarded([&] { return nfd::write_vdb(grid->voxels, source, path); });
+    const float* colours = grid->colours.empty() ? nullptr : grid->colours.data();
+    return guarded([&] { return nfd::write_vdb(grid->voxels, colours, source, path); });
 #else
     (void)source_name;
     return NFD_ERROR_UNSUPPORTED_FEATURE;
@@ -689,12 +791,9 @@ nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
     const uint32_t mask = jo.mesh_levels ? grid_level_mask(jo.mesh_levels, top) : 1u;
     return guarded([&] {
         nfd_context& ctx = *queue->context;
-        nfd::gpu::Device* device = nullptr;
-#if NFD_WITH_VULKAN
-        device = ctx.gpu.get();
-#endif
-        auto work = std::make_unique<nfd::ExtractWork>(asset->file.geometry, resolution, mask,
-                                                       device, ctx.cpu_threads);
+        auto work = std::make_unique<nfd::ExtractWork>(
+            asset->file.geometry, nfd::colour_field(asset->file, mo.skip_colour != 0), resolution,
+            mask, device_of(ctx), ctx.cpu_threads);
         auto handle = std::make_unique<nfd_job>();
         handle->levels_total = top + 1;
         handle->final_resolution = resolution;

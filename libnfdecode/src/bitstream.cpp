@@ -221,6 +221,14 @@ nfd_result read_geometry(Reader& r, Geometry* g) {
     return read_network(r, activation, 1, &g->network);
 }
 
+// FORMAT.md "`colr` payload": the colour space (0 only), then an RGB network.
+nfd_result read_colour(Reader& r, Network* net) {
+    uint8_t colour_space = 0;
+    NFD_TRY(r.u8(&colour_space));
+    NFD_CHECK(colour_space == 0);
+    return read_network(r, OutputActivation::Sigmoid, 3, net);
+}
+
 }  // namespace
 
 uint32_t crc32(const uint8_t* data, size_t size, uint32_t previous) {
@@ -327,7 +335,10 @@ nfd_result FileParser::read_body(const uint8_t* body) {
         Reader payload(body, length_);
         NFD_TRY(read_geometry(payload, &file_.geometry));
     } else if (tag_ == kTagColour) {
-        file_.has_colour = true;  // reserved in 1.0: verified above, decoded by a later version
+        Reader payload(body, length_);
+        Network colour;
+        NFD_TRY(read_colour(payload, &colour));
+        file_.colour = std::move(colour);
     } else if (uint8_t(tag_) >= 'A' && uint8_t(tag_) <= 'Z') {
         return NFD_ERROR_UNSUPPORTED_FEATURE;  // unknown critical chunk
     }  // unknown optional chunk: verified, skipped

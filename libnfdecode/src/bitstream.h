@@ -3,6 +3,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "network.h"
@@ -23,7 +24,8 @@ struct ParsedFile {
     uint32_t major = 0, minor = 0;  // minor may exceed NFD_FORMAT_MINOR (newer optional chunks)
     uint32_t file_size = 0;
     Geometry geometry;              // dequantized GEOM chunk
-    bool has_colour = false;        // a `colr` chunk was present (verified, not decoded in 1.0)
+    std::optional<Network> colour;  // dequantized `colr` chunk (1.1): 3 sigmoid outputs
+    bool has_colour() const { return colour.has_value(); }
 };
 
 // The header checks every major shares (FORMAT.md "Version policy"): magic, then header_crc.

@@ -1,5 +1,6 @@
 // Binary glTF 2.0 via tinygltf. This file holds tinygltf's implementation (exactly once in the
-// library); image support is compiled out since the decoder writes geometry only.
+// library); image support is compiled out since the decoder writes geometry and vertex colours
+// only.
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
@@ -59,6 +60,7 @@ nfd_result write_glb(const MeshData& mesh, const char* path) {
         tinygltf::Buffer buffer;
         const size_t pos = append(buffer.data, mesh.positions);
         const size_t nrm = append(buffer.data, mesh.normals);
+        const size_t rgb = append(buffer.data, mesh.colours);  // empty: no colours
         const size_t idx = append(buffer.data, mesh.indices);
         m.buffers.push_back(std::move(buffer));
 
@@ -89,6 +91,10 @@ nfd_result write_glb(const MeshData& mesh, const char* path) {
         tinygltf::Primitive primitive;
         primitive.attributes["POSITION"] = position;
         primitive.attributes["NORMAL"] = normal;
+        if (!mesh.colours.empty())  // float RGB in [0, 1], as glTF's COLOR_0 allows
+            primitive.attributes["COLOR_0"] = add_accessor(
+                m, add_view(m, rgb, vertex_bytes, TINYGLTF_TARGET_ARRAY_BUFFER),
+                TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, mesh.vertex_count());
         primitive.indices = indices;
         primitive.mode = TINYGLTF_MODE_TRIANGLES;
         tinygltf::Mesh gltf_mesh;

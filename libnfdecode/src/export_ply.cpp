@@ -1,5 +1,7 @@
 // Binary little-endian PLY. Values are serialised byte by byte, so the files are the same on
 // big-endian hosts.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -48,26 +50,41 @@ private:
     bool ok_ = true;
 };
 
-std::string vertex_header(size_t count, bool normals) {
+std::string vertex_header(size_t count, bool normals, bool colours) {
     std::string h = "ply\nformat binary_little_endian 1.0\ncomment written by libnfdecode\n";
     h += "element vertex " + std::to_string(count) + "\n";
     h += "property float x\nproperty float y\nproperty float z\n";
     if (normals) h += "property float nx\nproperty float ny\nproperty float nz\n";
+    if (colours) h += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     return h;
+}
+
+// One vertex record: position, then normal and colour where given.
+void write_vertex(LittleEndianFile& out, size_t i, const float* positions, const float* normals,
+                  const float* colours) {
+    for (int a = 0; a < 3; ++a) out.f32(positions[3 * i + a]);
+    if (normals)
+        for (int a = 0; a < 3; ++a) out.f32(normals[3 * i + a]);
+    if (colours)
+        for (int a = 0; a < 3; ++a) out.u8(colour_byte(colours[3 * i + a]));
 }
 
 }  // namespace
 
+uint8_t colour_byte(float c) {
+    const float scaled = std::floor(255.0f * c + 0.5f);
+    return uint8_t(std::min(255.0f, std::max(0.0f, scaled)));  // NaN reads as 0 (max(0, NaN))
+}
+
 nfd_result write_mesh_ply(const MeshData& mesh, const char* path) {
     LittleEndianFile out(path);
     if (!out.is_open()) return NFD_ERROR_IO;
-    out.text(vertex_header(mesh.vertex_count(), true));
+    const float* colours = mesh.colours.empty() ? nullptr : mesh.colours.data();
+    out.text(vertex_header(mesh.vertex_count(), true, colours != nullptr));
     out.text("element face " + std::to_string(mesh.triangle_count()) + "\n");
     out.text("property list uchar uint vertex_indices\nend_header\n");
-    for (size_t i = 0; i < mesh.vertex_count(); ++i) {
-        for (int a = 0; a < 3; ++a) out.f32(mesh.positions[3 * i + a]);
-        for (int a = 0; a < 3; ++a) out.f32(mesh.normals[3 * i + a]);
-    }
+    for (size_t i = 0; i < mesh.vertex_count(); ++i)
+        write_vertex(out, i, mesh.positions.data(), mesh.normals.data(), colours);
     for (size_t t = 0; t < mesh.triangle_count(); ++t) {
         out.u8(3);
         for (int k = 0; k < 3; ++k) out.u32(mesh.indices[3 * t + k]);
@@ -75,16 +92,12 @@ nfd_result write_mesh_ply(const MeshData& mesh, const char* path) {
     return out.close() ? NFD_SUCCESS : NFD_ERROR_IO;
 }
 
-nfd_result write_points_ply(const float* points, const float* normals, size_t count,
-                            const char* path) {
+nfd_result write_points_ply(const float* points, const float* normals, const float* colours,
+                            size_t count, const char* path) {
     LittleEndianFile out(path);
     if (!out.is_open()) return NFD_ERROR_IO;
-    out.text(vertex_header(count, normals != nullptr) + "end_header\n");
-    for (size_t i = 0; i < count; ++i) {
-        for (int a = 0; a < 3; ++a) out.f32(points[3 * i + a]);
-        if (normals)
-            for (int a = 0; a < 3; ++a) out.f32(normals[3 * i + a]);
-    }
+    out.text(vertex_header(count, normals != nullptr, colours != nullptr) + "end_header\n");
+    for (size_t i = 0; i < count; ++i) write_vertex(out, i, points, normals, colours);
     return out.close() ? NFD_SUCCESS : NFD_ERROR_IO;
 }
 

@@ -11,7 +11,8 @@
 
 namespace nfd {
 
-nfd_result write_vdb(const nfd_grid_voxels& voxels, const VdbSource& source, const char* path) {
+nfd_result write_vdb(const nfd_grid_voxels& voxels, const float* colours, const VdbSource& source,
+                     const char* path) {
     openvdb::initialize();  // registers the grid and metadata types; idempotent, thread-safe
     const bool sdf = voxels.field_type == NFD_FIELD_SDF;
     const openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(voxels.background);
@@ -35,6 +36,23 @@ nfd_result write_vdb(const nfd_grid_voxels& voxels, const VdbSource& source, con
     // and at least a cell thick on both sides, so the flood fill can give every inactive voxel and
     // tile enclosed by negative values -d* instead: a level set whose inside reads negative.
     if (sdf) openvdb::tools::signedFloodFill(grid->tree());
+    openvdb::GridCPtrVec grids{grid};
+
+    // Colour on the same active voxels and transform; off the band it means nothing (black).
+    if (colours) {
+        const openvdb::Vec3SGrid::Ptr colour = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+        colour->setName("colour");
+        colour->setGridClass(openvdb::GRID_UNKNOWN);
+        colour->setTransform(transform);
+        openvdb::Vec3SGrid::Accessor rgb = colour->getAccessor();
+        for (size_t n = 0; n < voxels.count; ++n) {
+            const int32_t* c = voxels.ijk + 3 * n;
+            const float* v = colours + 3 * n;
+            rgb.setValueOn(openvdb::Coord(c[0], c[1], c[2]), openvdb::Vec3s(v[0], v[1], v[2]));
+        }
+        colour->insertMeta("nfc_colour_space", openvdb::StringMetadata("rgb 0..1, as encoded"));
+        grids.push_back(colour);
+    }
 
     if (source.file_name)
         grid->insertMeta("nfc_source_file", openvdb::StringMetadata(source.file_name));
@@ -55,7 +73,7 @@ nfd_result write_vdb(const nfd_grid_voxels& voxels, const VdbSource& source, con
     if (!out) return NFD_ERROR_IO;
     out.exceptions(std::ios::failbit | std::ios::badbit);
     try {
-        openvdb::io::Stream(out).write(openvdb::GridCPtrVec{grid});
+        openvdb::io::Stream(out).write(grids);
         out.close();
     } catch (const std::ios::failure&) {
         return NFD_ERROR_IO;

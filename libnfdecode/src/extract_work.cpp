@@ -49,9 +49,10 @@ MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, b
     return b;
 }
 
-ExtractWork::ExtractWork(const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask,
-                         gpu::Device* device, unsigned cpu_threads)
-    : geometry_(geometry), resolution_(resolution), top_(refinement_levels(resolution)),
+ExtractWork::ExtractWork(const Geometry& geometry, std::optional<ColourField> colour,
+                         uint32_t resolution, uint32_t mesh_mask, gpu::Device* device,
+                         unsigned cpu_threads)
+    : geometry_(geometry), colour_(std::move(colour)), resolution_(resolution), top_(refinement_levels(resolution)),
       mesh_mask_(mesh_mask), device_(device), cpu_threads_(cpu_threads) {
     restart();
 }
@@ -82,6 +83,10 @@ nfd_result ExtractWork::step(StepResult* out) {
     levels_done_ = std::max(levels_done_, top_ - report.level + 1);
     out->levels_done = levels_done_;
     if (report.meshed) {
+        if (colour_) {
+            const nfd_result c = colour_mesh(*colour_, device_, cpu_threads_, &mesh.data);
+            if (c != NFD_SUCCESS) return c;
+        }
         out->mesh = std::move(mesh);
         out->mesh_resolution = report.cells_per_axis;
         mesh_mask_ &= ((1u << report.level) - 1) | 1u;  // finer levels only, the finest always

@@ -4,7 +4,9 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <optional>
 
+#include "colour.h"
 #include "network.h"
 #include "progressive.h"
 #include "queue.h"
@@ -22,7 +24,8 @@ class Device;
 // derivation bounds) and evaluates that level densely, as the one-shot extraction there does.
 MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, bool vulkan);
 
-// Keeps a copy of the geometry, so that the asset may be destroyed while the job is pending.
+// Keeps a copy of the geometry and the colour field (none: geometry only), so that the asset may
+// be destroyed while the job is pending; a delivered mesh is coloured by the step that meshed it.
 // `mesh_mask`: bit l meshes grid level l (0 = the finest, always meshed). `device` null: the CPU
 // path with `cpu_threads`.
 //
@@ -36,14 +39,15 @@ MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, b
 // about four times its parent's cells).
 class ExtractWork final : public JobWork {
 public:
-    ExtractWork(const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask,
-                gpu::Device* device, unsigned cpu_threads);
+    ExtractWork(const Geometry& geometry, std::optional<ColourField> colour, uint32_t resolution,
+                uint32_t mesh_mask, gpu::Device* device, unsigned cpu_threads);
     MemoryBytes next_step_bytes() const override { return held_ + next_; }
     nfd_result step(StepResult* out) override;
     void restart() override;
 
 private:
     Geometry geometry_;
+    std::optional<ColourField> colour_;
     const uint32_t resolution_, top_;
     uint32_t mesh_mask_;  // levels still to deliver: a restart does not deliver a level twice
     gpu::Device* device_;

@@ -120,11 +120,16 @@ void evaluate_block(const Network& net, const float* xyz, size_t count, float* o
         }
         std::swap(h, next);
     }
+    // Values: every output of the point, point-major (a colour network's RGB). Gradients: the
+    // geometry's one output.
+    const uint32_t outputs = net.output_width();
+    for (uint32_t o = 0; o < outputs; ++o) {
+        const float* y = row(h, o, 0);
+        for (size_t p = 0; p < count; ++p) out[p * outputs + o] = activate_output(net.output, y[p]);
+    }
+    if (C == 1) return;
     for (size_t p = 0; p < count; ++p) {
-        const float y = h[p];
-        out[p] = activate_output(net.output, y);
-        if (C == 1) continue;
-        const float slope = output_slope(net.output, y);
+        const float slope = output_slope(net.output, h[p]);
         for (size_t c = 1; c < C; ++c) out_gradients[3 * p + c - 1] = slope * row(h, 0, c)[p];
     }
 }
@@ -144,7 +149,7 @@ void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float*
         Scratch s{std::vector<float>(width * C * kBlock), std::vector<float>(width * C * kBlock)};
         for (size_t p = begin; p < end; p += kBlock) {
             const size_t count = std::min(kBlock, end - p);
-            evaluate_block<C>(net, unit_xyz + 3 * p, count, out + p,
+            evaluate_block<C>(net, unit_xyz + 3 * p, count, out + p * net.output_width(),
                               C > 1 ? out_gradients + 3 * p : nullptr, s);
         }
     });

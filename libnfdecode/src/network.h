@@ -36,16 +36,18 @@ struct Geometry {
     Network network;
 };
 
-// Evaluates the field at n points given in the unit frame (xyz interleaved), writing n values.
-// Plain C++17, f32 accumulation; the oracle for the GPU path and the fallback without a device.
-// Multithreaded over points: `threads` workers at most, 0 = hardware concurrency.
+// Evaluates the field at n points given in the unit frame (xyz interleaved), writing
+// output_width() values per point, point-major: n distances for a geometry, n RGB triples for a
+// colour network. Plain C++17, f32 accumulation; the oracle for the GPU path and the fallback
+// without a device. Multithreaded over points: `threads` workers at most, 0 = hardware
+// concurrency.
 void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float* out,
                   unsigned threads = 0);
 
 // Values and analytic gradients (d value / d unit-frame coordinate, 3 floats per point) by forward-
 // mode differentiation through the encoding, the sine layers and the output activation (abs:
-// sign(y) dy with sign(0) = +1; sigmoid: s (1 - s) dy). out_values are bit-identical to
-// evaluate_cpu's; `threads` as there.
+// sign(y) dy with sign(0) = +1; sigmoid: s (1 - s) dy), of a network with one output.
+// out_values are bit-identical to evaluate_cpu's; `threads` as there.
 void evaluate_gradient_cpu(const Network& network, const float* unit_xyz, size_t n,
                            float* out_values, float* out_gradients, unsigned threads = 0);
 

@@ -1,7 +1,7 @@
 // nfc-decode: .nfc -> .glb / .ply (mesh or points) / .vdb (sparse grid) over the public libnfdecode
 // API only.
 //
-//   nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N]
+//   nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N] [--no-colour]
 //              [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]] [--stats]
 //   nfc-decode IN.nfc -o OUT.{glb,ply} --levels R1,R2,... [--write-levels] [--stats[=json]]
 //
@@ -28,13 +28,15 @@
 namespace {
 
 const char kUsage[] =
-    "usage: nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N]\n"
+    "usage: nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N] [--no-colour]\n"
     "                  [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]]\n"
     "                  [--stats]\n"
     "  OUT             .glb or .ply: the surface mesh; .vdb: the distance on a narrow band\n"
     "                  around it (OpenVDB)\n"
     "  --resolution N  grid cells per axis over the unit cube (8..1024, default 256)\n"
     "  --points N      write N points sampled uniformly on the surface (PLY) instead of the mesh\n"
+    "  --no-colour     geometry only (a file with colour otherwise writes it: PLY red/green/blue,\n"
+    "                  glTF COLOR_0, a VDB colour grid)\n"
     "  --device D      auto (a GPU, else the CPU path; default), vulkan (lavapipe too), or cpu\n"
     "  --stream-chunk N\n"
     "                  feed the file to nfd_stream N bytes at a time, never holding it whole;\n"
@@ -62,6 +64,7 @@ struct Options {
     std::string input, output;
     uint32_t resolution = 0;
     size_t points = 0;
+    bool no_colour = false;
     nfd_device_kind device = NFD_DEVICE_AUTO;
     size_t stream_chunk = 0;  // 0: read the whole file, then nfd_asset_create
     double bandwidth = 0;     // bytes per second; 0: as fast as the file reads
@@ -134,6 +137,8 @@ Options parse_args(int argc, char** argv) {
                 parse_count("--resolution", value(), NFD_MIN_RESOLUTION, NFD_MAX_RESOLUTION));
         } else if (arg == "--points") {
             o.points = size_t(parse_count("--points", value(), 1, 100000000ull));
+        } else if (arg == "--no-colour" || arg == "--no-color") {
+            o.no_colour = true;
         } else if (arg == "--device") {
             const std::string d = value();
             if (d == "auto") o.device = NFD_DEVICE_AUTO;
@@ -221,6 +226,7 @@ void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
     nfd_mesh_options mo = {};
     mo.struct_size = sizeof mo;
     mo.resolution = o.resolution;
+    mo.skip_colour = o.no_colour;
     check(nfd_mesh_extract(h->context, h->asset, &mo, &h->mesh),
           o.input + ": meshing the " + field_name(info));
     nfd_mesh_data data;
@@ -232,12 +238,20 @@ void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
     double ms_sample = 0;
     if (o.points) {
         if (data.triangle_count == 0) fail(1, o.input + ": the surface is empty, no points to sample");
-        std::vector<float> points(3 * o.points), normals(3 * o.points);
+        std::vector<float> points(3 * o.points), normals(3 * o.points), colours;
         check(nfd_mesh_sample_points(h->mesh, o.points, 0, points.data(), normals.data()),
               "point sampling");
+        if (info.has_colour && !o.no_colour) {  // the colour at the points themselves
+            colours.resize(3 * o.points);
+            check(nfd_asset_evaluate_colour(h->context, h->asset, points.data(), o.points,
+                                            colours.data()),
+                  o.input + ": colour");
+        }
         ms_sample = ms_since(t);
         t = Clock::now();
-        check(nfd_points_write_ply(points.data(), normals.data(), o.points, o.output.c_str()),
+        check(nfd_points_write_coloured_ply(points.data(), normals.data(),
+                                            colours.empty() ? nullptr : colours.data(), o.points,
+                                            o.output.c_str()),
               o.output);
     } else if (ends_with(o.output, ".glb")) {
         check(nfd_mesh_write_glb(h->mesh, o.output.c_str()), o.output);
@@ -251,7 +265,9 @@ void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
                     static_cast<unsigned long long>(stats.points_evaluated));
         std::printf("mesh        %9.2f ms  (%llu active cells)\n", stats.seconds_mesh * 1e3,
                     static_cast<unsigned long long>(stats.active_cells));
-        if (o.points) std::printf("sample      %9.2f ms  (%zu points)\n", ms_sample, o.points);
+        if (o.points)
+            std::printf("sample      %9.2f ms  (%zu points%s)\n", ms_sample, o.points,
+                        info.has_colour && !o.no_colour ? ", with colour" : "");
         std::printf("write       %9.2f ms\n", ms_write);
         std::printf("vertices    %zu\ntriangles   %zu\n", data.vertex_count, data.triangle_count);
     }
@@ -262,6 +278,7 @@ void decode_grid(const Options& o, Handles* h) {
     nfd_grid_options go = {};
     go.struct_size = sizeof go;
     go.resolution = o.resolution;
+    go.skip_colour = o.no_colour;
     check(nfd_grid_extract(h->context, h->asset, &go, &h->grid), o.input + ": sampling the grid");
     nfd_grid_voxels voxels;
     check(nfd_grid_get_voxels(h->grid, &voxels), "grid");
@@ -340,6 +357,11 @@ Input stream_asset(const Options& o, nfd_asset** asset) {
     }
     if (std::ferror(f)) fail(1, o.input + ": read error");
     check(nfd_stream_finish(s), o.input);
+    // The decode uses the whole file (colour arrives after the geometry).
+    nfd_asset* complete = nullptr;
+    check(nfd_stream_take_complete_asset(s, &complete), o.input);
+    nfd_asset_destroy(*asset);
+    *asset = complete;
     in.ms_read = ms_since(t0) - in.ms_parse;
     return in;
 }
@@ -378,6 +400,7 @@ void decode_progressive(const Options& o, Handles* h) {
     eo.struct_size = sizeof eo;
     eo.resolution = o.resolution;
     eo.mesh_levels = nfc_cli::ladder_mask(o.levels);
+    eo.skip_colour = o.no_colour;
     struct Extraction {
         nfd_extraction* handle = nullptr;
         std::vector<nfd_mesh*> meshes;
@@ -444,9 +467,10 @@ void run(const Options& o) {
     const double ms_device = ms_since(t);
 
     if (o.stats) {
-        std::printf("file        %u bytes (format %u.%u, %s, %u-bit, %u layers, width %u)\n",
+        std::printf("file        %u bytes (format %u.%u, %s, %u-bit, %u layers, width %u%s)\n",
                     info.file_size, info.format_major, info.format_minor, field_name(info),
-                    info.bits, info.num_layers, info.layer_widths[0]);
+                    info.bits, info.num_layers, info.layer_widths[0],
+                    info.has_colour ? o.no_colour ? ", colour skipped" : ", colour" : "");
         std::printf("device      %s (%s)\n", nfd_context_device_name(h.context),
                     nfd_context_device_reason(h.context));
         std::printf("read        %9.2f ms\n", in.ms_read);

@@ -26,7 +26,8 @@ std::vector<std::pair<std::string, Bytes>> synthetic_files() {
         {"sdf_w24_b12", geom_file(random_siren(24, 12, 2))},
         {"udf_w16_b8", geom_file(udf)},
         {"sdf_optional_chunks_minor3",
-         file({chunk("GEOM", geom_payload(random_siren(8, 6, 4))), chunk("colr", Bytes{1, 2, 3}),
+         file({chunk("GEOM", geom_payload(random_siren(8, 6, 4))),
+               chunk("colr", colour_payload(random_colour_siren(8, 6, 5))),
                chunk("xtra", Bytes{}), chunk("zzZZ", Bytes(40, 7))},
               {1, 3, 0})},
     };
@@ -51,7 +52,7 @@ TEST(Bitstream, ParsesSyntheticFileAndDequantizes) {
     ASSERT_EQ(parse(geom_file(spec), &f), NFD_SUCCESS);
     EXPECT_EQ(f.major, 1u);
     EXPECT_EQ(f.minor, 0u);
-    EXPECT_FALSE(f.has_colour);
+    EXPECT_FALSE(f.has_colour());
     const Geometry& g = f.geometry;
     EXPECT_EQ(g.field, FieldType::Sdf);
     EXPECT_EQ(g.truncation, spec.truncation);
@@ -182,9 +183,51 @@ TEST(Bitstream, NewerMinorWithUnknownOptionalChunkIsAccepted) {
     ParsedFile f;
     ASSERT_EQ(parse(file({geom, chunk("nwer", Bytes(100, 0xAB))}, {1, 7, 0}), &f), NFD_SUCCESS);
     EXPECT_EQ(f.minor, 7u);
-    EXPECT_FALSE(f.has_colour);
-    ASSERT_EQ(parse(file({geom, chunk("colr", Bytes{9})}), &f), NFD_SUCCESS);
-    EXPECT_TRUE(f.has_colour);
+    EXPECT_FALSE(f.has_colour());
+}
+
+// ---- the colour chunk (1.1) -----------------------------------------------------------------
+
+TEST(Bitstream, ColourChunkIsDecoded) {
+    const GeomSpec colour = random_colour_siren(12, 8, 11);
+    ParsedFile f;
+    ASSERT_EQ(parse(coloured_file(random_siren(8, 8, 10), colour), &f), NFD_SUCCESS);
+    EXPECT_EQ(f.minor, 1u);
+    ASSERT_TRUE(f.has_colour());
+    const Network& n = *f.colour;
+    EXPECT_EQ(n.output, OutputActivation::Sigmoid);
+    EXPECT_EQ(n.output_width(), 3u);
+    EXPECT_EQ(n.frequencies.size(), 8u);
+    ASSERT_EQ(n.layers.size(), 3u);
+    EXPECT_EQ(n.layers[0].in, 3u + 6u * 8u);
+    EXPECT_EQ(n.layers[0].weights[5], float(colour.levels[5]) * colour.steps[0]);
+}
+
+// Each colour rule, checked as GEOM's are: the chunk is verified (CRC valid), its payload is not.
+TEST(Bitstream, ColourChunkRules) {
+    const Bytes geom = chunk("GEOM", geom_payload(random_siren(8, 8, 12)));
+    auto with_colour = [&](const Bytes& payload) { return parse(file({geom, chunk("colr", payload)})); };
+    const GeomSpec good = random_colour_siren(8, 8, 13);
+    EXPECT_EQ(with_colour(colour_payload(good)), NFD_SUCCESS);
+    EXPECT_EQ(with_colour(colour_payload(good, /*colour_space=*/1)), NFD_ERROR_CORRUPT);
+    EXPECT_EQ(with_colour(Bytes{}), NFD_ERROR_TRUNCATED);
+    EXPECT_EQ(with_colour(Bytes{9}), NFD_ERROR_CORRUPT);  // colour space 9
+    for (uint8_t output : {0, 1, 3}) {  // identity, abs, unknown: a colour is sigmoid
+        GeomSpec s = good;
+        s.output = output;
+        EXPECT_EQ(with_colour(colour_payload(s)), NFD_ERROR_CORRUPT) << int(output);
+    }
+    // One output (a geometry network in the colour chunk) or four.
+    for (uint16_t outputs : {1, 4}) {
+        GeomSpec s = random_siren(8, 8, 14, 0, outputs, 8);
+        s.output = 2;
+        EXPECT_EQ(with_colour(colour_payload(s)), NFD_ERROR_CORRUPT) << outputs;
+    }
+    Bytes cut = colour_payload(good);
+    cut.resize(cut.size() / 2);  // inside the brotli stream
+    EXPECT_EQ(with_colour(cut), NFD_ERROR_CORRUPT);
+    cut.resize(10);  // inside the block's fields
+    EXPECT_EQ(with_colour(cut), NFD_ERROR_TRUNCATED);
 }
 
 TEST(Bitstream, ChunkRules) {

@@ -68,7 +68,7 @@ void job_stays_within_its_reservations(const Geometry& g, uint32_t r, gpu::Devic
 #endif
     const int64_t base = g_live.load();
     {
-        ExtractWork work(g, r, every_level, device, 2);
+        ExtractWork work(g, std::nullopt, r, every_level, device, 2);
         std::optional<MeshResult> kept;
         for (uint32_t s = 0;; ++s) {
             const MemoryBytes reserved = work.next_step_bytes();

@@ -144,7 +144,7 @@ uint64_t first_step_host(const Bytes& bytes, uint32_t resolution) {
 // The largest host reservation of a CPU job, its last step's (each step's adds to the last):
 // the job's steps run here as a worker runs them.
 uint64_t job_host_reservation(const Bytes& bytes, uint32_t resolution, unsigned cpu_threads) {
-    ExtractWork work(parse_or_throw(bytes), resolution, 1u, nullptr, cpu_threads);
+    ExtractWork work(parse_or_throw(bytes), std::nullopt, resolution, 1u, nullptr, cpu_threads);
     for (;;) {
         const uint64_t reserved = work.next_step_bytes().host;
         StepResult step;

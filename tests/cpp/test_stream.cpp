@@ -58,7 +58,7 @@ Streamed stream_in_pieces(const Bytes& bytes, const std::vector<size_t>& pieces)
     Streamed out{nfd_stream_finish(s.get()), nullptr};
     if (out.result == NFD_SUCCESS) {
         nfd_asset* a = nullptr;
-        EXPECT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_SUCCESS);
+        EXPECT_EQ(nfd_stream_take_complete_asset(s.get(), &a), NFD_SUCCESS);
         out.asset.reset(a);
     }
     return out;
@@ -73,11 +73,12 @@ nfd_result one_shot(const Bytes& bytes) {
 
 // The mesh at resolution 64 on the CPU, as raw arrays.
 struct MeshArrays {
-    std::vector<float> positions, normals;
+    std::vector<float> positions, normals, colours;  // colours empty: none
     std::vector<uint32_t> indices;
-    bool operator==(const MeshArrays& o) const {
+    bool same_geometry(const MeshArrays& o) const {
         return positions == o.positions && normals == o.normals && indices == o.indices;
     }
+    bool operator==(const MeshArrays& o) const { return same_geometry(o) && colours == o.colours; }
 };
 MeshArrays mesh_of(const nfd_asset* asset) {
     struct ContextFree {
@@ -98,16 +99,22 @@ MeshArrays mesh_of(const nfd_asset* asset) {
     EXPECT_EQ(nfd_mesh_extract(ctx.get(), asset, &mo, &mesh), NFD_SUCCESS);
     nfd_mesh_data d{};
     EXPECT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
+    const float* colours = nullptr;
+    EXPECT_EQ(nfd_mesh_get_colours(mesh, &colours), NFD_SUCCESS);
     MeshArrays m{{d.positions, d.positions + 3 * d.vertex_count},
                  {d.normals, d.normals + 3 * d.vertex_count},
+                 {},
                  {d.indices, d.indices + 3 * d.triangle_count}};
+    if (colours) m.colours.assign(colours, colours + 3 * d.vertex_count);
     nfd_mesh_destroy(mesh);
     return m;
 }
 
 // GEOM then optional chunks: a colour chunk, an unknown one, an empty one; newer minor.
+Bytes optional_colour() { return colour_payload(random_colour_siren(8, 8, 21)); }
+
 Bytes file_with_optional_chunks() {
-    return file({chunk("GEOM", geom_payload(closed_blob())), chunk("colr", Bytes(300, 0x5C)),
+    return file({chunk("GEOM", geom_payload(closed_blob())), chunk("colr", optional_colour()),
                  chunk("xtra", Bytes{}), chunk("zzZZ", Bytes(40, 7))},
                 {1, 3, 0});
 }
@@ -242,7 +249,7 @@ TEST(Stream, TrailingBytesAreCorrupt) {
 TEST(Stream, ProgressAtTheRightByteCounts) {
     const Bytes bytes = file_with_optional_chunks();
     const size_t geom_end = 16 + 12 + geom_payload(closed_blob()).size();
-    const size_t colr_end = geom_end + 12 + 300;
+    const size_t colr_end = geom_end + 12 + optional_colour().size();
     StreamPtr s = new_stream();
     nfd_stream_progress p{};
     ASSERT_EQ(nfd_stream_feed(s.get(), nullptr, 0, &p), NFD_SUCCESS);
@@ -308,7 +315,86 @@ TEST(Stream, AssetBeforeTheLaterChunks) {
     s.reset();
     ASSERT_EQ(nfd_asset_get_info(asset.get(), &info), NFD_SUCCESS);
     EXPECT_EQ(info.has_colour, 0);
-    EXPECT_TRUE(mesh_of(asset.get()) == mesh_of(reference));
+    EXPECT_TRUE(mesh_of(asset.get()).same_geometry(mesh_of(reference)));
+    EXPECT_TRUE(mesh_of(asset.get()).colours.empty());
+}
+
+// The complete asset: only once every byte is verified, once, with the colour; the geometry's
+// asset taken before stays geometry only, and colouring its mesh afterwards gives the one-shot's.
+TEST(Stream, CompleteAssetBringsTheColour) {
+    const Bytes bytes = file_with_optional_chunks();
+    nfd_asset* reference = nullptr;
+    ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &reference), NFD_SUCCESS);
+    const AssetPtr owned_reference(reference);
+    const MeshArrays expected = mesh_of(reference);
+    ASSERT_FALSE(expected.colours.empty());
+
+    StreamPtr s = new_stream();
+    nfd_asset* a = nullptr;
+    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), bytes.size() - 1, nullptr), NFD_SUCCESS);
+    ASSERT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_SUCCESS);
+    const AssetPtr early(a);
+    EXPECT_EQ(nfd_stream_take_complete_asset(s.get(), &a), NFD_ERROR_INVALID_ARGUMENT);  // not yet
+    EXPECT_EQ(a, nullptr);
+    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes.back(), 1, nullptr), NFD_SUCCESS);
+    ASSERT_EQ(nfd_stream_take_complete_asset(s.get(), &a), NFD_SUCCESS);
+    const AssetPtr complete(a);
+    EXPECT_EQ(nfd_stream_take_complete_asset(s.get(), &a), NFD_ERROR_INVALID_ARGUMENT);  // once
+    EXPECT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_stream_finish(s.get()), NFD_SUCCESS);
+    s.reset();
+
+    nfd_asset_info info{};
+    ASSERT_EQ(nfd_asset_get_info(early.get(), &info), NFD_SUCCESS);
+    EXPECT_EQ(info.has_colour, 1);  // taken after colr arrived (one byte before the end)
+    ASSERT_EQ(nfd_asset_get_info(complete.get(), &info), NFD_SUCCESS);
+    EXPECT_EQ(info.has_colour, 1);
+    EXPECT_TRUE(mesh_of(complete.get()) == expected);
+}
+
+// A mesh decoded before the colour arrived is coloured afterwards, as the one-shot's.
+TEST(Stream, MeshBeforeTheColourIsColouredLater) {
+    const Bytes bytes = file_with_optional_chunks();
+    const size_t geom_end = 16 + 12 + geom_payload(closed_blob()).size();
+    nfd_asset* reference = nullptr;
+    ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &reference), NFD_SUCCESS);
+    const AssetPtr owned_reference(reference);
+    nfd_context_options co{};
+    co.struct_size = sizeof co;
+    co.device = NFD_DEVICE_CPU;
+    nfd_context* c = nullptr;
+    ASSERT_EQ(nfd_context_create(&co, &c), NFD_SUCCESS);
+    const std::unique_ptr<nfd_context, void (*)(nfd_context*)> ctx(c, &nfd_context_destroy);
+
+    StreamPtr s = new_stream();
+    nfd_asset* a = nullptr;
+    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), geom_end, nullptr), NFD_SUCCESS);
+    ASSERT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_SUCCESS);
+    const AssetPtr early(a);
+    nfd_mesh* m = nullptr;
+    ASSERT_EQ(nfd_mesh_extract(ctx.get(), early.get(), nullptr, &m), NFD_SUCCESS);
+    const std::unique_ptr<nfd_mesh, void (*)(nfd_mesh*)> mesh(m, &nfd_mesh_destroy);
+    const float* colours = reinterpret_cast<const float*>(0x1);
+    ASSERT_EQ(nfd_mesh_get_colours(mesh.get(), &colours), NFD_SUCCESS);
+    EXPECT_EQ(colours, nullptr);
+    EXPECT_EQ(nfd_mesh_evaluate_colours(ctx.get(), early.get(), mesh.get()), NFD_ERROR_NO_COLOUR);
+
+    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[geom_end], bytes.size() - geom_end, nullptr),
+              NFD_SUCCESS);
+    ASSERT_EQ(nfd_stream_take_complete_asset(s.get(), &a), NFD_SUCCESS);
+    const AssetPtr complete(a);
+    ASSERT_EQ(nfd_mesh_evaluate_colours(ctx.get(), complete.get(), mesh.get()), NFD_SUCCESS);
+    ASSERT_EQ(nfd_mesh_get_colours(mesh.get(), &colours), NFD_SUCCESS);
+    ASSERT_NE(colours, nullptr);
+    nfd_mesh* one_shot_mesh = nullptr;
+    ASSERT_EQ(nfd_mesh_extract(ctx.get(), reference, nullptr, &one_shot_mesh), NFD_SUCCESS);
+    const std::unique_ptr<nfd_mesh, void (*)(nfd_mesh*)> expected(one_shot_mesh, &nfd_mesh_destroy);
+    nfd_mesh_data d{};
+    ASSERT_EQ(nfd_mesh_get_data(expected.get(), &d), NFD_SUCCESS);
+    const float* expected_colours = nullptr;
+    ASSERT_EQ(nfd_mesh_get_colours(expected.get(), &expected_colours), NFD_SUCCESS);
+    ASSERT_NE(expected_colours, nullptr);
+    EXPECT_EQ(std::memcmp(colours, expected_colours, 12 * d.vertex_count), 0);
 }
 
 // A failure after GEOM: the asset taken before it stays valid; take_asset afterwards reports it.

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -90,13 +91,9 @@ struct GeomSpec {
     }
 };
 
-// The GEOM payload; `payload` replaces the brotli stream when given (for hostile streams).
-inline Bytes geom_payload(const GeomSpec& s, const Bytes* payload = nullptr) {
-    Bytes b;
-    put_u8(b, s.field_type);
-    put_f32(b, s.truncation);
-    for (float c : s.center) put_f32(b, c);
-    put_f32(b, s.scale);
+// The network block (FORMAT.md) of a spec, appended to b; `payload` replaces the brotli stream
+// when given (for hostile streams).
+inline void put_network_block(Bytes& b, const GeomSpec& s, const Bytes* payload) {
     put_u8(b, s.num_frequencies);
     put_f32(b, s.beta);
     put_f32(b, s.omega0);
@@ -107,6 +104,25 @@ inline Bytes geom_payload(const GeomSpec& s, const Bytes* payload = nullptr) {
     for (float st : s.steps) put_f32(b, st);
     const Bytes stream = payload ? *payload : brotli(s.raw_levels());
     b.insert(b.end(), stream.begin(), stream.end());
+}
+
+// The GEOM payload; `payload` replaces the brotli stream when given (for hostile streams).
+inline Bytes geom_payload(const GeomSpec& s, const Bytes* payload = nullptr) {
+    Bytes b;
+    put_u8(b, s.field_type);
+    put_f32(b, s.truncation);
+    for (float c : s.center) put_f32(b, c);
+    put_f32(b, s.scale);
+    put_network_block(b, s, payload);
+    return b;
+}
+
+// The `colr` payload (FORMAT.md 1.1): colour space, then the network block of `s` (whose frame
+// fields are not written: colour uses GEOM's).
+inline Bytes colour_payload(const GeomSpec& s, uint8_t colour_space = 0) {
+    Bytes b;
+    put_u8(b, colour_space);
+    put_network_block(b, s, nullptr);
     return b;
 }
 
@@ -138,6 +154,12 @@ inline Bytes geom_file(const GeomSpec& s, HeaderSpec h = {}) {
     return file({chunk("GEOM", geom_payload(s))}, h);
 }
 
+// A geometry with a colour chunk: the format 1.1 file an encoder writes.
+inline Bytes coloured_file(const GeomSpec& geometry, const GeomSpec& colour) {
+    return file({chunk("GEOM", geom_payload(geometry)), chunk("colr", colour_payload(colour))},
+                {1, 1, 0});
+}
+
 inline Bytes geom_file_with_payload(const GeomSpec& s, const Bytes& brotli_stream) {
     return file({chunk("GEOM", geom_payload(s, &brotli_stream))});
 }
@@ -145,13 +167,16 @@ inline Bytes geom_file_with_payload(const GeomSpec& s, const Bytes& brotli_strea
 // ---- synthetic networks ----------------------------------------------------------------------------
 
 // A SIREN as the encoder initialises it (first layer U(-1/in, 1/in), later U(+-sqrt(6/in)/w0)),
-// quantized to `bits`: realistic magnitudes for the evaluator and the parser.
-inline GeomSpec random_siren(uint32_t width, uint8_t bits, uint32_t seed, uint8_t field_type = 0) {
+// quantized to `bits`: realistic magnitudes for the evaluator and the parser. `outputs` 3 with
+// sigmoid output: a colour network (random_colour_siren).
+inline GeomSpec random_siren(uint32_t width, uint8_t bits, uint32_t seed, uint8_t field_type = 0,
+                             uint16_t outputs = 1, uint8_t frequencies = 16) {
     GeomSpec s;
     s.field_type = field_type;
     s.output = field_type;  // SDF: identity, UDF: abs
+    s.num_frequencies = frequencies;
     s.bits = bits;
-    s.widths = {uint16_t(width), uint16_t(width), 1};
+    s.widths = {uint16_t(width), uint16_t(width), outputs};
     s.center[0] = 0.25f, s.center[1] = -1.5f, s.center[2] = 3.0f;
     s.scale = 2.5f;
     std::mt19937 rng(seed);
@@ -165,6 +190,13 @@ inline GeomSpec random_siren(uint32_t width, uint8_t bits, uint32_t seed, uint8_
         for (uint32_t k = 0; k < in * s.widths[l] + s.widths[l]; ++k) s.levels.push_back(level(rng));
         in = s.widths[l];
     }
+    return s;
+}
+
+// A colour network as the encoder writes it: 8 frequencies, 3 sigmoid outputs.
+inline GeomSpec random_colour_siren(uint32_t width, uint8_t bits, uint32_t seed) {
+    GeomSpec s = random_siren(width, bits, seed, 0, 3, 8);
+    s.output = 2;
     return s;
 }
 
@@ -213,7 +245,8 @@ inline Geometry parse_or_throw(const Bytes& bytes) {
 
 // ---- f64 reference evaluator (the numpy reference's arithmetic: f32 encoding products, f64 rest)
 
-inline double evaluate_f64(const Network& net, const float* u) {
+// Every output of the network at u, activated.
+inline std::vector<double> evaluate_f64_outputs(const Network& net, const float* u) {
     std::vector<double> h(u, u + 3);
     for (float f : net.frequencies) {
         double s[3], c[3];
@@ -235,16 +268,19 @@ inline double evaluate_f64(const Network& net, const float* u) {
         }
         h.swap(next);
     }
-    switch (net.output) {
-        case OutputActivation::Abs: return std::fabs(h[0]);
-        case OutputActivation::Sigmoid: return 1.0 / (1.0 + std::exp(-h[0]));
-        default: return h[0];
+    for (double& y : h) {
+        if (net.output == OutputActivation::Abs) y = std::fabs(y);
+        if (net.output == OutputActivation::Sigmoid) y = 1.0 / (1.0 + std::exp(-y));
     }
+    return h;
 }
+
+inline double evaluate_f64(const Network& net, const float* u) { return evaluate_f64_outputs(net, u)[0]; }
 
 // ---- meshes ----------------------------------------------------------------------------------------
 
-// Reads PLY (ascii or binary_little_endian) vertices x y z (float or double) and triangle faces.
+// Reads PLY (ascii or binary_little_endian) vertices x y z (float or double), normals, colours
+// (red green blue: uchar read as v / 255, floats as they are) and triangle faces.
 inline MeshData read_ply(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw std::runtime_error("cannot open " + path);
@@ -323,6 +359,9 @@ inline MeshData read_ply(const std::string& path) {
                     m.positions.push_back(float(v));
                 if (e.name == "vertex" && (name == "nx" || name == "ny" || name == "nz"))
                     m.normals.push_back(float(v));
+                if (e.name == "vertex" && (name == "red" || name == "green" || name == "blue"))
+                    m.colours.push_back(type == "uchar" || type == "uint8" ? float(v) / 255.0f
+                                                                           : float(v));
             }
         }
     }
@@ -503,17 +542,38 @@ inline std::string vectors_dir() {
     return env && *env ? env : NFD_TEST_VECTORS_DIR;
 }
 
-// Names <name> of every tests/vectors/v1_0_<name>.nfc, sorted.
+// The format-version prefix of a vector file name, "v1_<minor>_", or "" if `file` has none.
+inline std::string golden_prefix(const std::string& file) {
+    if (file.size() < 6 || file.rfind("v1_", 0) != 0) return "";
+    const size_t underscore = file.find('_', 3);
+    if (underscore == std::string::npos || underscore == 3) return "";
+    for (size_t i = 3; i < underscore; ++i)
+        if (!std::isdigit(static_cast<unsigned char>(file[i]))) return "";
+    return file.substr(0, underscore + 1);
+}
+
+// Names <name> of every tests/vectors/v1_<minor>_<name>.nfc (all 1.x vectors: 1.0 geometry, 1.1
+// with colour), sorted.
 inline std::vector<std::string> golden_names() {
     namespace fs = std::filesystem;
     std::vector<std::string> names;
     std::error_code ec;
     for (const auto& entry : fs::directory_iterator(vectors_dir(), ec)) {
         const std::string file = entry.path().filename().string();
-        if (file.rfind("v1_0_", 0) == 0 && entry.path().extension() == ".nfc")
-            names.push_back(file.substr(5, file.size() - 5 - 4));
+        const std::string prefix = golden_prefix(file);
+        if (!prefix.empty() && entry.path().extension() == ".nfc")
+            names.push_back(file.substr(prefix.size(), file.size() - prefix.size() - 4));
     }
     std::sort(names.begin(), names.end());
+    return names;
+}
+
+// Names of the vectors with colour (format 1.1 and later).
+inline std::vector<std::string> golden_colour_names() {
+    std::vector<std::string> names;
+    for (const std::string& name : golden_names())
+        if (std::filesystem::exists(vectors_dir() + "/v1_1_" + name + ".colours.txt"))
+            names.push_back(name);
     return names;
 }
 
@@ -526,8 +586,13 @@ inline void skip_without_vulkan(const std::string& why) {
     GTEST_SKIP() << why;
 }
 
+// tests/vectors/v1_<minor>_<name><suffix>, the minor being the one its .nfc has.
 inline std::string golden_path(const std::string& name, const std::string& suffix) {
-    return vectors_dir() + "/v1_0_" + name + suffix;
+    for (const char* prefix : {"/v1_0_", "/v1_1_"}) {
+        const std::string stem = vectors_dir() + prefix + name;
+        if (std::filesystem::exists(stem + ".nfc")) return stem + suffix;
+    }
+    return vectors_dir() + "/v1_0_" + name + suffix;  // missing: the error names the 1.0 path
 }
 
 inline Bytes read_bytes(const std::string& path) {

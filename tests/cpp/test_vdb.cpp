@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "colour_util.h"
 #include "grid_util.h"
 #include "test_util.h"
 
@@ -134,6 +135,63 @@ TEST(Vdb, TshirtUdfIsAnUnsignedDistance) {
     EXPECT_GE(openvdb::tools::minMax(grid->tree()).min(), 0.0f);
     EXPECT_EQ(check_off_band(g, *grid).first, 0u);
     std::remove(path.c_str());
+}
+
+// A grid with colour: nfd_grid_get_colours holds the field's colour at every voxel, and the file
+// gains a Vec3SGrid "colour" on exactly the distance grid's voxels; skip_colour gives neither.
+TEST(Vdb, ColourGridOnTheSameVoxels) {
+    const float centre[3] = {0.5f, 1.0f, -1.0f};
+    const AssetPtr asset =
+        make_asset(coloured_file(closed_blob(2.0f, centre), random_colour_siren(16, 8, 51)));
+    const ContextPtr ctx = cpu_context();
+    for (int skip : {0, 1}) {
+        nfd_grid_options go{};
+        go.struct_size = sizeof go;
+        go.resolution = 64;
+        go.skip_colour = skip;
+        nfd_grid* raw = nullptr;
+        ASSERT_EQ(nfd_grid_extract(ctx.get(), asset.get(), &go, &raw), NFD_SUCCESS);
+        const std::unique_ptr<nfd_grid, void (*)(nfd_grid*)> grid(raw, &nfd_grid_destroy);
+        nfd_grid_voxels v{};
+        ASSERT_EQ(nfd_grid_get_voxels(grid.get(), &v), NFD_SUCCESS);
+        const float* colours = nullptr;
+        ASSERT_EQ(nfd_grid_get_colours(grid.get(), &colours), NFD_SUCCESS);
+        const std::string path = temp_vdb("colour");
+        ASSERT_EQ(nfd_grid_write_vdb(grid.get(), path.c_str(), nullptr), NFD_SUCCESS);
+        openvdb::initialize();
+        openvdb::io::File file(path);
+        file.open();
+        const openvdb::GridPtrVecPtr grids = file.getGrids();
+        file.close();
+        std::remove(path.c_str());
+        if (skip) {
+            EXPECT_EQ(colours, nullptr);
+            EXPECT_EQ(grids->size(), 1u);
+            continue;
+        }
+        ASSERT_NE(colours, nullptr);
+        std::vector<float> positions(3 * v.count), expected(3 * v.count);
+        for (size_t n = 0; n < 3 * v.count; ++n)
+            positions[n] = float(v.ijk[n]) * v.voxel_size + v.origin[n % 3];
+        ASSERT_EQ(nfd_asset_evaluate_colour(ctx.get(), asset.get(), positions.data(), v.count,
+                                            expected.data()),
+                  NFD_SUCCESS);
+        EXPECT_LE(max_difference(std::vector<float>(colours, colours + 3 * v.count), expected),
+                  1e-5);
+
+        ASSERT_EQ(grids->size(), 2u);
+        const auto colour = openvdb::gridPtrCast<openvdb::Vec3SGrid>((*grids)[1]);
+        ASSERT_TRUE(colour);
+        EXPECT_EQ(colour->getName(), "colour");
+        EXPECT_EQ(colour->activeVoxelCount(), openvdb::Index64(v.count));
+        EXPECT_EQ(colour->transform(), (*grids)[0]->transform());
+        const openvdb::Vec3SGrid::ConstAccessor rgb = colour->getConstAccessor();
+        for (size_t n = 0; n < v.count; n += 97) {
+            const int32_t* c = v.ijk + 3 * n;
+            const openvdb::Vec3s read = rgb.getValue(openvdb::Coord(c[0], c[1], c[2]));
+            EXPECT_EQ(read, openvdb::Vec3s(colours[3 * n], colours[3 * n + 1], colours[3 * n + 2]));
+        }
+    }
 }
 
 TEST(Vdb, WriteFailuresAreIoErrors) {

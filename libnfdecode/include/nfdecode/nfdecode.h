@@ -54,14 +54,14 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 3
+#define NFD_VERSION_MINOR 4
 #define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
 /* The newest bitstream version this library reads (FORMAT.md, "Version policy"). */
 #define NFD_FORMAT_MAJOR 1
-#define NFD_FORMAT_MINOR 0
+#define NFD_FORMAT_MINOR 1
 
 /* Hard caps from FORMAT.md. Inputs beyond them are rejected before any allocation. */
 #define NFD_MAX_FILE_SIZE (64u * 1024u * 1024u)
@@ -96,6 +96,7 @@ typedef enum nfd_result {
     NFD_ERROR_CANCELLED = -22,          /* the job was cancelled (nfd_job_cancel, queue destroyed) */
     NFD_ERROR_NOT_READY = -23,          /* the job has no result yet */
     NFD_ERROR_CAPACITY_EXCEEDED = -24,  /* a recorded decode outgrew its capacities (0.3) */
+    NFD_ERROR_NO_COLOUR = -25,          /* a colour call on an asset without colour (0.4) */
 
     NFD_ERROR_OUT_OF_MEMORY = -40,      /* host or device allocation failed */
     NFD_ERROR_DEVICE_UNAVAILABLE = -41, /* no usable Vulkan driver/device (CPU still works) */
@@ -202,7 +203,7 @@ typedef struct nfd_asset_info {
     uint32_t layer_widths[NFD_MAX_LAYERS]; /* out_features of each layer */
     uint32_t bits;                       /* quantization bit width */
     uint32_t parameter_count;
-    int has_colour;                      /* a colour chunk is present (decoded in a later version) */
+    int has_colour;                      /* the file has a colour field (format 1.1, see "Colour") */
 } nfd_asset_info;
 
 /* Parses and fully verifies `size` bytes (magic, versions, CRCs, caps, brotli, exact sizes) and
@@ -235,6 +236,31 @@ NFD_API nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* ass
 NFD_API nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_asset* asset,
                                        const float* points, size_t count, float* out_values,
                                        float* out_gradients);
+
+/* ---------------------------------------------------------------------------------------------
+ * Colour (0.4; format 1.1)
+ *
+ * A file may carry a colour field: a second small network, fitted on the surface the decoder
+ * extracts from the geometry (FORMAT.md, "colr"), so it is meaningful on that surface only.
+ * Where an asset has one (nfd_asset_info.has_colour), everything that emits geometry also emits
+ * its colour, evaluated on the context's device at the emitted positions: mesh vertices
+ * (nfd_mesh_get_colours: nfd_mesh_extract, nfd_extraction_step, queue jobs), grid voxels
+ * (nfd_grid_get_colours), and the writers carry it (PLY red/green/blue, glTF COLOR_0, a VDB
+ * "colour" grid). skip_colour in the options gives geometry only; a file without colour decodes
+ * exactly as before. Recorded decodes (nfd_recording) are geometry only.
+ * Colours are RGB floats in [0, 1]: the input's 8-bit values / 255 with no transfer function
+ * applied (for usual inputs display-encoded sRGB; treat them as such). 8-bit writers round:
+ * min(255, floor(255 c + 0.5)).
+ * Streaming: an asset taken when its geometry is ready has no colour yet; the stream's complete
+ * asset (nfd_stream_take_complete_asset) has it, and nfd_mesh_evaluate_colours colours meshes
+ * made before it arrived.
+ * ------------------------------------------------------------------------------------------- */
+
+/* The colour at `count` points in the ORIGINAL frame (xyz interleaved), 3*count floats RGB to
+ * out_rgb. Same argument rules, outcomes and bounded memory as nfd_asset_evaluate, and
+ * NFD_ERROR_NO_COLOUR when the asset has no colour field. */
+NFD_API nfd_result nfd_asset_evaluate_colour(nfd_context* context, const nfd_asset* asset,
+                                             const float* points, size_t count, float* out_rgb);
 
 /* ---------------------------------------------------------------------------------------------
  * Streaming input: a file as its bytes arrive
@@ -273,8 +299,9 @@ NFD_API nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_a
  *
  * Memory: the stream holds at most the header or one chunk (FORMAT.md caps a chunk at
  * NFD_MAX_CHUNK_SIZE), never the whole file, and reserves a chunk's buffer only after its length
- * has been checked against that cap and against file_size; plus, from GEOM's end until it is
- * taken, the decoded asset. Bytes that complete a structure within
+ * has been checked against that cap and against file_size; plus, from GEOM's end until the
+ * complete asset is taken (or the stream destroyed), the decoded asset. Bytes that complete a
+ * structure within
  * one nfd_stream_feed call are read in place, not copied; only a structure split across calls is
  * gathered. Feeding costs time linear in the bytes, whatever the piece sizes (1 byte at a time
  * included). Decoding the geometry allocates as nfd_asset_create does.
@@ -295,7 +322,8 @@ typedef struct nfd_stream_options {
 #define NFD_STREAM_HEADER_READ 0x1u     /* the header is verified: file_size, format_* are known */
 #define NFD_STREAM_GEOMETRY_READY 0x2u  /* GEOM (the first chunk) is verified and decoded: the
                                            asset can be taken */
-#define NFD_STREAM_COLOUR_SEEN 0x4u     /* a `colr` chunk is verified (decoded by a later version) */
+#define NFD_STREAM_COLOUR_SEEN 0x4u     /* a `colr` chunk is verified and decoded (0.4: before,
+                                           verified only) */
 #define NFD_STREAM_COMPLETE 0x8u        /* all file_size bytes are verified: finish will succeed */
 
 typedef struct nfd_stream_progress {
@@ -334,9 +362,9 @@ NFD_API nfd_result nfd_stream_feed(nfd_stream* stream, const void* bytes, size_t
  * NFD_ERROR_INVALID_ARGUMENT for NULL. */
 NFD_API nfd_result nfd_stream_finish(nfd_stream* stream);
 
-/* Transfers the asset to the caller, once, as soon as NFD_STREAM_GEOMETRY_READY is set: the caller
+/* Gives the asset to the caller, once, as soon as NFD_STREAM_GEOMETRY_READY is set: the caller
  * owns it (nfd_asset_destroy) and may use it on any thread while the stream goes on receiving.
- * Why a transfer and not a borrowed pointer: an asset is immutable and shared across threads, so
+ * Why a new asset and not a borrowed pointer: an asset is immutable and shared across threads, so
  * the stream must not change it after handing it out, and it must be able to outlive the stream.
  * The asset is the file's geometry, bit for bit the one nfd_asset_create gives (same meshes and
  * values); nfd_asset_get_info reports the header's version and file_size, and has_colour as of the
@@ -346,9 +374,18 @@ NFD_API nfd_result nfd_stream_finish(nfd_stream* stream);
  * check of nfd_asset_create.
  * Outcomes: NFD_SUCCESS (*out_asset set); the stream's failure if it has failed (even when GEOM
  * was verified before it; an asset taken earlier stays valid); NFD_ERROR_INVALID_ARGUMENT (NULL
- * argument, geometry not yet ready, or the asset already taken); NFD_ERROR_OUT_OF_MEMORY.
- * *out_asset is NULL on every failure. */
+ * argument, geometry not yet ready, the asset already taken, or the complete asset taken);
+ * NFD_ERROR_OUT_OF_MEMORY. *out_asset is NULL on every failure. */
 NFD_API nfd_result nfd_stream_take_asset(nfd_stream* stream, nfd_asset** out_asset);
+
+/* (0.4) The whole file's asset, colour included, once NFD_STREAM_COMPLETE is set (every byte
+ * verified): equal to nfd_asset_create's on the same bytes. Available once, whether or not the
+ * geometry's asset was taken before (the stream keeps the decoded geometry until then: a few MB
+ * at most); nfd_stream_take_asset is refused after it.
+ * Outcomes: NFD_SUCCESS (*out_asset set); the stream's failure; NFD_ERROR_INVALID_ARGUMENT (NULL
+ * argument, the file not complete, or already taken); NFD_ERROR_OUT_OF_MEMORY. *out_asset is NULL
+ * on every failure. */
+NFD_API nfd_result nfd_stream_take_complete_asset(nfd_stream* stream, nfd_asset** out_asset);
 
 /* The format version of a file from its first 16 bytes, without parsing the rest: the checks that
  * every major keeps (FORMAT.md "Version policy"), in FORMAT.md's order. For a file from another
@@ -371,6 +408,7 @@ typedef struct nfd_mesh_options {
     uint32_t struct_size; /* 0.2: sizeof(nfd_mesh_options), or 0 */
     uint32_t resolution; /* grid cells per axis over the unit cube; 0 = NFD_DEFAULT_RESOLUTION;
                             NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION, else LIMIT_EXCEEDED */
+    int skip_colour;     /* 0.4: non-zero: geometry only, even when the asset has colour */
 } nfd_mesh_options;
 
 typedef struct nfd_mesh_data {
@@ -400,6 +438,17 @@ NFD_API void nfd_mesh_destroy(nfd_mesh* mesh);
 
 /* Pointers stay valid until nfd_mesh_destroy. */
 NFD_API nfd_result nfd_mesh_get_data(const nfd_mesh* mesh, nfd_mesh_data* out_data);
+/* (0.4) The vertices' colours, 3 * vertex_count floats RGB in [0, 1] (see "Colour"), or NULL when
+ * the mesh has none (the asset has no colour, or skip_colour). Valid until nfd_mesh_destroy or
+ * nfd_mesh_evaluate_colours. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
+NFD_API nfd_result nfd_mesh_get_colours(const nfd_mesh* mesh, const float** out_colours);
+/* (0.4) Colours the mesh's vertices with the asset's colour field on the context's device,
+ * replacing any colours it had: for meshes made from an asset without colour yet (streaming).
+ * The asset should be the mesh's own file (its colour is fitted on that surface).
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_NO_COLOUR; NFD_ERROR_INVALID_ARGUMENT (NULL);
+ * NFD_ERROR_DEVICE, NFD_ERROR_OUT_OF_MEMORY (the mesh keeps its former colours). */
+NFD_API nfd_result nfd_mesh_evaluate_colours(nfd_context* context, const nfd_asset* asset,
+                                             nfd_mesh* mesh);
 /* Timings and counts of the extraction that produced this mesh. */
 NFD_API nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats);
 
@@ -411,15 +460,22 @@ NFD_API nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, ui
                                   float* out_points, float* out_normals);
 
 /* Writes the mesh as binary glTF 2.0 (.glb: one scene/node/mesh, POSITION with min/max, NORMAL,
- * UNSIGNED_INT indices; an empty mesh gives an empty scene) or binary little-endian PLY (vertex
- * float x,y,z,nx,ny,nz; face list uchar uint vertex_indices). NFD_ERROR_INVALID_ARGUMENT for NULL
- * arguments, NFD_ERROR_IO if the file cannot be opened or fully written. */
+ * COLOR_0 (float VEC3) when the mesh has colours, UNSIGNED_INT indices; an empty mesh gives an
+ * empty scene) or binary little-endian PLY (vertex float x,y,z,nx,ny,nz, then uchar
+ * red,green,blue when the mesh has colours; face list uchar uint vertex_indices).
+ * NFD_ERROR_INVALID_ARGUMENT for NULL arguments, NFD_ERROR_IO if the file cannot be opened or
+ * fully written. */
 NFD_API nfd_result nfd_mesh_write_glb(const nfd_mesh* mesh, const char* path);
 NFD_API nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path);
 
 /* Writes a point set (3*count floats, optional normals) as binary little-endian PLY. */
 NFD_API nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
                                 const char* path);
+/* (0.4) As nfd_points_write_ply, with optional colours (3*count floats RGB in [0, 1], e.g. from
+ * nfd_asset_evaluate_colour; NULL: none) written as uchar red,green,blue after the normals. */
+NFD_API nfd_result nfd_points_write_coloured_ply(const float* points, const float* normals,
+                                                 const float* colours, size_t count,
+                                                 const char* path);
 
 /* ---------------------------------------------------------------------------------------------
  * Progressive extraction: a mesh per level of detail, coarse to fine
@@ -462,6 +518,7 @@ typedef struct nfd_extraction_options {
     uint32_t resolution;  /* the final level, as nfd_mesh_options.resolution */
     uint32_t mesh_levels; /* bit i: mesh ladder level i (bit 0: the coarsest); 0 = every level.
                              Must include the final level; no bit past the ladder */
+    int skip_colour;      /* 0.4: as nfd_mesh_options.skip_colour */
 } nfd_extraction_options;
 
 /* What a step did, and what the next one will allocate. */
@@ -525,6 +582,7 @@ typedef struct nfd_grid nfd_grid;
 typedef struct nfd_grid_options {
     uint32_t struct_size; /* 0.2: sizeof(nfd_grid_options), or 0 */
     uint32_t resolution; /* grid cells per axis over the unit cube, as in nfd_mesh_options */
+    int skip_colour;     /* 0.4: as nfd_mesh_options.skip_colour */
 } nfd_grid_options;
 
 /* The voxels of a grid's finest level. A voxel is a grid vertex (a point sample, as in OpenVDB)
@@ -565,6 +623,10 @@ NFD_API void nfd_grid_destroy(nfd_grid* grid);
 
 /* Pointers stay valid until nfd_grid_destroy. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
 NFD_API nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels);
+/* (0.4) The voxels' colours, 3 * count floats RGB in [0, 1] in the voxels' order (the colour at
+ * each voxel's position; see "Colour"), or NULL when the grid has none. Valid until
+ * nfd_grid_destroy. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
+NFD_API nfd_result nfd_grid_get_colours(const nfd_grid* grid, const float** out_colours);
 
 /* Writes the voxels as an OpenVDB file holding one openvdb::FloatGrid named "distance": the voxels
  * active with their values (full float precision), the linear transform index -> original frame
@@ -576,6 +638,8 @@ NFD_API nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* ou
  * Grid metadata: nfc_source_file (source_name; absent when NULL), nfc_field_type ("sdf" or
  * "udf"), nfc_format_version (the .nfc file's, e.g. "1.0"), nfc_resolution (int32), nfc_decoder
  * ("libnfdecode MAJOR.MINOR.PATCH").
+ * A grid with colours (0.4) adds an openvdb::Vec3SGrid named "colour" with the same transform and
+ * active voxels, holding RGB in [0, 1] (see "Colour"), background (0, 0, 0), class unknown.
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (grid or path NULL);
  * NFD_ERROR_UNSUPPORTED_FEATURE in a build without OpenVDB (CMake NFD_WITH_OPENVDB=OFF), before
  * the file is touched; NFD_ERROR_IO if the file cannot be created or fully written;

@@ -166,7 +166,7 @@ struct DeviceNetwork {
     VkDeviceSize offset[NFD_GPU_MAX_LAYERS] = {}, range[NFD_GPU_MAX_LAYERS] = {};
     bool storage = false;
     uint32_t max4 = 0;                     // widest layer input/output, in vec4s
-    std::vector<uint32_t> specialization;  // field_eval.comp's constants 0-12
+    std::vector<uint32_t> specialization;  // field_eval.comp's constants 0-13
     struct Variant {
         const Pipeline* pipeline = nullptr;  // created on first use
         uint32_t points_per_invocation = 1;
@@ -183,8 +183,8 @@ struct DeviceNetwork {
 // beyond the shader's caps.
 nfd_result device_network(Device& d, const Network& net, std::shared_ptr<DeviceNetwork>* out);
 // Records the evaluation of `count`'s points (xyz, from index 0 of `points`) into `results` from
-// index count.first on: one float each, or with `gradient` one vec4 each (value, d/dx, d/dy,
-// d/dz).
+// index count.first on: output_width() floats each, or with `gradient` (one output) one vec4
+// each (value, d/dx, d/dy, d/dz).
 nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, const Buffer& results,
                         Count count, bool gradient);
 // Creates the pipeline record_field will use (it does so itself on first use): compiling on a

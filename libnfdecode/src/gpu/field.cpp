@@ -55,12 +55,13 @@ nfd_result field_pipeline(Device& d, Kernel kernel, const std::vector<uint32_t>&
     return NFD_SUCCESS;
 }
 
-// Evaluates n points kEvaluateChunk at a time, handing each chunk's results (a float per point,
-// or a vec4 with `gradient`) to take(first point, count, results).
+// Evaluates n points kEvaluateChunk at a time, handing each chunk's results (output_width()
+// floats per point, or a vec4 with `gradient`) to take(first point, count, results).
 template <class Take>
 nfd_result evaluate_in_chunks(Device& device, const Network& network, const float* unit_xyz,
                               size_t n, bool gradient, Take&& take) {
     if (n == 0) return NFD_SUCCESS;
+    if (gradient && network.output_width() != 1) return NFD_ERROR_INTERNAL;  // no such caller
     std::shared_ptr<DeviceNetwork> uploaded;
     NFD_TRY(device_network(device, network, &uploaded));
     DeviceNetwork& net = *uploaded;
@@ -70,7 +71,8 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
     const size_t chunk = std::min(n, kEvaluateChunk);
     Buffer *points, *results;
     NFD_TRY(buffers.make(chunk * 12, &points, Memory::Host));
-    NFD_TRY(buffers.make(chunk * (gradient ? 16 : 4), &results, Memory::Host));
+    NFD_TRY(buffers.make(chunk * (gradient ? 16 : 4 * network.output_width()), &results,
+                         Memory::Host));
     for (size_t begin = 0; begin < n; begin += chunk) {
         const uint32_t count = uint32_t(std::min(chunk, n - begin));
         std::memcpy(points->data, unit_xyz + 3 * begin, size_t(count) * 12);
@@ -86,7 +88,8 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
 nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     const uint32_t layers = uint32_t(net.layers.size());
     if (layers < 1 || layers > NFD_GPU_MAX_LAYERS ||
-        net.frequencies.size() > NFD_GPU_MAX_FREQUENCIES || net.output_width() != 1)
+        net.frequencies.size() > NFD_GPU_MAX_FREQUENCIES || net.output_width() < 1 ||
+        net.output_width() > 4)
         return NFD_ERROR_UNSUPPORTED_FEATURE;
     const uint32_t freq4 = div_up(net.frequencies.size(), 4);
     std::vector<uint32_t> in4(layers), out4(NFD_GPU_MAX_LAYERS, 1);
@@ -148,7 +151,7 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     std::vector<uint32_t>& spec = out->specialization;
     spec = {freq4, layers};
     spec.insert(spec.end(), out4.begin(), out4.end());
-    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), out->max4});
+    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), out->max4, net.output_width()});
     return NFD_SUCCESS;
 }
 
@@ -217,9 +220,10 @@ nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, cons
 
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,
                     float* out) {
+    const size_t outputs = network.output_width();
     return evaluate_in_chunks(device, network, unit_xyz, n, false,
                               [&](size_t begin, uint32_t count, const float* r) {
-                                  std::memcpy(out + begin, r, size_t(count) * 4);
+                                  std::memcpy(out + begin * outputs, r, count * outputs * 4);
                               });
 }
 

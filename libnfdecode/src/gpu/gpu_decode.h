@@ -39,7 +39,8 @@ bool unified_memory(const Device& device);
 uint64_t networks_uploaded(const Device& device);
 void reset_device_memory_peak(Device& device);
 
-// Field values at n unit-frame points (xyz interleaved): the GPU twin of evaluate_cpu.
+// Network outputs at n unit-frame points (xyz interleaved; output_width() floats per point): the
+// GPU twin of evaluate_cpu.
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,
                     float* out);
 // Values and gradients (3 floats per point, d value / d unit-frame coordinate): the GPU twin of
