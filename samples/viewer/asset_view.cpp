@@ -1,5 +1,8 @@
 #include "asset_view.h"
 
+#include <cstdio>
+#include <memory>
+
 namespace nfc_viewer {
 
 bool refresh_asset(StreamedAsset* streamed, AssetView* view, VkDeviceContext* vk,
@@ -10,53 +13,62 @@ bool refresh_asset(StreamedAsset* streamed, AssetView* view, VkDeviceContext* vk
         view->error = streamed->error;  // the mesh shown so far stays, marked failed
         return false;
     }
-    if (phase != Arrival::kSubmitted) return false;
-    nfd_job* job = streamed->job;
-    if (!job) {  // no coarser level: the recording decodes them all (recorded_final.h)
+    if (phase != Arrival::kSubmitted || !may_upload) return false;  // an offer waits meanwhile
+    const std::unique_ptr<OfferedLevel> level(
+        streamed->offered.exchange(nullptr, std::memory_order_acq_rel));
+    if (!level) return false;
+    if (level->last) {
         view->queue_done = true;
-        return false;
+        view->awaits_recording = streamed->records_final;
     }
-    const nfd_job_status status = nfd_job_poll(job);
-    const bool final =
-        status == NFD_JOB_DONE || status == NFD_JOB_FAILED || status == NFD_JOB_CANCELLED;
-    nfd_job_progress progress = {};
-    progress.struct_size = sizeof progress;
-    nfd_job_get_progress(job, &progress);
-    if (!final && progress.newest_mesh_resolution == view->resolution()) return false;
-    if (!may_upload) return false;  // the job keeps the newest level until a later frame takes it
-
-    nfd_mesh* mesh = nullptr;
-    const nfd_result r = nfd_job_take_mesh(job, &mesh);
-    if (r != NFD_SUCCESS) {
-        view->error = nfd_result_string(r);
-        return false;
-    }
-    view->queue_done = final;
-    if (!mesh) return false;  // DONE, and its final mesh was taken earlier
+    if (!level->mesh) return false;
     nfd_mesh_data data{};
-    nfd_decode_stats stats{};
-    nfd_mesh_get_data(mesh, &data);
-    nfd_mesh_get_stats(mesh, &stats);
-    nfd_job_get_progress(job, &progress);
-    LevelRecord level;
-    level.resolution = progress.taken_mesh_resolution;
-    level.triangles = data.triangle_count;
-    // seconds_field counts every step so far; seconds_mesh is the level's own.
-    level.decode_ms = 1e3 * (stats.seconds_field - view->field_seconds + stats.seconds_mesh);
-    level.shown_s = now_s;
-    view->field_seconds = stats.seconds_field;
-    const GpuMesh uploaded = upload_mesh(*vk, data);
-    nfd_mesh_destroy(mesh);
-    show_level(view, uploaded, level, vk->device(), frames);
+    const float* colours = nullptr;
+    nfd_mesh_get_data(level->mesh, &data);
+    nfd_mesh_get_colours(level->mesh, &colours);
+    const GpuMesh uploaded = upload_mesh(*vk, data, colours);
+    // The loader thread offers no other mesh before this one is back: the slot is empty.
+    if (level->last) nfd_mesh_destroy(level->mesh);
+    else streamed->returned.store(level->mesh, std::memory_order_release);
+    if (level->recoloured) {
+        show_mesh(view, uploaded, vk->device(), frames);
+        view->levels.back().colouring = level->colouring;
+        view->levels.back().colour_ms = level->colour_ms;
+        return true;
+    }
+    LevelRecord record;
+    record.resolution = level->resolution;
+    record.triangles = data.triangle_count;
+    record.decode_ms = level->decode_ms;
+    record.shown_s = now_s;
+    record.colouring = level->colouring;
+    record.colour_ms = level->colour_ms;
+    show_level(view, uploaded, record, vk->device(), frames);
     return true;
+}
+
+void show_mesh(AssetView* view, const GpuMesh& mesh, VkDevice device, FrameTarget* frames) {
+    GpuMesh replaced = view->mesh;
+    view->mesh = mesh;
+    frames->retire([device, replaced]() mutable { destroy_mesh(device, &replaced); });
 }
 
 void show_level(AssetView* view, const GpuMesh& mesh, const LevelRecord& level, VkDevice device,
                 FrameTarget* frames) {
-    GpuMesh replaced = view->mesh;
-    view->mesh = mesh;
-    frames->retire([device, replaced]() mutable { destroy_mesh(device, &replaced); });
+    show_mesh(view, mesh, device, frames);
     view->levels.push_back(level);
+}
+
+std::string colour_source(const StreamedAsset& streamed, const AssetView& view) {
+    if (view.levels.empty()) return "-";
+    const LevelRecord& shown = view.levels.back();
+    if (shown.colouring == Colouring::kQueued) return "from the queue";
+    if (shown.colouring == Colouring::kAdded) {
+        char text[64];
+        std::snprintf(text, sizeof text, "added on arrival (%.0f ms)", shown.colour_ms);
+        return text;
+    }
+    return streamed.colour_expected && !view.final() && !view.failed() ? "awaited" : "none";
 }
 
 }  // namespace nfc_viewer

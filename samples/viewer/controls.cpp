@@ -17,6 +17,7 @@ void on_key(GLFWwindow* window, int key, int, int action, int) {
         case GLFW_KEY_N:
             c->shading = c->shading == Shading::kLit ? Shading::kNormals : Shading::kLit;
             break;
+        case GLFW_KEY_C: c->colour = !c->colour; break;
         case GLFW_KEY_O: c->overlay = !c->overlay; break;
         default: break;
     }

@@ -1,5 +1,5 @@
 // Mouse and keys: the orbit camera (left drag rotates, right or shift + left drag pans, the wheel
-// zooms) and the view toggles (R reset, W wireframe, N shading, O overlay, Esc quit).
+// zooms) and the view toggles (R reset, W wireframe, N shading, C colour, O overlay, Esc quit).
 #pragma once
 
 #define GLFW_INCLUDE_NONE
@@ -14,6 +14,7 @@ struct Controls {
     OrbitCamera camera, home;  // home: what R resets to
     bool wireframe = false;
     Shading shading = Shading::kLit;
+    bool colour = true;  // lit: the vertex colours of the meshes that have them, else the tint
     bool overlay = true;
 
     // Installs the key and scroll callbacks (before ImGui's, which chain to them); `this` must

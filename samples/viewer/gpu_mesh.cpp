@@ -14,7 +14,7 @@ VkBuffer as_buffer(uint64_t handle) {  // nfd_device_mesh's handles are VkBuffer
 
 }  // namespace
 
-GpuMesh upload_mesh(const VkDeviceContext& vk, const nfd_mesh_data& data) {
+GpuMesh upload_mesh(const VkDeviceContext& vk, const nfd_mesh_data& data, const float* colours) {
     GpuMesh m;
     if (data.triangle_count == 0 || data.vertex_count == 0) return m;
     const VkDevice device = vk.device();
@@ -22,15 +22,21 @@ GpuMesh upload_mesh(const VkDeviceContext& vk, const nfd_mesh_data& data) {
     // device's memory; a discrete GPU would want a staging copy to device-local memory here.
     const size_t stream_bytes = size_t(data.vertex_count) * 3 * sizeof(float);
     const VkDeviceSize index_bytes = VkDeviceSize(data.triangle_count) * 3 * sizeof(uint32_t);
-    vk.create_host_buffer(2 * stream_bytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, &m.positions,
+    const int streams = colours ? 3 : 2;
+    vk.create_host_buffer(streams * stream_bytes, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, &m.positions,
                           &m.vertex_memory);
     m.normals = m.positions;
     m.normals_offset = stream_bytes;
+    if (colours) {
+        m.colours = m.positions;
+        m.colours_offset = 2 * stream_bytes;
+    }
     vk.create_host_buffer(index_bytes, VK_BUFFER_USAGE_INDEX_BUFFER_BIT, &m.indices, &m.index_memory);
     void* mapped = nullptr;
     vk_check(vkMapMemory(device, m.vertex_memory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
     std::memcpy(mapped, data.positions, stream_bytes);
     std::memcpy(static_cast<char*>(mapped) + stream_bytes, data.normals, stream_bytes);
+    if (colours) std::memcpy(static_cast<char*>(mapped) + 2 * stream_bytes, colours, stream_bytes);
     vkUnmapMemory(device, m.vertex_memory);
     vk_check(vkMapMemory(device, m.index_memory, 0, VK_WHOLE_SIZE, 0, &mapped), "vkMapMemory");
     std::memcpy(mapped, data.indices, size_t(index_bytes));

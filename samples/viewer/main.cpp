@@ -3,7 +3,8 @@
 // libnfdecode's streaming API, over the public header only: nfd_stream (streamer.cpp), nfd_queue
 // with progressive levels (nfd_job_options.mesh_levels), device adoption (the viewer's VkDevice,
 // nfd_context_options.adopt) and, on that device, the final level recorded into the viewer's
-// command buffer and drawn in place (nfd_recording, recorded_final.h). See --help; headless:
+// command buffer and drawn in place (nfd_recording, recorded_final.h); colour (format 1.1) drawn
+// as soon as its chunk arrives (streamer.h). See --help; headless:
 // xvfb-run -a nfc-viewer DIR --screenshot F.png.
 //
 // Errors are one line on stderr ("nfc-viewer: error: ...") and a non-zero exit status: 2 for a
@@ -20,7 +21,6 @@
 #include <stdexcept>
 #include <thread>
 
-#include "../common/cli_values.h"
 #include "asset_view.h"
 #include "controls.h"
 #include "frame_clock.h"
@@ -73,7 +73,7 @@ void print_summary(const std::vector<StreamedAsset*>& streamed, const std::vecto
         for (const LevelRecord& l : v.levels) std::printf(" %u:%.1fms", l.resolution, l.decode_ms);
         std::printf(", final mesh %s", final_mesh_source(v));
         if (v.recording_tries) std::printf(", %u recordings", v.recording_tries);
-        std::printf("\n");
+        std::printf(", colour %s\n", colour_source(*streamed[i], v).c_str());
     }
 }
 
@@ -88,28 +88,32 @@ int run(const Options& o) {
 
     // On the device: the queue's context decodes the coarser levels on its worker, a second
     // context on the same device records the final ones on this thread (contexts are not
-    // thread-safe). Destroyed last: after the recordings, the jobs and the assets.
+    // thread-safe). A third, where the queue's is, colours levels on the loader thread
+    // (streamer.h). Destroyed last: after the recordings, the jobs and the assets.
     const bool on_device = decodes_on_device(o, vk);
     const nfd_vulkan_device lent = on_device ? vk.lend() : nfd_vulkan_device{};
     ContextPtr context = create_context(on_device ? &lent : nullptr);
     ContextPtr recording_context = on_device ? create_context(&lent) : ContextPtr(nullptr, nullptr);
+    ContextPtr colour_context = create_context(on_device ? &lent : nullptr);
     OverlayStatus status;
     status.render_device = vk.properties().deviceName;
     status.decode_device = on_device ? std::string("adopted ") +
                                            nfd_context_device_name(context.get()) +
-                                           ", final level recorded"
+                                           ", final level recorded (uploaded with colour)"
                                      : std::string("cpu");
 
     const size_t n = o.inputs.size();
     std::vector<AssetView> views(n);
-    for (AssetView& v : views) v.awaits_recording = on_device;
-    // The queue's levels: all of them on the CPU, the coarser ones (maybe none) on the device.
-    std::vector<uint32_t> queue_levels = o.levels;
-    if (on_device) queue_levels.pop_back();
+    // The queue's levels: all of them on the CPU, the coarser ones (maybe none) on the device
+    // for a file without colour.
+    Streamer::Config config;
+    config.bandwidth = o.bandwidth;
+    config.levels = o.levels;
+    config.record_finals = on_device;
+    config.colour = o.colour;
     const Clock::time_point start = Clock::now();
-    auto streamer = std::make_unique<Streamer>(
-        context.get(), o.inputs, o.bandwidth, queue_levels.empty() ? 0 : queue_levels.back(),
-        nfc_cli::ladder_mask(queue_levels), on_device, start);
+    auto streamer = std::make_unique<Streamer>(context.get(), colour_context.get(), o.inputs,
+                                               config, start);
     std::unique_ptr<RecordedFinals> finals;
     if (on_device)
         finals = std::make_unique<RecordedFinals>(&vk, recording_context.get(), o.levels.back(),
@@ -174,16 +178,20 @@ int run(const Options& o) {
             const nfd_asset_info& info = streamed[i]->info;  // set before the job was published
             push.mvp = view_projection * model_matrix(i, n, info.center, info.scale);
             const float hue = float(i) / float(std::max<size_t>(n, 1));
+            const ShaderMode mode = controls.shading == Shading::kNormals ? ShaderMode::kNormals
+                                    : controls.colour && views[i].mesh.coloured()
+                                        ? ShaderMode::kVertexColour
+                                        : ShaderMode::kTint;
             push.tint = glm::vec4(0.75f + 0.2f * std::sin(6.2832f * hue),
                                   0.75f + 0.2f * std::sin(6.2832f * (hue + 0.33f)),
-                                  0.75f + 0.2f * std::sin(6.2832f * (hue + 0.67f)),
-                                  float(int(controls.shading)));
+                                  0.75f + 0.2f * std::sin(6.2832f * (hue + 0.67f)), float(int(mode)));
             pipeline.draw(cmd, views[i].mesh, push);
         }
         if (controls.overlay) {
             status.frame_ms = clock.last_ms();
             status.frame_ms_average = clock.average_ms();
             status.shading = controls.shading == Shading::kLit ? "lit" : "normals";
+            status.colour = !o.colour ? "off (--no-colour)" : controls.colour ? "on" : "off (C)";
             status.wireframe = controls.wireframe && pipeline.has_wireframe();
             overlay.draw(cmd, status, streamed, views);
         }

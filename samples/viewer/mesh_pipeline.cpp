@@ -25,17 +25,21 @@ VkPipeline create_pipeline(VkDevice device, VkRenderPass render_pass, VkPipeline
     stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
     stages[1].module = frag;
     stages[1].pName = "main";
-    // Positions and normals as two streams (GpuMesh): the layout of nfd_device_mesh's buffers.
-    const VkVertexInputBindingDescription bindings[2] = {
+    // Positions, normals and colours as three streams (GpuMesh): the layout of nfd_device_mesh's
+    // buffers plus nfd_mesh_get_colours'.
+    const VkVertexInputBindingDescription bindings[3] = {
         {0, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX},
-        {1, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX}};
-    const VkVertexInputAttributeDescription attributes[2] = {
-        {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0}, {1, 1, VK_FORMAT_R32G32B32_SFLOAT, 0}};
+        {1, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX},
+        {2, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX}};
+    const VkVertexInputAttributeDescription attributes[3] = {
+        {0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
+        {1, 1, VK_FORMAT_R32G32B32_SFLOAT, 0},
+        {2, 2, VK_FORMAT_R32G32B32_SFLOAT, 0}};
     VkPipelineVertexInputStateCreateInfo input{};
     input.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-    input.vertexBindingDescriptionCount = 2;
+    input.vertexBindingDescriptionCount = 3;
     input.pVertexBindingDescriptions = bindings;
-    input.vertexAttributeDescriptionCount = 2;
+    input.vertexAttributeDescriptionCount = 3;
     input.pVertexAttributeDescriptions = attributes;
     VkPipelineInputAssemblyStateCreateInfo assembly{};
     assembly.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
@@ -128,9 +132,14 @@ void MeshPipeline::draw(VkCommandBuffer cmd, const GpuMesh& mesh, const MeshPush
     if (mesh.empty()) return;
     vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                        sizeof push, &push);
-    const VkBuffer streams[2] = {mesh.positions, mesh.normals};
-    const VkDeviceSize offsets[2] = {0, mesh.normals_offset};
-    vkCmdBindVertexBuffers(cmd, 0, 2, streams, offsets);
+    // A mesh without colours binds its normals as binding 2, a stream of the right size that
+    // the shader then does not use (ShaderMode): one pipeline, nothing allocated for it.
+    const bool coloured = mesh.coloured();
+    const VkBuffer streams[3] = {mesh.positions, mesh.normals,
+                                 coloured ? mesh.colours : mesh.normals};
+    const VkDeviceSize offsets[3] = {0, mesh.normals_offset,
+                                     coloured ? mesh.colours_offset : mesh.normals_offset};
+    vkCmdBindVertexBuffers(cmd, 0, 3, streams, offsets);
     vkCmdBindIndexBuffer(cmd, mesh.indices, 0, VK_INDEX_TYPE_UINT32);
     if (mesh.draw)  // the decode's own record: its count never comes to the host
         vkCmdDrawIndexedIndirect(cmd, mesh.draw, 0, 1, sizeof(VkDrawIndexedIndirectCommand));

@@ -15,7 +15,7 @@ const char kUsage[] =
     "usage: nfc-viewer DIR|FILE... [--bandwidth 256KB/s] [--levels 32,64,128,256]\n"
     "                  [--width W --height H] [--decode-device auto|cpu|vulkan]\n"
     "                  [--screenshot OUT.png --frames N [--wait-loaded] [--timeout S]]\n"
-    "                  [--no-overlay] [--preload] [--fps N] [--frame-log FILE]\n"
+    "                  [--no-overlay] [--no-colour] [--preload] [--fps N] [--frame-log FILE]\n"
     "                  [--recording-capacity N]\n"
     "  DIR|FILE        .nfc files, or directories of them (laid out in a grid, by name)\n"
     "  --bandwidth R   each asset arrives at R (B/s, KB/s, MB/s; 1 KB = 1024 B), default 256KB/s\n"
@@ -25,11 +25,14 @@ const char kUsage[] =
     "                  cpu, or auto (default: cpu on a CPU implementation such as lavapipe,\n"
     "                  whose threads the render shares; vulkan on a GPU; see bench/RESULTS.md).\n"
     "                  On vulkan the final level is recorded into the viewer's command buffer\n"
-    "                  (nfd_recording) and drawn from the library's buffers (zero copy)\n"
+    "                  (nfd_recording) and drawn from the library's buffers (zero copy), but\n"
+    "                  for a file with colour: recordings are geometry only, so its final\n"
+    "                  level comes from the queue, uploaded, coloured\n"
     "  --screenshot F  headless: render --frames N frames (default 60), write the last as PNG\n"
     "  --wait-loaded   with --screenshot: keep rendering until every asset is final\n"
     "  --timeout S     with --wait-loaded: give up after S seconds (default 300)\n"
     "  --no-overlay    hide the ImGui overlay\n"
+    "  --no-colour     geometry only: colour fields are not decoded, meshes drawn in the tint\n"
     "  --preload       decode every asset before the first frame (a fully loaded scene)\n"
     "  --fps N         frame-rate cap (default 60; 0: none)\n"
     "  --frame-log F   write one line per frame: frame milliseconds, assets still loading\n"
@@ -37,8 +40,10 @@ const char kUsage[] =
     "                  points, vertices, triangles; default 0: libnfdecode's); an overflow is\n"
     "                  recorded again with the capacities it needed\n"
     "Mouse: left drag rotates, right drag (or shift + left) pans, wheel zooms.\n"
-    "Keys: R reset camera, W wireframe, N shading (lit / normals), O overlay, Esc quit.\n"
-    "Colour chunks are listed in the overlay; libnfdecode does not decode them yet.\n";
+    "Keys: R reset camera, W wireframe, N shading (lit / normals), C colour (the vertex colours\n"
+    "of a file with colour, lit, or the tint), O overlay, Esc quit.\n"
+    "A file's colour (format 1.1) is drawn once its colour chunk has arrived, on the levels\n"
+    "already shown too.\n";
 
 long parse_int(const std::string& flag, const char* text, long min, long max) {
     char* end = nullptr;
@@ -108,6 +113,8 @@ Options parse_options(int argc, char** argv) {
             o.timeout_s = double(parse_int(arg, value(), 1, 86400));
         } else if (arg == "--no-overlay") {
             o.overlay = false;
+        } else if (arg == "--no-colour") {
+            o.colour = false;
         } else if (arg == "--preload") {
             o.preload = true;
         } else if (arg == "--fps") {

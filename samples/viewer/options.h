@@ -19,6 +19,7 @@ struct Options {
     bool wait_loaded = false;  // with --screenshot: also render until every asset is final
     double timeout_s = 300;    // with --wait-loaded: fail if the assets take longer
     bool overlay = true;
+    bool colour = true;        // decode and draw colour; --no-colour: geometry only
     bool preload = false;      // decode everything before the first frame (the bench's baseline)
     DecodeDevice decode_device = DecodeDevice::kAuto;
     int fps = 60;              // frame-rate cap; 0: uncapped

@@ -100,16 +100,18 @@ void Overlay::draw(VkCommandBuffer cmd, const OverlayStatus& status,
     ImGui::SetNextWindowBgAlpha(0.75f);
     ImGui::Begin("nfc-viewer", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
     ImGui::Text("render: %s   decode: %s", status.render_device.c_str(), status.decode_device.c_str());
-    ImGui::Text("frame %.2f ms (average %.2f ms)   shading: %s%s", status.frame_ms,
-                status.frame_ms_average, status.shading, status.wireframe ? ", wireframe" : "");
+    ImGui::Text("frame %.2f ms (average %.2f ms)   shading: %s%s   colour: %s", status.frame_ms,
+                status.frame_ms_average, status.shading, status.wireframe ? ", wireframe" : "",
+                status.colour);
     size_t total_triangles = 0;
-    if (ImGui::BeginTable("assets", 6, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
+    if (ImGui::BeginTable("assets", 7, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
         ImGui::TableSetupColumn("asset");
         ImGui::TableSetupColumn("KiB received");
         ImGui::TableSetupColumn("state");
         ImGui::TableSetupColumn("triangles");
         ImGui::TableSetupColumn("levels: cells / decode ms");
         ImGui::TableSetupColumn("final mesh");
+        ImGui::TableSetupColumn("colour");
         ImGui::TableHeadersRow();
         for (size_t i = 0; i < views.size(); ++i) {
             const StreamedAsset& s = *streamed[i];
@@ -125,9 +127,6 @@ void Overlay::draw(VkCommandBuffer cmd, const OverlayStatus& status,
             ImGui::TableNextColumn();
             if (v.failed()) ImGui::TextColored(ImVec4(1, 0.35f, 0.3f, 1), "failed: %s", v.error.c_str());
             else ImGui::TextUnformatted(state_of(s, v));
-            if (s.phase.load(std::memory_order_acquire) != Arrival::kStreaming && s.info.has_colour)
-                ImGui::TextDisabled("colour: in file, not decoded by libnfdecode %d.%d",
-                                    NFD_VERSION_MAJOR, NFD_VERSION_MINOR);
             ImGui::TableNextColumn();
             ImGui::TextUnformatted(thousands(v.triangles()).c_str());
             ImGui::TableNextColumn();
@@ -141,11 +140,14 @@ void Overlay::draw(VkCommandBuffer cmd, const OverlayStatus& status,
             ImGui::TextUnformatted(levels.c_str());
             ImGui::TableNextColumn();
             ImGui::TextUnformatted(final_mesh_source(v));
+            ImGui::TableNextColumn();
+            ImGui::TextUnformatted(colour_source(s, v).c_str());
         }
         ImGui::EndTable();
     }
     ImGui::Text("%s triangles in all", thousands(total_triangles).c_str());
-    ImGui::TextDisabled("drag: rotate  right drag: pan  wheel: zoom  R reset  W wire  N shading  O overlay");
+    ImGui::TextDisabled(
+        "drag: rotate  right drag: pan  wheel: zoom  R reset  W wire  N shading  C colour  O overlay");
     ImGui::End();
     ImGui::Render();
     ImGui_ImplVulkan_RenderDrawData(ImGui::GetDrawData(), cmd);

@@ -1,5 +1,6 @@
 // The Dear ImGui overlay (Debian's libimgui-dev: imgui 1.86 with its GLFW and Vulkan backends):
-// per asset the bytes received, the decode milliseconds and triangles of every level, its state;
+// per asset the bytes received, the decode milliseconds and triangles of every level, its state,
+// where its colour comes from;
 // the frame time; the keys.
 #pragma once
 
@@ -16,6 +17,7 @@ struct OverlayStatus {
     std::string render_device, decode_device;
     double frame_ms = 0, frame_ms_average = 0;
     const char* shading = "";
+    const char* colour = "";  // on, off (C) or off (--no-colour)
     bool wireframe = false;
 };
 
