@@ -21,11 +21,18 @@ std::optional<ColourField> colour_field(const ParsedFile& file, bool skip) {
 nfd_result evaluate_colour_unit(const Network& colour, const float* unit_xyz, size_t n,
                                 gpu::Device* device, unsigned threads, float* out_rgb) {
 #if NFD_WITH_VULKAN
-    if (device) return gpu::evaluate(*device, colour, unit_xyz, n, out_rgb);
+    if (device) {
+        const nfd_result r = gpu::evaluate(*device, colour, unit_xyz, n, out_rgb);
+        if (r != NFD_SUCCESS) return r;
+    } else
 #else
     (void)device;
 #endif
-    evaluate_cpu(colour, unit_xyz, n, out_rgb, threads);
+        evaluate_cpu(colour, unit_xyz, n, out_rgb, threads);
+    // A valid file can still hold weights whose products overflow (steps near the f32 maximum):
+    // sin(inf) is NaN, and NaN is no colour. Such outputs read as 0, so colours stay in [0, 1].
+    for (size_t i = 0; i < 3 * n; ++i)
+        if (!(out_rgb[i] >= 0.0f && out_rgb[i] <= 1.0f)) out_rgb[i] = 0.0f;
     return NFD_SUCCESS;
 }
 

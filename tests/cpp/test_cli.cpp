@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "export.h"
 #include "test_util.h"
 
 namespace nfd::test {
@@ -68,6 +69,39 @@ TEST(Cli, DecodesToGlbAndPlyWithStats) {
     EXPECT_TRUE(r.out.empty());  // quiet without --stats
     EXPECT_EQ(read_ply(ply).vertex_count(), 500u);
     for (const std::string& p : {in, glb, ply}) std::remove(p.c_str());
+}
+
+// A file with colour: --points carries the colour of every point (the field's at the point), the
+// mesh PLY its vertices', streamed or not; --no-colour drops it.
+TEST(Cli, PointsAndMeshesCarryColour) {
+    const std::string in = temp_file(
+        "colour.nfc", coloured_file(closed_blob(), random_colour_siren(16, 8, 61)));
+    const std::string points = in + ".points.ply", mesh = in + ".mesh.ply";
+    CliRun r = run_cli(in + " -o " + points + " --points 800 --device cpu --resolution 32 --stats");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("with colour"), std::string::npos) << r.out;
+    const MeshData cloud = read_ply(points);
+    ASSERT_EQ(cloud.vertex_count(), 800u);
+    ASSERT_EQ(cloud.colours.size(), 3 * 800u);
+    // The written bytes are the field's colour at the written points.
+    ParsedFile f;
+    const Bytes bytes = read_bytes(in);
+    ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &f), NFD_SUCCESS);
+    std::vector<float> rgb(3 * 800);
+    evaluate_cpu(*f.colour, cloud.positions.data(), 800, rgb.data());  // frame: centre 0, scale 1
+    for (size_t i = 0; i < rgb.size(); ++i)
+        ASSERT_EQ(cloud.colours[i], float(colour_byte(rgb[i])) / 255.0f) << i;
+
+    for (const std::string extra : {"", " --stream-chunk 7"}) {
+        r = run_cli(in + " -o " + mesh + " --device cpu --resolution 32" + extra);
+        ASSERT_EQ(r.status, 0) << r.err;
+        const MeshData m = read_ply(mesh);
+        EXPECT_EQ(m.colours.size(), m.positions.size()) << extra;
+    }
+    r = run_cli(in + " -o " + points + " --points 100 --device cpu --resolution 32 --no-colour");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(read_ply(points).colours.empty());
+    for (const std::string& p : {in, points, mesh}) std::remove(p.c_str());
 }
 
 TEST(Cli, ErrorsAreOneLineWithNonZeroStatus) {

@@ -232,6 +232,30 @@ TEST(Colour, GlbCarriesColour0) {
     EXPECT_EQ(std::memcmp(&glb[bin], m.colours.data(), 4 * m.colours.size()), 0);
 }
 
+// Hostile colour networks that pass every check (CRC-consistent damage to the colr payload):
+// either an error code, or a mesh whose colours are all in [0, 1].
+TEST(Colour, DamagedColourNetworksGiveErrorsOrValidColours) {
+    const ContextPtr ctx = cpu_context();
+    const Bytes geom = chunk("GEOM", geom_payload(closed_blob()));
+    const Bytes payload = colour_payload(random_colour_siren(8, 8, 71));
+    size_t accepted = 0;
+    for (size_t i = 0; i < payload.size(); i += 3) {
+        for (uint8_t pattern : {0x01, 0x40, 0xFF}) {
+            Bytes damaged = payload;
+            damaged[i] ^= pattern;
+            const Bytes bytes = file({geom, chunk("colr", damaged)}, {1, 1, 0});
+            nfd_asset* a = nullptr;
+            if (nfd_asset_create(bytes.data(), bytes.size(), &a) != NFD_SUCCESS) continue;
+            const AssetPtr asset(a);
+            ++accepted;
+            const MeshArrays m = arrays_of(extract(ctx.get(), asset.get(), 24).get());
+            ASSERT_EQ(m.colours.size(), m.positions.size()) << i;
+            for (float c : m.colours) ASSERT_TRUE(c >= 0.0f && c <= 1.0f) << i << " " << c;
+        }
+    }
+    EXPECT_GT(accepted, 20u);  // the damage reached the evaluator, not only the parser
+}
+
 // Golden colour vectors (tests/vectors/v1_1_*: README.md): the C++ colours against the numpy
 // reference's, at the query points (f32 vs f64 arithmetic) and at the reference mesh's vertices.
 TEST(Colour, GoldenVectorsMatchTheReference) {

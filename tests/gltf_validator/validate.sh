@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# CTest gltf_validator: decodes every SDF golden vector with nfc-decode (auto = Vulkan where a
-# device exists, and CPU) to .glb and runs the Khronos glTF validator on the results. Exit 77 (skipped) when Node.js/npm is missing.
+# CTest gltf_validator: decodes every SDF golden vector and every colour vector (COLOR_0) with
+# nfc-decode (auto = Vulkan where a device exists, and CPU) to .glb and runs the Khronos glTF
+# validator on the results. Exit 77 (skipped) when Node.js/npm is missing.
 # Usage: validate.sh NFC_DECODE VECTORS_DIR WORK_DIR
 set -euo pipefail
 decoder=$1 vectors=$2 work=$3
@@ -13,7 +14,8 @@ if [ ! -d "$work/node_modules/gltf-validator" ]; then
     { echo "npm install gltf-validator failed: skipped"; exit 77; }
 fi
 files=()
-for nfc in "$vectors"/v1_0_*_sdf_*.nfc; do
+shopt -s nullglob
+for nfc in "$vectors"/v1_0_*_sdf_*.nfc "$vectors"/v1_1_*.nfc; do
   for device in auto cpu; do  # auto = Vulkan where a device exists
     out="$work/$(basename "${nfc%.nfc}")_$device.glb"
     "$decoder" "$nfc" -o "$out" --resolution 96 --device "$device"

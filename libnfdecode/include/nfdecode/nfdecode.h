@@ -250,7 +250,7 @@ NFD_API nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_a
  * exactly as before. Recorded decodes (nfd_recording) are geometry only.
  * Colours are RGB floats in [0, 1]: the input's 8-bit values / 255 with no transfer function
  * applied (for usual inputs display-encoded sRGB; treat them as such). 8-bit writers round:
- * min(255, floor(255 c + 0.5)).
+ * min(255, floor(255 c + 0.5)). A damaged network whose output is not a number gives 0 there.
  * Streaming: an asset taken when its geometry is ready has no colour yet; the stream's complete
  * asset (nfd_stream_take_complete_asset) has it, and nfd_mesh_evaluate_colours colours meshes
  * made before it arrived.
