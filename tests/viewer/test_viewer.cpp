@@ -3,7 +3,9 @@
 // API and placed by the viewer's own layout and camera (scene.h), with IoU >= 0.9, by the default
 // decode and by the device's, whose final levels are recorded and drawn in place; a corrupt
 // asset shown as failed while the others load; one-line errors. The comparison itself is tested
-// to reject an empty or shifted image. Only the tests that need a display skip, and only where
+// to reject an empty or shifted image. The golden colour vector is drawn in its field's colours,
+// whether its colour chunk arrives with its geometry or after the final level, and in the tint
+// with --no-colour. Only the tests that need a display skip, and only where
 // xvfb-run is not installed (scripts/setup.sh installs it).
 #include <gtest/gtest.h>
 #include <nfdecode/nfdecode.h>
@@ -15,6 +17,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -123,20 +126,29 @@ TEST(Silhouette, RejectsAnEmptyOrShiftedImage) {
     EXPECT_EQ(foreground(background.data(), kWidth, kHeight).coverage(), 0.0);
 }
 
-// The viewer headless on the golden vectors with --levels 32,64 and `options`; its screenshot's
-// foreground in *shot (left empty when there is none).
-Outcome screenshot_of_golden_vectors(const std::string& options, Mask* shot) {
+// The viewer headless on `paths` with --levels 32,64 and `options`; its screenshot's RGBA pixels
+// in *rgba (left empty when there is none).
+Outcome screenshot_of(const std::vector<std::string>& paths, const std::string& options,
+                      std::vector<unsigned char>* rgba) {
     const std::string png = (fs::temp_directory_path() /
                              ("nfc_viewer_shot_" + std::to_string(::getpid()) + ".png")).string();
-    const Outcome r = run(viewer_under_xvfb() + joined(golden_paths()) + " --screenshot '" + png +
+    const Outcome r = run(viewer_under_xvfb() + joined(paths) + " --screenshot '" + png +
                       "' --frames 10 --wait-loaded --timeout 120 --no-overlay --levels 32,64" +
                       " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight) +
                       options);
     int w = 0, h = 0, channels = 0;
     unsigned char* pixels = stbi_load(png.c_str(), &w, &h, &channels, 4);
     fs::remove(png);
-    if (pixels && w == kWidth && h == kHeight) *shot = foreground(pixels, w, h);
+    if (pixels && w == kWidth && h == kHeight) rgba->assign(pixels, pixels + size_t(w) * h * 4);
     stbi_image_free(pixels);
+    return r;
+}
+
+// screenshot_of the golden vectors; its foreground in *shot (left empty when there is none).
+Outcome screenshot_of_golden_vectors(const std::string& options, Mask* shot) {
+    std::vector<unsigned char> rgba;
+    const Outcome r = screenshot_of(golden_paths(), options, &rgba);
+    if (!rgba.empty()) *shot = foreground(rgba.data(), kWidth, kHeight);
     return r;
 }
 
@@ -209,6 +221,134 @@ TEST(Viewer, ACorruptAssetFailsWhileTheOthersLoad) {
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("a_good.nfc: done, 32 cells"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("b_corrupt.nfc: failed: "), std::string::npos) << r.out;
+}
+
+// The golden colour vector (format 1.1: v1_1_*.nfc), the first by name; "" when there is none.
+std::string colour_vector_path() {
+    std::vector<std::string> found;
+    for (const fs::directory_entry& e : fs::directory_iterator(NFC_TEST_VECTORS_DIR)) {
+        const std::string name = e.path().filename().string();
+        if (name.rfind("v1_1_", 0) == 0 && e.path().extension() == ".nfc")
+            found.push_back(e.path().string());
+    }
+    std::sort(found.begin(), found.end());
+    return found.empty() ? std::string() : found.front();
+}
+
+// What the viewer's lit shading draws of `path` alone at `resolution` in its vertex colours, on
+// the CPU, from the viewer's camera and light.
+Shaded reference_colours(const std::string& path, uint32_t resolution) {
+    nfd_context_options co = {};
+    co.struct_size = sizeof co;
+    co.device = NFD_DEVICE_CPU;
+    nfd_context* context = nullptr;
+    EXPECT_EQ(nfd_context_create(&co, &context), NFD_SUCCESS);
+    const std::vector<unsigned char> bytes = read_bytes(path);
+    nfd_asset* asset = nullptr;
+    EXPECT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &asset), NFD_SUCCESS) << path;
+    nfd_asset_info info{};
+    nfd_asset_get_info(asset, &info);
+    EXPECT_TRUE(info.has_colour) << path;
+    nfd_mesh_options mo = {};
+    mo.struct_size = sizeof mo;
+    mo.resolution = resolution;
+    nfd_mesh* mesh = nullptr;
+    EXPECT_EQ(nfd_mesh_extract(context, asset, &mo, &mesh), NFD_SUCCESS) << path;
+    nfd_mesh_data data{};
+    const float* colours = nullptr;
+    nfd_mesh_get_data(mesh, &data);
+    nfd_mesh_get_colours(mesh, &colours);
+    Shaded image(kWidth, kHeight);
+    EXPECT_NE(colours, nullptr) << path;
+    if (colours) {
+        const OrbitCamera camera = OrbitCamera::framing(1, float(kWidth) / float(kHeight));
+        const glm::mat4 mvp = camera.projection(float(kWidth) / kHeight) * camera.view() *
+                              model_matrix(0, 1, info.center, info.scale);
+        shade(data, colours, mvp, camera.eye() - camera.target, &image);  // main.cpp's light
+    }
+    nfd_mesh_destroy(mesh);
+    nfd_asset_destroy(asset);
+    nfd_context_destroy(context);
+    return image;
+}
+
+// How far a screenshot's colours are from the reference's: the largest channel difference of
+// their means (each over its own foreground), and the mean per-pixel channel difference where
+// both have a shape. In [0, 1].
+struct ColourError {
+    double of_means = 1, per_pixel = 1;
+};
+ColourError colour_error(const std::vector<unsigned char>& rgba, const Shaded& reference) {
+    const Mask shot = foreground(rgba.data(), kWidth, kHeight);
+    glm::dvec3 shot_sum(0), reference_sum(0);
+    double shot_n = 0, reference_n = 0, pixel_sum = 0, both_n = 0;
+    for (size_t i = 0; i < shot.covered.size(); ++i) {
+        const glm::dvec3 shown = glm::dvec3(rgba[4 * i], rgba[4 * i + 1], rgba[4 * i + 2]) / 255.0;
+        const glm::dvec3 expected(reference.rgb[i]);
+        if (shot.covered[i]) shot_sum += shown, ++shot_n;
+        if (reference.mask.covered[i]) reference_sum += expected, ++reference_n;
+        if (shot.covered[i] && reference.mask.covered[i]) {
+            const glm::dvec3 d = glm::abs(shown - expected);
+            pixel_sum += (d.x + d.y + d.z) / 3.0;
+            ++both_n;
+        }
+    }
+    ColourError e;
+    if (!shot_n || !reference_n || !both_n) return e;
+    const glm::dvec3 d = glm::abs(shot_sum / shot_n - reference_sum / reference_n);
+    e.of_means = std::max({d.x, d.y, d.z});
+    e.per_pixel = pixel_sum / both_n;
+    std::printf("mean colour: screenshot %.3f %.3f %.3f, reference %.3f %.3f %.3f; "
+                "per-pixel error %.3f\n", shot_sum.x / shot_n, shot_sum.y / shot_n,
+                shot_sum.z / shot_n, reference_sum.x / reference_n, reference_sum.y / reference_n,
+                reference_sum.z / reference_n, e.per_pixel);
+    return e;
+}
+
+// The golden colour vector drawn in its field's colours: when the whole (small) file arrives at
+// once, the queue colours its levels; at a bandwidth that brings the colour chunk 2 s after the
+// geometry (usually after the final level is shown), the loader thread colours them. With --no-colour
+// the same shape is drawn in the tint, which the comparison tells apart. Tolerances: 0.03 of the
+// means (8-bit rounding, edge pixels, screen-space interpolation) and 0.05 per pixel.
+TEST(Viewer, DrawsTheColourField) {
+    if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh installs xvfb)";
+    const std::string path = colour_vector_path();
+    ASSERT_FALSE(path.empty()) << "no golden colour vector v1_1_*.nfc in " NFC_TEST_VECTORS_DIR;
+    const Shaded reference = reference_colours(path, 64);
+    ASSERT_GT(reference.mask.coverage(), 0.02);
+    // GEOM's end (FORMAT.md: a 16-byte header, then GEOM framed by tag, length and CRC): the
+    // colour chunk's bytes follow, brought in 2 s (less for a chunk under a tenth of the file:
+    // the whole file in 10 s at most).
+    const std::vector<unsigned char> bytes = read_bytes(path);
+    ASSERT_GT(bytes.size(), 24u);
+    uint32_t geom_length = 0;
+    std::memcpy(&geom_length, bytes.data() + 20, 4);  // little-endian, as this host
+    const size_t colour_bytes = bytes.size() - (16 + 8 + size_t(geom_length) + 4);
+    ASSERT_GT(colour_bytes, 0u);
+    const std::string slow =
+        " --bandwidth " + std::to_string(std::max(colour_bytes / 2, bytes.size() / 10)) + "B/s";
+    const std::string name = fs::path(path).filename().string();
+    for (const std::string& options : {std::string(), slow}) {
+        SCOPED_TRACE(options.empty() ? "whole file at once" : options);
+        std::vector<unsigned char> rgba;
+        const Outcome r = screenshot_of({path}, options, &rgba);
+        ASSERT_EQ(r.status, 0) << r.err << r.out;
+        const std::string line = r.out.substr(0, r.out.find('\n'));
+        EXPECT_NE(line.find(name + ": done, 64 cells"), std::string::npos) << r.out;
+        const char* source = options.empty() ? ", colour from the queue" : ", colour added on arrival";
+        EXPECT_NE(line.find(source), std::string::npos) << line;
+        ASSERT_FALSE(rgba.empty());
+        const ColourError e = colour_error(rgba, reference);
+        EXPECT_LT(e.of_means, 0.03);
+        EXPECT_LT(e.per_pixel, 0.05);
+    }
+    std::vector<unsigned char> rgba;
+    const Outcome r = screenshot_of({path}, " --no-colour", &rgba);
+    ASSERT_EQ(r.status, 0) << r.err << r.out;
+    EXPECT_NE(r.out.find(", colour none"), std::string::npos) << r.out;
+    ASSERT_FALSE(rgba.empty());
+    const ColourError e = colour_error(rgba, reference);
+    EXPECT_GT(e.per_pixel, 0.05) << "the tint must not pass for the field's colours";
 }
 
 void expect_one_line_error(const Outcome& r, int status, const std::string& fragment) {
