@@ -215,12 +215,15 @@ void Streamer::take_colour(StreamedAsset* a, Loading* l) {
     if (r != NFD_SUCCESS) fail(a, std::string("colour: ") + nfd_result_string(r));
 }
 
-nfd_result Streamer::colour(Loading* l, nfd_mesh* mesh, OfferedLevel* level) {
+bool Streamer::colour(StreamedAsset* a, Loading* l, nfd_mesh* mesh, OfferedLevel* level) {
     const auto started = Clock::now();
     const nfd_result r = nfd_mesh_evaluate_colours(colour_context_, l->coloured, mesh);
     level->colouring = Colouring::kAdded;
     level->colour_ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
-    return r;
+    if (r == NFD_SUCCESS) return true;
+    nfd_mesh_destroy(mesh);
+    fail(a, std::string("colour: ") + nfd_result_string(r));
+    return false;
 }
 
 bool Streamer::deliver(StreamedAsset* a, Loading* l) {
@@ -253,15 +256,16 @@ bool Streamer::deliver(StreamedAsset* a, Loading* l) {
         nfd_job_progress progress = {};
         progress.struct_size = sizeof progress;
         nfd_job_get_progress(a->job, &progress);
-        if (!final && progress.newest_mesh_resolution == l->taken_resolution) return true;
         nfd_mesh* mesh = nullptr;
-        const nfd_result r = nfd_job_take_mesh(a->job, &mesh);
-        if (r != NFD_SUCCESS) {
-            fail(a, nfd_result_string(r));
-            return false;
+        if (final || progress.newest_mesh_resolution != l->taken_resolution) {
+            const nfd_result r = nfd_job_take_mesh(a->job, &mesh);
+            if (r != NFD_SUCCESS) {
+                fail(a, nfd_result_string(r));
+                return false;
+            }
+            l->job_ended = final;
         }
-        l->job_ended = final;
-        if (mesh) {  // else DONE, and its final mesh was taken earlier
+        if (mesh) {  // else no newer level, or DONE and its final mesh was taken earlier
             nfd_decode_stats stats{};
             nfd_mesh_get_stats(mesh, &stats);
             nfd_job_get_progress(a->job, &progress);
@@ -276,11 +280,8 @@ bool Streamer::deliver(StreamedAsset* a, Loading* l) {
             // A newer level than the one shown: the shown one is not coloured any more.
             nfd_mesh_destroy(l->shown);
             l->shown = nullptr;
-            if (l->colour == Loading::Colour::kArrived && colour(l, mesh, level.get()) != NFD_SUCCESS) {
-                nfd_mesh_destroy(mesh);
-                fail(a, "colour evaluation failed");
+            if (l->colour == Loading::Colour::kArrived && !colour(a, l, mesh, level.get()))
                 return false;
-            }
             level->last = final && settled;
             return offer(std::move(level));
         }
@@ -289,11 +290,7 @@ bool Streamer::deliver(StreamedAsset* a, Loading* l) {
         level->mesh = l->shown;
         l->shown = nullptr;
         level->recoloured = true;
-        if (colour(l, level->mesh, level.get()) != NFD_SUCCESS) {
-            nfd_mesh_destroy(level->mesh);
-            fail(a, "colour evaluation failed");
-            return false;
-        }
+        if (!colour(a, l, level->mesh, level.get())) return false;
         level->last = l->job_ended;
         return offer(std::move(level));
     }

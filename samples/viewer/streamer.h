@@ -104,7 +104,9 @@ private:
     void submit(StreamedAsset* a, Loading* l, const nfd_stream_progress& p, nfd_result* r);
     void take_colour(StreamedAsset* a, Loading* l);
     bool deliver(StreamedAsset* a, Loading* l);
-    nfd_result colour(Loading* l, nfd_mesh* mesh, OfferedLevel* level);
+    // Colours `mesh` (of `level`) with the complete asset's field; on failure destroys it and
+    // fails the asset.
+    bool colour(StreamedAsset* a, Loading* l, nfd_mesh* mesh, OfferedLevel* level);
     void fail(StreamedAsset* a, const std::string& error);
 
     nfd_context* context_;
