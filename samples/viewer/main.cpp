@@ -88,13 +88,15 @@ int run(const Options& o) {
 
     // On the device: the queue's context decodes the coarser levels on its worker, a second
     // context on the same device records the final ones on this thread (contexts are not
-    // thread-safe). A third, where the queue's is, colours levels on the loader thread
-    // (streamer.h). Destroyed last: after the recordings, the jobs and the assets.
+    // thread-safe). A third, on the CPU, colours levels on the loader thread (streamer.h): on the
+    // device its submissions would hold the one queue that the frames need (lavapipe: frames of
+    // over a second behind a colour evaluation's first submission), and one colour network per
+    // vertex is cheap on a core. Destroyed last: after the recordings, the jobs and the assets.
     const bool on_device = decodes_on_device(o, vk);
     const nfd_vulkan_device lent = on_device ? vk.lend() : nfd_vulkan_device{};
     ContextPtr context = create_context(on_device ? &lent : nullptr);
     ContextPtr recording_context = on_device ? create_context(&lent) : ContextPtr(nullptr, nullptr);
-    ContextPtr colour_context = create_context(on_device ? &lent : nullptr);
+    ContextPtr colour_context = create_context(nullptr);
     OverlayStatus status;
     status.render_device = vk.properties().deviceName;
     status.decode_device = on_device ? std::string("adopted ") +

@@ -8,7 +8,7 @@
 // Colour arriving late. A file's `colr` chunk follows its geometry (FORMAT.md), so the asset
 // submitted at NFD_STREAM_GEOMETRY_READY has no colour unless the whole file came in the same
 // feed, and the job's levels come uncoloured. Once the stream completes, the loader thread takes
-// the complete asset (nfd_stream_take_complete_asset) and, on a context of its own, colours
+// the complete asset (nfd_stream_take_complete_asset) and, on a CPU context of its own, colours
 // (nfd_mesh_evaluate_colours) every level it takes from the job after that, and the level already
 // shown: the frame thread hands each uploaded level's host mesh back (StreamedAsset::returned)
 // until the one that is the last, so the loader thread can colour it and offer it again.
@@ -84,7 +84,7 @@ public:
     };
 
     // Starts the loader thread. `context` must outlive the Streamer and is used only by its
-    // queue; `colour_context` (on the same device) only by the loader thread, to colour levels.
+    // queue; `colour_context` only by the loader thread, to colour levels.
     Streamer(nfd_context* context, nfd_context* colour_context,
              const std::vector<std::string>& paths, const Config& config, Clock::time_point start);
     // Stops the loader thread, destroys the queue (cancelling what has not finished), the jobs,
