@@ -33,7 +33,7 @@ import torch
 from . import config
 from .bitstream import max_level
 from .devices import cpu_threads, resolve_device
-from .encoder import EncodeConfig, EncodeResult, Prepared, check_config, finish, prepare
+from .encoder import EncodeConfig, EncodeResult, Prepared, add_color, check_config, finish, prepare, wants_color
 from .io import Shape
 from .sampling import draw_epoch, epoch_counts
 from .train import TrainingData
@@ -229,6 +229,8 @@ def compress_many(shapes: Sequence[Shape], cfg: EncodeConfig, *, patience: int |
             best_loss = torch.where(better, qat_loss, best_loss)
         net.write_back(preps, best)
         losses = best_loss.cpu().tolist()
-        return [finish(prep, prep.model.layers, cfg.bits, loss, start) for prep, loss in zip(preps, losses)]
+        results = [finish(prep, prep.model.layers, cfg.bits, loss, start) for prep, loss in zip(preps, losses)]
+        return [add_color(result, shape, cfg, device) if wants_color(shape, cfg) else result
+                for result, shape in zip(results, shapes)]
     finally:
         torch.set_num_threads(previous_threads)

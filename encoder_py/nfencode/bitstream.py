@@ -107,6 +107,7 @@ class NfcFile:
     minor: int = FORMAT_MINOR
     skipped_chunks: list[str] = field(default_factory=list)  # optional tags a reader skipped
     color: ColorChunk | None = None
+    chunk_bytes: dict[str, int] = field(default_factory=dict)  # reader: each chunk's size, framing included
 
 
 def layer_inputs(num_frequencies: int, out_features: list[int]) -> list[int]:
@@ -537,6 +538,7 @@ def read_nfc(data: bytes) -> NfcFile:
     color: ColorChunk | None = None
     seen: set[str] = set()
     skipped: list[str] = []
+    sizes: dict[str, int] = {}
     pos = HEADER_SIZE
     while pos < file_size:
         cur = _Cursor(view, pos, file_size, "chunk")
@@ -563,6 +565,8 @@ def read_nfc(data: bytes) -> NfcFile:
             raise FormatError("unsupported_feature", f"unknown critical chunk {tag}")
         else:
             skipped.append(tag)
+        sizes[tag] = cur.pos - pos
         pos = cur.pos
     assert geometry is not None  # file_size >= 28 guarantees one chunk, and the first is GEOM
-    return NfcFile(geometry=geometry, major=major, minor=minor, skipped_chunks=skipped, color=color)
+    return NfcFile(geometry=geometry, major=major, minor=minor, skipped_chunks=skipped, color=color,
+                   chunk_bytes=sizes)

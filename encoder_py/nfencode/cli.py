@@ -19,16 +19,20 @@ from typing import NoReturn, Sequence
 
 from . import __version__
 from .bitstream import (
+    COLOR_SPACE_NAMES,
     FIELD_NAMES,
     FIELD_UDF,
     MAX_BITS,
     MAX_WIDTH,
     MIN_BITS,
     OUTPUT_NAMES,
+    TAG_COLOR,
+    TAG_GEOM,
+    NetworkBlock,
     NfcFile,
     read_nfc,
 )
-from .config import MAX_TORCH_THREADS
+from .config import COLOR_RESOLUTION, COLOR_WIDTH, DEFAULT_BITS, MAX_TORCH_THREADS
 from .devices import DEVICE_CHOICES
 from .errors import InputError, NfcError
 from .io import Shape, load_shape, save_mesh, save_points
@@ -78,27 +82,46 @@ def _positive(name: str, value: int | None, low: int = 1, high: int | None = Non
         raise InputError(f"{name} must be {bound}, got {value}")
 
 
+def _warn(message: str) -> None:
+    sys.stderr.write(f"nfc: warning: {message}\n")
+
+
 def cmd_encode(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     output = _output_path(args.output, (".nfc",))
     _check_encode_args(args)
-    shape = load_shape(args.input)
+    _positive("--color-width", args.color_width, 1, MAX_WIDTH)
+    _positive("--color-bits", args.color_bits, MIN_BITS, MAX_BITS)
+    _positive("--color-resolution", args.color_resolution, 8, 1024)
+    _positive("--color-epochs", args.color_epochs)
+    geometry = None if args.geometry is None else _read_nfc_file(args.geometry)[0]
+    shape = load_shape(args.input, colors=args.color, warn=_warn)
     from . import encoder  # imports torch: only this command needs it
+    from .bitstream import write_nfc
 
     from .devices import resolve_device
 
     device = resolve_device(args.device)
-    config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads)
-    result = encoder.compress(shape, config)
+    config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads, color=args.color,
+                                  color_width=args.color_width, color_bits=args.color_bits,
+                                  color_resolution=args.color_resolution, color_epochs=args.color_epochs)
+    result = encoder.compress(shape, config, None if geometry is None else write_nfc(geometry))
     from .batch import write_atomic
 
     write_atomic(output, result.data)
     seconds = time.perf_counter() - start
     print(f"field: {result.field}, {result.field_reason}")
+    if result.color is not None:
+        c = result.color
+        print(f"colour: width {args.color_width}, {args.color_bits} bits, {c.chunk.network.parameter_count} "
+              f"parameters, fitted on the surface decoded at {args.color_resolution} ({c.surface_vertices} vertices) "
+              f"in {c.seconds:.1f} s, validation MSE {c.validation_loss:.3g} (colours in [-1, 1])")
+    geometry_what = (f"geometry of {args.geometry}" if geometry is not None else
+                     f"width {args.width}, {args.bits} bits, preset {args.preset}")
     print(
-        f"{output}: {len(result.data)} bytes ({result.field}, width {args.width}, {args.bits} bits, "
-        f"preset {args.preset}, {device.type}), encoded in {seconds:.1f} s (training {result.seconds:.1f} s, "
-        f"final loss {result.final_loss:.3g})"
+        f"{output}: {len(result.data)} bytes ({result.field}, {geometry_what}, "
+        f"{'with' if result.color is not None else 'no'} colour, {device.type}), encoded in {seconds:.1f} s "
+        f"(training {result.seconds:.1f} s, final loss {result.final_loss:.3g})"
     )
     return 0
 
@@ -152,9 +175,31 @@ def _driver_sees_gpu() -> bool:
     return bool(torch.cuda.is_available())
 
 
+def _layers(net: NetworkBlock) -> list[dict]:
+    activations = ["sine"] * (len(net.out_features) - 1) + [OUTPUT_NAMES[net.output]]
+    return [{"in": i, "out": o, "activation": a} for i, o, a in zip(net.in_features, net.out_features, activations)]
+
+
+def _color_info(f: NfcFile) -> dict | None:
+    if f.color is None:
+        return None
+    net = f.color.network
+    return {
+        "color_space": COLOR_SPACE_NAMES[f.color.color_space],
+        "bytes": f.chunk_bytes.get(TAG_COLOR),
+        "width": net.out_features[0],
+        "num_frequencies": net.num_frequencies,
+        "frequency_base": net.frequency_base,
+        "omega0": net.omega0,
+        "layers": _layers(net),
+        "bits": net.bits,
+        "parameters": net.parameter_count,
+        "steps": [list(s) for s in net.steps],
+    }
+
+
 def _info_dict(path: str, f: NfcFile, size: int) -> dict:
     g, net = f.geometry, f.geometry.network
-    activations = ["sine"] * (len(net.out_features) - 1) + [OUTPUT_NAMES[net.output]]
     return {
         "file": path,
         "bytes": size,
@@ -166,14 +211,18 @@ def _info_dict(path: str, f: NfcFile, size: int) -> dict:
         "num_frequencies": net.num_frequencies,
         "frequency_base": net.frequency_base,
         "omega0": net.omega0,
-        "layers": [
-            {"in": i, "out": o, "activation": a} for i, o, a in zip(net.in_features, net.out_features, activations)
-        ],
+        "layers": _layers(net),
         "bits": net.bits,
         "parameters": net.parameter_count,
         "steps": [list(s) for s in net.steps],
+        "geometry_bytes": f.chunk_bytes.get(TAG_GEOM),
+        "color": _color_info(f),
         "skipped_chunks": list(f.skipped_chunks),
     }
+
+
+def _widths(layers: list[dict]) -> str:
+    return "->".join([str(layers[0]["in"])] + [str(layer["out"]) for layer in layers])
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -182,7 +231,6 @@ def cmd_info(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(info, indent=2))
         return 0
-    widths = "->".join([str(info["layers"][0]["in"])] + [str(layer["out"]) for layer in info["layers"]])
     acts = ", ".join(layer["activation"] for layer in info["layers"])
     c = ", ".join(f"{x:.6g}" for x in info["center"])
     print(f"file        {args.file}: {size} bytes, format {info['format']}")
@@ -192,33 +240,44 @@ def cmd_info(args: argparse.Namespace) -> int:
         f"encoding    {info['num_frequencies']} frequencies, pi * {info['frequency_base']:.6g}^k; "
         f"omega0 {info['omega0']:.6g}"
     )
-    print(f"network     {widths} ({acts})")
-    print(f"weights     {info['parameters']} parameters at {info['bits']} bits")
+    print(f"network     {_widths(info['layers'])} ({acts})")
+    print(f"weights     {info['parameters']} parameters at {info['bits']} bits, GEOM chunk {info['geometry_bytes']} bytes")
+    color = info["color"]
+    if color is not None:
+        print(
+            f"colour      {color['color_space']}, width {color['width']}, {color['num_frequencies']} frequencies, "
+            f"network {_widths(color['layers'])} (sigmoid output), {color['parameters']} parameters at "
+            f"{color['bits']} bits, colr chunk {color['bytes']} bytes"
+        )
     if info["skipped_chunks"]:
         print(f"skipped     unknown optional chunks: {', '.join(info['skipped_chunks'])}")
     return 0
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
-    from .reference import extract_mesh, sample_points
+    from .reference import color_bytes, decode_points, extract_mesh, extract_unit_mesh
 
     output = _output_path(args.output, (".ply", ".obj"))
     _positive("--points", args.points)
     start = time.perf_counter()
     f, _ = _read_nfc_file(args.file)
-    mesh = extract_mesh(f, args.resolution)
     if args.points is not None:
+        mesh = extract_unit_mesh(f, args.resolution)
         if len(mesh.faces) == 0:
             raise NfcError(f"{args.file}: the decoded field has no surface, no points to sample")
-        save_points(output, sample_points(mesh.vertices, mesh.faces, args.points, args.seed))
+        points, colors = decode_points(f, mesh, args.points, args.seed)
+        save_points(output, points, None if colors is None else color_bytes(colors))
         what = f"{args.points} points"
     else:
-        save_mesh(output, mesh.vertices, mesh.faces, mesh.normals)
+        mesh = extract_mesh(f, args.resolution)
+        colors = mesh.colors
+        save_mesh(output, mesh.vertices, mesh.faces, mesh.normals, None if colors is None else color_bytes(colors))
         what = f"{len(mesh.vertices)} vertices, {len(mesh.faces)} triangles"
     seconds = time.perf_counter() - start
     gradients = f" + {mesh.gradients_evaluated} with gradients" if f.geometry.field_type == FIELD_UDF else ""
+    colored = ", with colour" if colors is not None else ""
     print(
-        f"{output}: {what} ({FIELD_NAMES[f.geometry.field_type]}, resolution {args.resolution}, "
+        f"{output}: {what}{colored} ({FIELD_NAMES[f.geometry.field_type]}, resolution {args.resolution}, "
         f"{mesh.points_evaluated} field evaluations{gradients}, {seconds:.1f} s)"
     )
     return 0
@@ -259,6 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", help="PLY, OBJ, OFF, glTF or GLB file (optionally .gz), or a scanalyze .conf of scans")
     p.add_argument("-o", "--output", required=True, help="output .nfc file")
     _add_encode_options(p)
+    _add_color_options(p)
     p.set_defaults(run=cmd_encode)
 
     p = sub.add_parser("encode-batch", help="encode a directory of shapes or a JSON-lines manifest (Ray)")
@@ -315,6 +375,23 @@ def _add_encode_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threads", type=int, default=None,
                    help=f"CPU torch threads (default: the CPUs available, at most {MAX_TORCH_THREADS})")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_color_options(p: argparse.ArgumentParser) -> None:
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--color", dest="color", action="store_const", const="on", default="auto",
+                       help="encode the input's colours (an error if it has none or they are unusable); by "
+                            "default colour is encoded when the input has usable colours")
+    group.add_argument("--no-color", dest="color", action="store_const", const="off", help="geometry only")
+    p.add_argument("--color-width", type=int, default=COLOR_WIDTH,
+                   help=f"hidden layer width of the colour network (default {COLOR_WIDTH})")
+    p.add_argument("--color-bits", type=int, default=DEFAULT_BITS,
+                   help=f"quantization bit width of the colour network (default {DEFAULT_BITS})")
+    p.add_argument("--color-resolution", type=int, default=COLOR_RESOLUTION,
+                   help=f"grid resolution of the decoded surface the colour is fitted on (default {COLOR_RESOLUTION})")
+    p.add_argument("--color-epochs", type=int, default=None, help="override the colour schedule's epoch count")
+    p.add_argument("--geometry", metavar="FILE.nfc", default=None,
+                   help="reuse the geometry of this .nfc file (of the same input) and fit only the colour")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -109,3 +109,37 @@ DEFAULT_PRESET = "fast"
 
 MAX_TORCH_THREADS = 4
 """The network is tiny (≤ 20k parameters at W = 96): more threads than this only add overhead."""
+
+# --- Colour (FORMAT.md 1.1, `colr`) ----------------------------------------------------------------
+COLOR_NUM_FREQUENCIES = 8
+"""L of the colour network's positional encoding (paper's attribute network); β and ω₀ as geometry."""
+
+COLOR_WIDTH = 32
+"""Default width W_c of the colour network's two sine layers (`--color-width`)."""
+
+COLOR_RESOLUTION = 256
+"""Grid resolution of the decoded surface the colour is fitted on (`--color-resolution`): the
+decoder's default, so the colour is learnt where `nfc decode` puts the surface."""
+
+
+@dataclass(frozen=True)
+class ColorSchedule:
+    """Adam on fresh points of the decoded surface every epoch (`points` of them, mini-batches of
+    `batch_size`), lr cosine-decayed to 0, then QAT like the geometry's; the better of the pre- and
+    post-QAT quantized networks on `validation_points` fixed surface points is kept."""
+
+    epochs: int
+    points: int
+    batch_size: int
+    lr: float
+    qat_epochs: int
+    qat_lr: float
+    validation_points: int
+
+
+# Measured on pcl_milk_color (13.7k points, UDF w16 geometry, PSNR of 13.7k decoded points, metrics.md):
+# w16: 40 epochs at 1e-3 22.50 dB, 100 epochs 23.70, 200 epochs 24.04; at 100 epochs lr 3e-4 21.63,
+# 3e-3 24.28, 5e-3 24.13, 1e-2 18.51; batches of 1,000 23.55 (slower), 100k points per epoch 23.98
+# (2x slower). w32 at 100 epochs: 1e-3 25.66, 3e-3 25.89, 1e-2 19.57. A constant colour scores 13.96.
+COLOR_SCHEDULE = ColorSchedule(epochs=100, points=50_000, batch_size=2_500, lr=3e-3, qat_epochs=5, qat_lr=1e-5,
+                               validation_points=20_000)

@@ -2,12 +2,14 @@
 
 Pipeline (Postels et al., CVPR 2024): unit-ball frame → ground-truth distance pool → SIREN fit on the
 truncated loss → per-layer b-bit quantization with quantization-aware retraining → `.nfc`
-(brotli inside `bitstream.write_nfc`).
+(brotli inside `bitstream.write_nfc`); then, for a coloured shape, the colour network on the decoded
+surface (`color.fit_color`) in a `colr` chunk.
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -17,6 +19,7 @@ import torch
 
 from . import config
 from .bitstream import (
+    FIELD_NAMES,
     FIELD_SDF,
     FIELD_UDF,
     MAX_BITS,
@@ -25,16 +28,17 @@ from .bitstream import (
     OUTPUT_ABS,
     OUTPUT_IDENTITY,
     GeometryChunk,
-    NetworkBlock,
     NfcFile,
+    read_nfc,
     write_nfc,
 )
+from .color import ColorFit, ColorOptions, check_color_options, fit_color
 from .devices import cpu_threads, resolve_device
 from .errors import InputError
-from .io import Shape
+from .io import COLOR_MODES, Shape
 from .model import Siren
 from .normalize import to_unit, unit_ball_frame
-from .quantize import quantize_layers
+from .quantize import quantized_network
 from .sampling import DistancePool, SurfaceSampler, build_pool, resolve_field
 from .train import TrainingData, fit, prepare_data, validation_loss
 
@@ -52,6 +56,12 @@ class EncodeConfig:
     quiet: bool = False
     device: str = "auto"  # "auto" (CUDA when torch sees a GPU), "cpu" or "cuda"
     threads: int | None = None  # CPU torch threads; None: devices.cpu_threads()
+    color: str = "auto"  # "auto" (when the shape has colours), "on" (it must have them) or "off"
+    color_width: int = config.COLOR_WIDTH
+    color_bits: int = config.DEFAULT_BITS
+    color_resolution: int = config.COLOR_RESOLUTION
+    color_epochs: int | None = None  # overrides the colour schedule's epoch count
+
 
 
 @dataclass
@@ -61,6 +71,7 @@ class EncodeResult:
     field_reason: str  # why that field (sampling.resolve_field), one line
     seconds: float  # wall-clock time of compress()
     final_loss: float  # truncated validation loss of the quantized network that was written
+    color: ColorFit | None = None  # the colour chunk's fit, when one was written
 
 
 def check_config(cfg: EncodeConfig) -> config.Preset:
@@ -75,7 +86,32 @@ def check_config(cfg: EncodeConfig) -> config.Preset:
         raise InputError(f"epochs must be non-negative, got {cfg.epochs}")
     if cfg.field not in ("auto", "sdf", "udf"):
         raise InputError(f"unknown field type {cfg.field!r} (use sdf, udf or auto)")
+    if cfg.color not in COLOR_MODES:
+        raise InputError(f"unknown colour mode {cfg.color!r} (use {', '.join(COLOR_MODES)})")
+    check_color_options(color_options(cfg))
     return config.PRESETS[cfg.preset]
+
+
+def color_options(cfg: EncodeConfig) -> ColorOptions:
+    return ColorOptions(width=cfg.color_width, bits=cfg.color_bits, resolution=cfg.color_resolution,
+                        epochs=cfg.color_epochs, seed=cfg.seed, quiet=cfg.quiet)
+
+
+def wants_color(shape: Shape, cfg: EncodeConfig) -> bool:
+    """Whether `shape` gets a colour chunk: "on" requires colours (InputError without), "auto"
+    follows the shape."""
+    if cfg.color == "on" and shape.colors is None:
+        raise InputError(f"{shape.name}: colour requested but the input has no (usable) colours")
+    return cfg.color != "off" and shape.colors is not None
+
+
+def add_color(result: EncodeResult, shape: Shape, cfg: EncodeConfig, device: torch.device) -> EncodeResult:
+    """`result` with a colour chunk fitted on the surface its geometry decodes to (replacing any)."""
+    file = read_nfc(result.data)
+    fitted = fit_color(file, shape, color_options(cfg), device)
+    file.color = fitted.chunk
+    return dataclasses.replace(result, data=write_nfc(file), color=fitted,
+                               seconds=result.seconds + fitted.seconds)
 
 
 @dataclass
@@ -116,17 +152,9 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
 
 def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_loss: float, start: float) -> EncodeResult:
     """Quantize the chosen layers and write the `.nfc` bytes."""
-    levels, steps = quantize_layers(best_layers.cpu(), bits)
-    network = NetworkBlock(
-        num_frequencies=config.NUM_FREQUENCIES,
-        frequency_base=config.FREQUENCY_BASE,
-        omega0=config.OMEGA0,
-        output=OUTPUT_IDENTITY if prep.field == "sdf" else OUTPUT_ABS,
-        bits=bits,
-        out_features=[layer.out_features for layer in best_layers],
-        steps=steps,
-        levels=levels,
-    )
+    network = quantized_network(best_layers.cpu(), bits, num_frequencies=config.NUM_FREQUENCIES,
+                                frequency_base=config.FREQUENCY_BASE, omega0=config.OMEGA0,
+                                output=OUTPUT_IDENTITY if prep.field == "sdf" else OUTPUT_ABS)
     c = prep.center32
     geometry = GeometryChunk(
         field_type=FIELD_SDF if prep.field == "sdf" else FIELD_UDF,
@@ -139,31 +167,44 @@ def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_los
     return EncodeResult(data_bytes, prep.field, prep.field_reason, time.perf_counter() - start, best_loss)
 
 
-def compress(shape: Shape, cfg: EncodeConfig) -> EncodeResult:
-    """Encode the geometry of `shape` into `.nfc` bytes. Deterministic given cfg.seed on a given
-    device (on the CPU: and thread count)."""
+def compress(shape: Shape, cfg: EncodeConfig, geometry: bytes | None = None) -> EncodeResult:
+    """Encode `shape` into `.nfc` bytes: its geometry, and its colour (see `wants_color`). With
+    `geometry` (an `.nfc` file of this shape) that geometry is reused as it is and only the colour is
+    fitted. Deterministic given cfg.seed on a given device (on the CPU: and thread count)."""
     start = time.perf_counter()
-    preset = check_config(cfg)
+    check_config(cfg)
     device = resolve_device(cfg.device)
-    epochs = preset.epochs if cfg.epochs is None else cfg.epochs
-
+    color = wants_color(shape, cfg)
     previous_threads = torch.get_num_threads()
     torch.set_num_threads(cpu_threads(cfg.threads))
     try:
-        prep = prepare(shape, cfg, device)
-        model, data, pool, rng = prep.model.to(device), prep.data, prep.pool, prep.rng
-        fit(model, data, pool, epochs=epochs, lr=preset.lr, cosine=preset.cosine,
-            batch_size=preset.batch_size, rng=rng, quiet=cfg.quiet)
-
-        # QAT; keep whichever quantized network, before or after it, validates better.
-        best_loss = validation_loss(model, data, cfg.bits)
-        best_layers = copy.deepcopy(model.layers)
-        if preset.qat_epochs > 0:
-            fit(model, data, pool, epochs=preset.qat_epochs, lr=preset.qat_lr, cosine=True,
-                batch_size=preset.batch_size, rng=rng, bits=cfg.bits, quiet=cfg.quiet, desc="qat")
-            qat_loss = validation_loss(model, data, cfg.bits)
-            if qat_loss < best_loss:
-                best_loss, best_layers = qat_loss, model.layers
-        return finish(prep, best_layers, cfg.bits, best_loss, start)
+        if geometry is None:
+            result = _compress_geometry(shape, cfg, device, start)
+        else:
+            g = read_nfc(geometry).geometry
+            result = EncodeResult(write_nfc(NfcFile(g)), FIELD_NAMES[g.field_type], "reused from the given .nfc",
+                                  time.perf_counter() - start, float("nan"))
+        return add_color(result, shape, cfg, device) if color else result
     finally:
         torch.set_num_threads(previous_threads)
+
+
+def _compress_geometry(shape: Shape, cfg: EncodeConfig, device: torch.device, start: float) -> EncodeResult:
+    """Fit, QAT and write the geometry (a 1.0 file)."""
+    preset = config.PRESETS[cfg.preset]
+    epochs = preset.epochs if cfg.epochs is None else cfg.epochs
+    prep = prepare(shape, cfg, device)
+    model, data, pool, rng = prep.model.to(device), prep.data, prep.pool, prep.rng
+    fit(model, data, pool, epochs=epochs, lr=preset.lr, cosine=preset.cosine,
+        batch_size=preset.batch_size, rng=rng, quiet=cfg.quiet)
+
+    # QAT; keep whichever quantized network, before or after it, validates better.
+    best_loss = validation_loss(model, data, cfg.bits)
+    best_layers = copy.deepcopy(model.layers)
+    if preset.qat_epochs > 0:
+        fit(model, data, pool, epochs=preset.qat_epochs, lr=preset.qat_lr, cosine=True,
+            batch_size=preset.batch_size, rng=rng, bits=cfg.bits, quiet=cfg.quiet, desc="qat")
+        qat_loss = validation_loss(model, data, cfg.bits)
+        if qat_loss < best_loss:
+            best_loss, best_layers = qat_loss, model.layers
+    return finish(prep, best_layers, cfg.bits, best_loss, start)

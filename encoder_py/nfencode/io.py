@@ -13,8 +13,10 @@ import io
 import os
 import warnings
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import plyfile
@@ -26,6 +28,8 @@ from .errors import InputError
 MESH_EXTENSIONS = (".ply", ".obj", ".off", ".gltf", ".glb")
 SCAN_ALIGNMENT_EXTENSION = ".conf"
 POINT_EXTENSIONS = (".ply", ".obj")
+Warn = Callable[[str], None]
+COLOR_MODES = ("auto", "on", "off")  # load_shape's `colors`, EncodeConfig.color
 
 
 @dataclass
@@ -91,18 +95,63 @@ def _fan_triangulate(polygons: list[np.ndarray] | np.ndarray) -> np.ndarray:
     return np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
 
 
-def _ply_colors(vertex: plyfile.PlyElement) -> np.ndarray | None:
+class ColorProblem(NamedTuple):
+    """Why an input's colours cannot be used (one line): the shape is then read without them."""
+
+    message: str
+
+
+Colors = np.ndarray | ColorProblem | None  # (N, 3) uint8, unusable, or none in the file
+
+
+def _eight_bit(rgb: np.ndarray, integer: bool) -> np.ndarray | ColorProblem:
+    """(N, 3) uint8 from colour values: integers are 0..255; floats are [0, 1] (scaled by 255) when
+    none exceeds 1, else 0..255."""
+    bad = ~np.isfinite(rgb).all(axis=1)
+    if bad.any():
+        return ColorProblem(f"{int(bad.sum())} of {len(rgb)} vertex colours are not finite (NaN or inf)")
+    if rgb.size and rgb.min() < 0.0:
+        return ColorProblem(f"negative vertex colour values (down to {rgb.min():g})")
+    if not integer and rgb.size and rgb.max() <= 1.0:
+        rgb = rgb * 255.0
+    if rgb.size and rgb.max() > 255.0:
+        return ColorProblem(f"vertex colour values up to {rgb.max():g}, beyond 255")
+    return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+
+
+def _ply_colors(vertex: plyfile.PlyElement) -> Colors:
     names = vertex.data.dtype.names or ()
     for channels in (("red", "green", "blue"), ("r", "g", "b"), ("diffuse_red", "diffuse_green", "diffuse_blue")):
-        if all(c in names for c in channels):
+        present = [c for c in channels if c in names]
+        if len(present) == 3:
             rgb = np.stack([np.asarray(vertex[c], dtype=np.float64) for c in channels], axis=1)
-            if np.issubdtype(vertex.data.dtype[channels[0]], np.floating) and rgb.size and rgb.max() <= 1.0:
-                rgb = rgb * 255.0
-            return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+            return _eight_bit(rgb, not np.issubdtype(vertex.data.dtype[channels[0]], np.floating))
+        if present and channels[0] != "r":  # single letters r/g/b alone are too common to mean colour
+            missing = ", ".join(c for c in channels if c not in names)
+            return ColorProblem(f"vertex colours lack {missing}")
     return None
 
 
-def _load_ply(raw: bytes) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+def _obj_colors(raw: bytes, vertex_count: int) -> Colors:
+    """`v x y z r g b` lines (r g b in [0, 1], or 0..255): trimesh clamps 0..255 values and reads NaN
+    as 0, so the colours are parsed here, from the same `v` lines trimesh keeps in order."""
+    rows = [line.split()[1:] for line in raw.decode("utf-8", errors="replace").splitlines()
+            if line.startswith("v ") or line.startswith("v\t")]
+    colored = sum(len(r) >= 6 for r in rows)
+    if colored == 0:
+        return None
+    if colored != len(rows) or any(len(r) != 6 for r in rows):
+        return ColorProblem(f"vertex colours on {colored} of {len(rows)} vertices (each `v` needs x y z r g b)")
+    if len(rows) != vertex_count:
+        return ColorProblem(f"{len(rows)} coloured vertices for {vertex_count} mesh vertices")
+    try:
+        rgb = np.array([r[3:6] for r in rows], dtype=np.float64)
+    except ValueError:
+        return ColorProblem("vertex colours that are not numbers")
+    return _eight_bit(rgb, integer=False)
+
+
+def _load_ply(raw: bytes) -> tuple[np.ndarray, np.ndarray | None, Colors]:
     with warnings.catch_warnings():  # plyfile warns about empty list rows (e.g. range_grid of raw scans)
         warnings.simplefilter("ignore")
         ply = plyfile.PlyData.read(io.BytesIO(raw))
@@ -125,7 +174,9 @@ def _load_ply(raw: bytes) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | N
     return vertices, faces, _ply_colors(vertex)
 
 
-def _load_trimesh(raw: bytes, ext: str, path: Path) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+def _load_trimesh(raw: bytes, ext: str, path: Path) -> tuple[np.ndarray, np.ndarray | None, Colors]:
+    """Meshes and clouds through trimesh: OBJ vertex colours parsed from the file (_obj_colors),
+    glTF/GLB `COLOR_0` (float, normalized ubyte or ushort; RGB or RGBA) as trimesh converts it."""
     resolver = trimesh.resolvers.FilePathResolver(str(path.parent)) if ext == ".gltf" else None
     loaded = trimesh.load(
         io.BytesIO(raw), file_type=ext[1:], process=False, maintain_order=True, resolver=resolver
@@ -149,6 +200,8 @@ def _load_trimesh(raw: bytes, ext: str, path: Path) -> tuple[np.ndarray, np.ndar
         raise InputError(f"unsupported geometry type {type(loaded).__name__}")
     vertices = np.asarray(loaded.vertices, dtype=np.float64).reshape(-1, 3)
     faces = np.asarray(loaded.faces, dtype=np.int64) if len(loaded.faces) else None
+    if ext == ".obj":
+        return vertices, faces, _obj_colors(raw, len(vertices))
     visual = loaded.visual
     colors = None
     if isinstance(visual, trimesh.visual.ColorVisuals) and visual.kind == "vertex":
@@ -178,9 +231,23 @@ def _validate(path: Path, shape: Shape) -> Shape:
             # Relative to the shape's size so that rounding noise on a flat mesh still counts as zero.
             if not (doubled_area > 1e-12 * extent * extent).any():
                 raise InputError(f"{path}: degenerate mesh, all {len(f)} faces have zero area")
-    if shape.colors is not None and shape.colors.shape != (len(v), 3):
-        shape.colors = None
     return shape
+
+
+def _usable_colors(path: Path, colors: Colors, vertex_count: int, mode: str, warn: Warn | None) -> np.ndarray | None:
+    """The colours load_shape keeps: none with mode "off"; unusable ones are an InputError with mode
+    "on" (colour was asked for) and a warning otherwise."""
+    if mode == "off" or colors is None:
+        return None
+    if not isinstance(colors, ColorProblem) and colors.shape != (vertex_count, 3):
+        colors = ColorProblem(f"{len(colors)} vertex colours for {vertex_count} vertices")
+    if isinstance(colors, ColorProblem):
+        if mode == "on":
+            raise InputError(f"{path}: {colors.message}")
+        if warn is not None:
+            warn(f"{path}: {colors.message}; its colours are ignored")
+        return None
+    return colors
 
 
 def _rigid_transform(words: list[str]) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -226,9 +293,14 @@ def load_aligned_scans(path: str | os.PathLike[str]) -> Shape:
     return _validate(path, Shape(vertices=np.concatenate(clouds), faces=None, colors=None, name=name))
 
 
-def load_shape(path: str | os.PathLike[str]) -> Shape:
+def load_shape(path: str | os.PathLike[str], colors: str = "auto", warn: Warn | None = None) -> Shape:
     """Load a point cloud or triangle mesh (or aligned range scans, see load_aligned_scans). Raises
-    InputError with a one-line message."""
+    InputError with a one-line message.
+
+    Per-vertex colours (PLY red/green/blue, OBJ `v x y z r g b`, glTF COLOR_0) come as 8-bit RGB.
+    `colors`: "auto" keeps usable colours and reports unusable ones (NaN, missing channels, wrong
+    count) to `warn`, one line, reading the shape without them; "on" makes them an InputError;
+    "off" ignores colours."""
     path = Path(path)
     ext, gzipped = split_extension(path)
     if ext == SCAN_ALIGNMENT_EXTENSION:
@@ -236,19 +308,23 @@ def load_shape(path: str | os.PathLike[str]) -> Shape:
     if ext not in MESH_EXTENSIONS:
         supported = ", ".join(MESH_EXTENSIONS + (SCAN_ALIGNMENT_EXTENSION,))
         raise InputError(f"{path}: unknown extension '{ext or path.suffix}' (supported: {supported}, each optionally .gz)")
+    if colors not in COLOR_MODES:
+        raise ValueError(f"unknown colour mode {colors!r}")
     raw = _read_bytes(path, gzipped)
     try:
         if ext == ".ply":
-            vertices, faces, colors = _load_ply(raw)
+            vertices, faces, found = _load_ply(raw)
         else:
-            vertices, faces, colors = _load_trimesh(raw, ext, path)
+            vertices, faces, found = _load_trimesh(raw, ext, path)
     except InputError as e:
         raise InputError(f"{path}: {e.message}") from None
     except Exception as e:  # parsers raise anything on malformed files; report it in one line
         detail = str(e).splitlines()[0] if str(e) else type(e).__name__
         raise InputError(f"{path}: cannot parse as {ext[1:].upper()} ({detail})") from None
     name = Path(path.name[:-3] if gzipped else path.name).stem
-    return _validate(path, Shape(vertices=vertices, faces=faces, colors=colors, name=name))
+    shape = _validate(path, Shape(vertices=vertices, faces=faces, colors=None, name=name))
+    shape.colors = _usable_colors(path, found, len(shape.vertices), colors, warn)
+    return shape
 
 
 def _check_output(path: Path, allowed: tuple[str, ...]) -> str:
@@ -258,10 +334,39 @@ def _check_output(path: Path, allowed: tuple[str, ...]) -> str:
     return ext
 
 
+PLY_TYPES = {"f": "float", "u": "uchar"}  # by numpy dtype kind: the <f4 and u1 columns written
+COLOR_NAMES = ("red", "green", "blue")
+
+
+def _vertex_table(
+    vertices: np.ndarray, normals: np.ndarray | None, colors: np.ndarray | None
+) -> np.ndarray:
+    """PLY vertex records: x y z, then nx ny nz (float) and red green blue (uchar 0..255, or float
+    when `colors` is floating point) where given."""
+    columns = [(("x", "y", "z"), vertices, "<f4")]
+    if normals is not None:
+        columns.append((("nx", "ny", "nz"), np.asarray(normals, dtype=np.float32).reshape(-1, 3), "<f4"))
+    if colors is not None:
+        colors = np.asarray(colors).reshape(-1, 3)
+        if len(colors) != len(vertices):
+            raise ValueError(f"{len(colors)} colours for {len(vertices)} vertices")
+        columns.append((COLOR_NAMES, colors, "<f4" if np.issubdtype(colors.dtype, np.floating) else "u1"))
+    table = np.empty(len(vertices), dtype=[(name, kind) for names, _, kind in columns for name in names])
+    for names, values, _ in columns:
+        for k, name in enumerate(names):
+            table[name] = values[:, k]
+    return table
+
+
 def save_mesh(
-    path: str | os.PathLike[str], vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None
+    path: str | os.PathLike[str],
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray | None = None,
+    colors: np.ndarray | None = None,
 ) -> None:
-    """Write a triangle mesh as binary little-endian PLY or as OBJ, with optional vertex normals."""
+    """Write a triangle mesh as binary little-endian PLY or as OBJ, with optional vertex normals and
+    colours (uint8 RGB; PLY also takes float colours, written as float properties)."""
     path = Path(path)
     ext = _check_output(path, (".ply", ".obj"))
     vertices = np.asarray(vertices, dtype=np.float32).reshape(-1, 3)
@@ -269,13 +374,7 @@ def save_mesh(
     if normals is not None:
         normals = np.asarray(normals, dtype=np.float32).reshape(-1, 3)
     if ext == ".ply":
-        fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
-        if normals is not None:
-            fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
-        vdata = np.empty(len(vertices), dtype=fields)
-        vdata["x"], vdata["y"], vdata["z"] = vertices.T
-        if normals is not None:
-            vdata["nx"], vdata["ny"], vdata["nz"] = normals.T
+        vdata = _vertex_table(vertices, normals, colors)
         fdata = np.empty(len(faces), dtype=[("vertex_indices", "u1"), ("i0", "<i4"), ("i1", "<i4"), ("i2", "<i4")])
         fdata["vertex_indices"] = 3
         fdata["i0"], fdata["i1"], fdata["i2"] = faces.T
@@ -284,7 +383,7 @@ def save_mesh(
             "format binary_little_endian 1.0",
             "comment written by nfencode",
             f"element vertex {len(vertices)}",
-            *[f"property float {name}" for name, _ in fields],
+            *[f"property {PLY_TYPES[vdata.dtype[name].kind]} {name}" for name in vdata.dtype.names or ()],
             f"element face {len(faces)}",
             "property list uchar int vertex_indices",
             "end_header",
@@ -296,7 +395,7 @@ def save_mesh(
         return
     with open(path, "w", encoding="ascii") as out:
         out.write("# written by nfencode\n")
-        np.savetxt(out, vertices, fmt="v %.9g %.9g %.9g")
+        _write_obj_vertices(out, vertices, colors)
         one_based = faces + 1
         if normals is not None:
             np.savetxt(out, normals, fmt="vn %.6g %.6g %.6g")
@@ -305,16 +404,28 @@ def save_mesh(
             np.savetxt(out, one_based, fmt="f %d %d %d")
 
 
-def save_points(path: str | os.PathLike[str], points: np.ndarray) -> None:
-    """Write a point cloud as binary PLY (vertex element only) or as OBJ `v` lines."""
+def _write_obj_vertices(out: io.TextIOBase, vertices: np.ndarray, colors: np.ndarray | None) -> None:
+    """`v x y z`, or `v x y z r g b` with r g b in [0, 1] (the common vertex-colour extension);
+    uint8 colours are divided by 255, float ones written as they are."""
+    if colors is None:
+        np.savetxt(out, vertices, fmt="v %.9g %.9g %.9g")
+    else:
+        unit = np.asarray(colors, dtype=np.float64).reshape(-1, 3)
+        if not np.issubdtype(np.asarray(colors).dtype, np.floating):
+            unit = unit / 255.0
+        np.savetxt(out, np.column_stack([vertices, unit]), fmt="v %.9g %.9g %.9g %.6g %.6g %.6g")
+
+
+def save_points(path: str | os.PathLike[str], points: np.ndarray, colors: np.ndarray | None = None) -> None:
+    """Write a point cloud as binary PLY (vertex element only, uchar red/green/blue with `colors`,
+    uint8 RGB) or as OBJ `v` lines."""
     path = Path(path)
     ext = _check_output(path, POINT_EXTENSIONS)
     points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     if ext == ".ply":
-        vdata = np.empty(len(points), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4")])
-        vdata["x"], vdata["y"], vdata["z"] = points.T
+        vdata = _vertex_table(points, None, None if colors is None else np.asarray(colors, dtype=np.uint8))
         plyfile.PlyData([plyfile.PlyElement.describe(vdata, "vertex")], text=False, byte_order="<").write(str(path))
         return
     with open(path, "w", encoding="ascii") as out:
         out.write("# written by nfencode\n")
-        np.savetxt(out, points, fmt="v %.9g %.9g %.9g")
+        _write_obj_vertices(out, points, colors)

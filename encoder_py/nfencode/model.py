@@ -3,7 +3,7 @@
 It computes exactly the function of FORMAT.md "Evaluation" (up to float rounding): the encoding
 h = [u, then for each k: sin(f_k u) (3 values), cos(f_k u) (3 values)] with the frequencies f_k of
 `bitstream.positional_frequencies`, hidden layers sin(ω₀ (W h + b)), a linear output layer, then
-identity (SDF) or abs (UDF).
+identity (SDF), abs (UDF) or sigmoid (colour, 3 outputs).
 """
 
 from __future__ import annotations
@@ -42,13 +42,15 @@ class PositionalEncoding(nn.Module):
 
 
 class Siren(nn.Module):
-    """`hidden_layers` sine layers of width `width`, then one linear output; see the module docstring."""
+    """`hidden_layers` sine layers of width `width`, then a linear output layer of `outputs` values;
+    see the module docstring."""
 
     def __init__(
         self,
         width: int,
         output: str,
         *,
+        outputs: int = 1,
         hidden_layers: int = config.HIDDEN_LAYERS,
         num_frequencies: int = config.NUM_FREQUENCIES,
         frequency_base: float = config.FREQUENCY_BASE,
@@ -56,12 +58,13 @@ class Siren(nn.Module):
         generator: torch.Generator | None = None,
     ) -> None:
         super().__init__()
-        if output not in ("identity", "abs"):
+        if output not in ("identity", "abs", "sigmoid"):
             raise ValueError(f"unknown output activation {output!r}")
         self.output = output
+        self.outputs = outputs
         self.omega0 = omega0
         self.encoding = PositionalEncoding(num_frequencies, frequency_base)
-        sizes = [self.encoding.out_features] + [width] * hidden_layers + [1]
+        sizes = [self.encoding.out_features] + [width] * hidden_layers + [outputs]
         self.layers = nn.ModuleList(nn.Linear(n_in, n_out) for n_in, n_out in zip(sizes[:-1], sizes[1:]))
         self._siren_init(generator)
 
@@ -75,8 +78,8 @@ class Siren(nn.Module):
                 layer.bias.uniform_(-1.0 / math.sqrt(n_in), 1.0 / math.sqrt(n_in), generator=generator)
 
     def forward_encoded(self, h: torch.Tensor, transform: ParameterTransform | None = None) -> torch.Tensor:
-        """Field values (n,) for already encoded points; `transform` maps every weight and bias first
-        (fake quantization during QAT)."""
+        """Outputs for already encoded points, (n,) for one output, (n, outputs) otherwise; `transform`
+        maps every weight and bias first (fake quantization during QAT)."""
         last = len(self.layers) - 1
         for i, layer in enumerate(self.layers):
             weight, bias = layer.weight, layer.bias
@@ -85,8 +88,10 @@ class Siren(nn.Module):
             h = nn.functional.linear(h, weight, bias)
             if i < last:
                 h = torch.sin(self.omega0 * h)
-        y = h[:, 0]
-        return y.abs() if self.output == "abs" else y
+        y = h[:, 0] if self.outputs == 1 else h
+        if self.output == "abs":
+            return y.abs()
+        return torch.sigmoid(y) if self.output == "sigmoid" else y
 
     def forward(self, u: torch.Tensor, transform: ParameterTransform | None = None) -> torch.Tensor:
         return self.forward_encoded(self.encoding(u), transform)

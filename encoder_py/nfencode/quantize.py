@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from .bitstream import max_level
+from .bitstream import NetworkBlock, max_level
 
 
 def quantization_step(x: torch.Tensor, bits: int) -> torch.Tensor:
@@ -54,3 +54,21 @@ def quantize_layers(
         levels.append((w_levels.numpy(), b_levels.numpy()))
         steps.append((float(w_step), float(b_step)))
     return levels, steps
+
+
+def quantized_network(
+    layers: torch.nn.ModuleList, bits: int, *, num_frequencies: int, frequency_base: float, omega0: float,
+    output: int,
+) -> NetworkBlock:
+    """The bitstream's network block of trained (CPU) layers at b bits."""
+    levels, steps = quantize_layers(layers, bits)
+    return NetworkBlock(
+        num_frequencies=num_frequencies,
+        frequency_base=frequency_base,
+        omega0=omega0,
+        output=output,
+        bits=bits,
+        out_features=[layer.out_features for layer in layers],
+        steps=steps,
+        levels=levels,
+    )

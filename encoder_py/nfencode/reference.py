@@ -1,5 +1,5 @@
 """Numpy reference decoder: dequantize, evaluate the field and its gradient (FORMAT.md,
-"Evaluation"), extract a mesh.
+"Evaluation"), extract a mesh, and colour it (or points on it) when the file has a `colr` chunk.
 
 This module must not import torch: it is the oracle the C++ decoder and the golden vectors are
 checked against, and it is what `nfc decode` runs. Extraction runs libnfdecode's algorithm step for
@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .bitstream import (
+    COLOR_CHANNELS,
     FIELD_SDF,
     OUTPUT_ABS,
     OUTPUT_IDENTITY,
@@ -51,6 +52,7 @@ class ExtractedMesh(NamedTuple):
     points_evaluated: int  # field value evaluations of the coarse-to-fine grid
     gradients_evaluated: int  # value + gradient evaluations (UDF meshing)
     active_cells: int  # finest cells that emitted a triangle
+    colors: np.ndarray | None = None  # (V, 3) float64 in [0, 1] when the file's colour was evaluated
 
 
 def dequantize(block: NetworkBlock) -> DecodedNetwork:
@@ -155,6 +157,18 @@ def evaluate_gradient(net: DecodedNetwork, unit_points: np.ndarray) -> tuple[np.
     return _batched(net, unit_points, gradient=True)
 
 
+def evaluate_color(net: DecodedNetwork, unit_points: np.ndarray) -> np.ndarray:
+    """Colours (N, 3) in [0, 1] of a colour network (sigmoid, 3 outputs) at unit-frame points."""
+    if net.output != OUTPUT_SIGMOID or len(net.biases[-1]) != COLOR_CHANNELS:
+        raise NfcError("not a colour network (sigmoid with 3 outputs)")
+    return evaluate(net, unit_points).reshape(-1, COLOR_CHANNELS)
+
+
+def color_bytes(colors: np.ndarray) -> np.ndarray:
+    """8-bit colour of FORMAT.md: min(255, floor(255 c + 0.5)) per channel, (N, 3) uint8."""
+    return np.minimum(255.0, np.floor(255.0 * np.asarray(colors, dtype=np.float64) + 0.5)).astype(np.uint8)
+
+
 def field_function(file: NfcFile) -> FieldFn:
     """The geometry field of a file as a function of unit-frame points."""
     net = dequantize(file.geometry.network)
@@ -183,13 +197,41 @@ def extract_mesh_from_field(
                          grid.gradients_evaluated, mesh.active_cells)
 
 
-def extract_mesh(file: NfcFile, resolution: int = 256) -> ExtractedMesh:
-    """Mesh of an SDF or UDF file in the original coordinates (x = u * scale + center, in f32)."""
+def extract_unit_mesh(file: NfcFile, resolution: int = 256) -> ExtractedMesh:
+    """Mesh of an SDF or UDF file in its unit frame, as the extractor produces it (no colours)."""
+    udf_gradient = None if file.geometry.field_type == FIELD_SDF else gradient_function(file)
+    return extract_mesh_from_field(field_function(file), resolution, udf_gradient)
+
+
+def to_original(file: NfcFile, unit_points: np.ndarray) -> np.ndarray:
+    """x = u * scale + center, in f32 (FORMAT.md, GEOM)."""
     g = file.geometry
-    udf_gradient = None if g.field_type == FIELD_SDF else gradient_function(file)
-    mesh = extract_mesh_from_field(field_function(file), resolution, udf_gradient)
-    positions = mesh.vertices * np.float32(g.scale) + np.asarray(g.center, dtype=np.float32)
-    return mesh._replace(vertices=positions.astype(np.float32))
+    u = np.asarray(unit_points, dtype=np.float32)
+    return (u * np.float32(g.scale) + np.asarray(g.center, dtype=np.float32)).astype(np.float32)
+
+
+def _colors_at(file: NfcFile, unit_points: np.ndarray, color: bool) -> np.ndarray | None:
+    if not color or file.color is None:
+        return None
+    return evaluate_color(dequantize(file.color.network), unit_points)
+
+
+def extract_mesh(file: NfcFile, resolution: int = 256, color: bool = True) -> ExtractedMesh:
+    """Mesh of an SDF or UDF file in the original coordinates (x = u * scale + center, in f32). With
+    `color` and a colour chunk, `colors` holds the colour at each vertex, evaluated at the unit-frame
+    vertex the extractor produced."""
+    mesh = extract_unit_mesh(file, resolution)
+    return mesh._replace(vertices=to_original(file, mesh.vertices), colors=_colors_at(file, mesh.vertices, color))
+
+
+def decode_points(
+    file: NfcFile, unit_mesh: ExtractedMesh, n: int, seed: int | np.random.Generator = 0, color: bool = True
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """n points (f32, original frame) uniformly on `unit_mesh` (extract_unit_mesh of `file`), and
+    with `color` and a colour chunk their colours (n, 3) in [0, 1], evaluated at the f32 unit-frame
+    points the positions are made from."""
+    u = sample_points(unit_mesh.vertices, unit_mesh.faces, n, seed).astype(np.float32)
+    return to_original(file, u), _colors_at(file, u, color)
 
 
 def sample_points(

@@ -1,4 +1,5 @@
-"""Training: the paper's truncated loss, Adam over epochs drawn from the pool, and QAT.
+"""Training: Adam with the λ·Σ|θ| term and QAT for any network and loss (`optimize`), and the
+geometry's use of it: the paper's truncated loss over epochs drawn from the pool (`fit`).
 
 The positional encoding of every pool point is computed once up front (it does not depend on the
 weights); an epoch then only gathers rows. On 2 cores this halves the time of an epoch at W = 32.
@@ -7,6 +8,7 @@ weights); an epoch then only gathers rows. On 2 cores this halves the time of an
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +33,8 @@ class TrainingData:
     validation_distances: torch.Tensor
 
 
-def _encode(model: Siren, points: np.ndarray) -> torch.Tensor:
+def encode_points(model: Siren, points: np.ndarray) -> torch.Tensor:
+    """The positional encoding (n, 3 + 6L) of f32 unit-frame points, in chunks, without gradients."""
     u = torch.from_numpy(points)
     out = torch.empty(len(u), model.encoding.out_features)
     with torch.no_grad():
@@ -42,9 +45,9 @@ def _encode(model: Siren, points: np.ndarray) -> torch.Tensor:
 
 def prepare_data(model: Siren, pool: DistancePool) -> TrainingData:
     return TrainingData(
-        _encode(model, pool.points),
+        encode_points(model, pool.points),
         torch.from_numpy(pool.distances),
-        _encode(model, pool.validation_points),
+        encode_points(model, pool.validation_points),
         torch.from_numpy(pool.validation_distances),
     )
 
@@ -72,6 +75,59 @@ def validation_loss(model: Siren, data: TrainingData, bits: int | None) -> float
         return float(truncated_loss(pred, data.validation_distances))
 
 
+Batch = tuple[torch.Tensor, torch.Tensor]  # encoded inputs, targets
+LossFn = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
+
+
+def optimize(
+    model: Siren,
+    epoch_batches: Callable[[], Iterable[Batch]],
+    loss_fn: LossFn,
+    *,
+    epochs: int,
+    steps_per_epoch: int,
+    lr: float,
+    cosine: bool,
+    bits: int | None = None,
+    quiet: bool = False,
+    desc: str = "train",
+) -> float:
+    """Adam on loss_fn(prediction, target) + λ·Σ|θ| over the batches `epoch_batches()` yields for
+    each epoch; `bits` trains through fake quantization (QAT).
+
+    The learning rate is constant, or cosine-decayed per step from `lr` to 0 over
+    epochs · steps_per_epoch steps. Returns the mean data loss of the last epoch.
+    """
+    transform = quantizer(bits)
+    optimizer = torch.optim.Adam(model.parameters(), lr=lr)
+    total_steps = max(1, epochs * steps_per_epoch)
+    device = next(model.parameters()).device
+    step = 0
+    epoch_loss = float("nan")
+    # disable=None: tqdm draws only on a terminal, so logs and CI output stay free of bar frames.
+    bar = tqdm(range(epochs), desc=desc, unit="epoch", disable=True if quiet else None, leave=False,
+               dynamic_ncols=True)
+    for _ in bar:
+        running = torch.zeros((), dtype=torch.float64, device=device)  # no per-step sync on CUDA
+        count = 0
+        for inputs, targets in epoch_batches():
+            if cosine:
+                for group in optimizer.param_groups:
+                    group["lr"] = 0.5 * lr * (1.0 + math.cos(math.pi * step / total_steps))
+            pred = model.forward_encoded(inputs, transform)
+            loss = loss_fn(pred, targets)
+            optimizer.zero_grad(set_to_none=True)
+            (loss + config.L1_WEIGHT * l1_penalty(model)).backward()
+            optimizer.step()
+            running += loss.detach().to(torch.float64) * len(inputs)
+            count += len(inputs)
+            step += 1
+        epoch_loss = float(running) / count
+        bar.set_postfix(loss=f"{epoch_loss:.3e}")
+    bar.close()
+    return epoch_loss
+
+
 def fit(
     model: Siren,
     data: TrainingData,
@@ -86,36 +142,13 @@ def fit(
     quiet: bool = False,
     desc: str = "train",
 ) -> float:
-    """Adam on the truncated loss + λ·Σ|θ|; `bits` trains through fake quantization (QAT).
+    """`optimize` on the truncated loss over epochs drawn from the geometry pool."""
 
-    The learning rate is constant, or cosine-decayed per step from `lr` to 0. Returns the mean
-    data loss of the last epoch.
-    """
-    transform = quantizer(bits)
-    optimizer = torch.optim.Adam(model.parameters(), lr=lr)
-    batches_per_epoch = math.ceil(sum(epoch_counts(1.0)) / batch_size)
-    total_steps = max(1, epochs * batches_per_epoch)
-    step = 0
-    epoch_loss = float("nan")
-    # disable=None: tqdm draws only on a terminal, so logs and CI output stay free of bar frames.
-    bar = tqdm(range(epochs), desc=desc, unit="epoch", disable=True if quiet else None, leave=False,
-               dynamic_ncols=True)
-    for _ in bar:
+    def batches() -> Iterator[Batch]:
         order = torch.from_numpy(draw_epoch(pool, rng)).to(data.encoded.device)
-        running = torch.zeros((), dtype=torch.float64, device=data.encoded.device)  # no per-step sync on CUDA
         for batch in order.split(batch_size):
-            if cosine:
-                for group in optimizer.param_groups:
-                    group["lr"] = 0.5 * lr * (1.0 + math.cos(math.pi * step / total_steps))
-            pred = model.forward_encoded(data.encoded[batch], transform)
-            loss = truncated_loss(pred, data.distances[batch])
-            optimizer.zero_grad(set_to_none=True)
-            (loss + config.L1_WEIGHT * l1_penalty(model)).backward()
-            optimizer.step()
-            running += loss.detach().to(torch.float64) * len(batch)
-            step += 1
-        epoch_loss = float(running) / len(order)
-        bar.set_postfix(loss=f"{epoch_loss:.3e}")
-    bar.close()
-    return epoch_loss
+            yield data.encoded[batch], data.distances[batch]
 
+    return optimize(model, batches, truncated_loss, epochs=epochs,
+                    steps_per_epoch=math.ceil(sum(epoch_counts(1.0)) / batch_size), lr=lr, cosine=cosine,
+                    bits=bits, quiet=quiet, desc=desc)

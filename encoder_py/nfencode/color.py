@@ -1,0 +1,125 @@
+"""Colour encoder (FORMAT.md 1.1, `colr`): a second small SIREN fitted on the decoded surface.
+
+The geometry is decoded exactly as the decoder will (the numpy reference extractor at a resolution),
+points are drawn area-uniformly on that surface, fresh every epoch, and each is given the colour of
+the nearest ground-truth point (in the geometry's unit frame). The network (8 frequencies, two sine
+layers, 3 sigmoid outputs) learns 2·sigmoid(y) − 1 against the colours mapped to [-1, 1] with the
+geometry's λ·Σ|θ| term, then is quantized per layer with a short QAT, like the geometry's.
+"""
+
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from scipy.spatial import cKDTree
+
+from . import config
+from .bitstream import COLOR_SPACE_RGB, MAX_BITS, MAX_WIDTH, MIN_BITS, OUTPUT_SIGMOID, ColorChunk, NfcFile
+from .errors import InputError
+from .io import Shape
+from .model import Siren
+from .normalize import to_unit
+from .quantize import quantized_network
+from .reference import ExtractedMesh, extract_unit_mesh, sample_points
+from .train import Batch, encode_points, optimize, quantizer
+
+MIN_RESOLUTION, MAX_RESOLUTION = 8, 1024  # the decoder's grid range
+
+
+@dataclass
+class ColorOptions:
+    width: int = config.COLOR_WIDTH
+    bits: int = config.DEFAULT_BITS
+    resolution: int = config.COLOR_RESOLUTION
+    epochs: int | None = None  # overrides the schedule's epoch count (QAT unchanged)
+    seed: int = 0
+    quiet: bool = False
+
+
+@dataclass
+class ColorFit:
+    chunk: ColorChunk
+    validation_loss: float  # mean squared error in [-1, 1] units of the network that was kept
+    surface_vertices: int  # of the decoded surface the colour was fitted on
+    seconds: float
+
+
+def check_color_options(options: ColorOptions) -> None:
+    if not 1 <= options.width <= MAX_WIDTH:
+        raise InputError(f"colour width {options.width} outside 1..{MAX_WIDTH}")
+    if not MIN_BITS <= options.bits <= MAX_BITS:
+        raise InputError(f"colour bit width {options.bits} outside {MIN_BITS}..{MAX_BITS}")
+    if not MIN_RESOLUTION <= options.resolution <= MAX_RESOLUTION:
+        raise InputError(f"colour resolution {options.resolution} outside {MIN_RESOLUTION}..{MAX_RESOLUTION}")
+    if options.epochs is not None and options.epochs < 0:
+        raise InputError(f"colour epochs must be non-negative, got {options.epochs}")
+
+
+def color_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Squared error of 2·sigmoid(y) − 1 (pred is sigmoid(y)) against targets in [-1, 1]."""
+    return ((2.0 * pred - 1.0 - target) ** 2).mean()
+
+
+class _SurfaceColors:
+    """Points on the decoded surface (unit frame) and the nearest ground-truth colour of each."""
+
+    def __init__(self, mesh: ExtractedMesh, shape: Shape, geometry: NfcFile, rng: np.random.Generator) -> None:
+        assert shape.colors is not None
+        g = geometry.geometry
+        self.mesh, self.rng = mesh, rng
+        self.tree = cKDTree(to_unit(shape.vertices, np.asarray(g.center, dtype=np.float64), g.scale))
+        self.targets = torch.from_numpy(shape.colors.astype(np.float32) * np.float32(2.0 / 255.0) - np.float32(1.0))
+
+    def draw(self, model: Siren, n: int) -> Batch:
+        u = sample_points(self.mesh.vertices, self.mesh.faces, n, self.rng).astype(np.float32)
+        _, nearest = self.tree.query(u, k=1, workers=-1)
+        return encode_points(model, u), self.targets[torch.from_numpy(nearest)]
+
+
+def _validation_loss(model: Siren, batch: Batch, bits: int) -> float:
+    with torch.no_grad():
+        return float(color_loss(model.forward_encoded(batch[0], quantizer(bits)), batch[1]))
+
+
+def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: torch.device) -> ColorFit:
+    """The colour chunk of `shape` (which must have colours) on the surface `geometry` decodes to."""
+    start = time.perf_counter()
+    check_color_options(options)
+    if shape.colors is None:
+        raise InputError(f"{shape.name}: has no colours to encode")
+    mesh = extract_unit_mesh(geometry, options.resolution)
+    if len(mesh.faces) == 0:
+        raise InputError(f"{shape.name}: the decoded geometry has no surface to colour")
+    schedule = config.COLOR_SCHEDULE
+    epochs = schedule.epochs if options.epochs is None else options.epochs
+    rng = np.random.default_rng(options.seed)
+    generator = torch.Generator().manual_seed(options.seed)
+    model = Siren(options.width, "sigmoid", outputs=3, num_frequencies=config.COLOR_NUM_FREQUENCIES,
+                  generator=generator)
+    surface = _SurfaceColors(mesh, shape, geometry, rng)
+    encoded, targets = surface.draw(model, schedule.validation_points)
+    validation: Batch = (encoded.to(device), targets.to(device))
+    model = model.to(device)
+
+    def batches() -> list[Batch]:
+        encoded, targets = (t.to(device) for t in surface.draw(model, schedule.points))
+        return list(zip(encoded.split(schedule.batch_size), targets.split(schedule.batch_size)))
+
+    steps = -(-schedule.points // schedule.batch_size)
+    optimize(model, batches, color_loss, epochs=epochs, steps_per_epoch=steps, lr=schedule.lr, cosine=True,
+             quiet=options.quiet, desc="colour")
+    best_loss = _validation_loss(model, validation, options.bits)
+    best_layers = copy.deepcopy(model.layers)
+    if schedule.qat_epochs > 0:
+        optimize(model, batches, color_loss, epochs=schedule.qat_epochs, steps_per_epoch=steps, lr=schedule.qat_lr,
+                 cosine=True, bits=options.bits, quiet=options.quiet, desc="colour qat")
+        qat_loss = _validation_loss(model, validation, options.bits)
+        if qat_loss < best_loss:
+            best_loss, best_layers = qat_loss, model.layers
+    network = quantized_network(best_layers.cpu(), options.bits, num_frequencies=config.COLOR_NUM_FREQUENCIES,
+                                frequency_base=config.FREQUENCY_BASE, omega0=config.OMEGA0, output=OUTPUT_SIGMOID)
+    return ColorFit(ColorChunk(COLOR_SPACE_RGB, network), best_loss, len(mesh.vertices), time.perf_counter() - start)
