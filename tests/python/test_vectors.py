@@ -10,17 +10,18 @@ import plyfile
 import pytest
 
 from nfencode.bitstream import read_nfc
-from nfencode.reference import dequantize, evaluate, extract_mesh
+from nfencode.reference import dequantize, evaluate, evaluate_color, extract_mesh
 
 VECTORS = Path(__file__).resolve().parents[1] / "vectors"
-NAMES = sorted(p.stem for p in VECTORS.glob("v1_0_*.nfc"))
+NAMES = sorted(p.stem for p in VECTORS.glob("v1_*.nfc"))
+COLOR_NAMES = sorted(p.stem for p in VECTORS.glob("v1_1_*.nfc"))
 MESH_RESOLUTION = 64
 POSITION_TOLERANCE = 1e-5  # unit frame (times the file's scale in its original frame), README.md
 NORMAL_TOLERANCE = 1e-3
 
 
 def test_vectors_exist() -> None:
-    assert len(NAMES) >= 5, f"golden vectors missing in {VECTORS}"
+    assert len(NAMES) >= 6 and COLOR_NAMES, f"golden vectors missing in {VECTORS}"
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -53,3 +54,27 @@ def test_mesh_matches_exactly(name: str) -> None:
     scale = nfc.geometry.scale
     assert np.abs(mesh.vertices - positions).max() <= POSITION_TOLERANCE * scale
     assert np.abs(mesh.normals - normals).max() <= NORMAL_TOLERANCE
+
+
+@pytest.mark.parametrize("name", COLOR_NAMES)
+def test_color_vector_is_1_1_and_reevaluates_to_its_colours(name: str) -> None:
+    data = (VECTORS / f"{name}.nfc").read_bytes()
+    nfc = read_nfc(data)
+    assert (data[4], data[5], nfc.minor) == (1, 1, 1) and nfc.color is not None
+    table = np.loadtxt(VECTORS / f"{name}.colours.txt")
+    values = np.loadtxt(VECTORS / f"{name}.values.txt")
+    np.testing.assert_array_equal(table[:, :3], values[:, :3])  # the same query points
+    colors = evaluate_color(dequantize(nfc.color.network), table[:, :3].astype(np.float32))
+    assert np.max(np.abs(colors - table[:, 3:])) <= 1e-9
+    assert table[:, 3:].std(axis=0).min() > 0.05  # a real colour field, not a constant
+
+
+@pytest.mark.parametrize("name", COLOR_NAMES)
+def test_color_mesh_vertices_carry_the_reference_colours(name: str) -> None:
+    nfc = read_nfc((VECTORS / f"{name}.nfc").read_bytes())
+    vertex = plyfile.PlyData.read(str(VECTORS / f"{name}.mesh{MESH_RESOLUTION}.ply"))["vertex"]
+    assert vertex.data.dtype.names == ("x", "y", "z", "nx", "ny", "nz", "red", "green", "blue")
+    stored = np.stack([vertex[c] for c in ("red", "green", "blue")], axis=1)
+    mesh = extract_mesh(nfc, MESH_RESOLUTION)
+    assert mesh.colors is not None
+    assert np.abs(mesh.colors - stored).max() <= 1e-7  # f32 storage of the f64 reference colour

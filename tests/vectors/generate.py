@@ -4,13 +4,16 @@ an existing `.nfc` is never re-encoded (a vector's bytes and field values are fi
 format change gets new names), only its meshes are rewritten from it, when the reference decoder's
 algorithm changes on purpose.
 
-For each vector `v1_0_<name>`:
+For each vector `v1_0_<name>` (geometry only, format 1.0) or `v1_1_<name>` (with colour, 1.1):
   <name>.nfc          a real encode of a shape from ../shared/data (short schedule: these vectors
                       test decoding, not rate-distortion); written once
   <name>.values.txt   `x y z value` per line: unit-frame query points and the numpy reference
                       decoder's field values (%.9g); written once, with the .nfc
+  <name>.colours.txt  (v1_1 only) `x y z r g b`: the same points and the reference colours in
+                      [0, 1] (%.9g); written once, with the .nfc
   <name>.mesh64.ply   the reference decoder's mesh at resolution 64 (SDF or UDF), original frame,
-                      vertices and faces in the reference's order (README.md)
+                      vertices and faces in the reference's order (README.md); v1_1: float
+                      red, green, blue in [0, 1] per vertex after the normal
 """
 
 from __future__ import annotations
@@ -22,19 +25,22 @@ import numpy as np
 from nfencode.bitstream import read_nfc
 from nfencode.encoder import EncodeConfig, compress
 from nfencode.io import load_shape, save_mesh
-from nfencode.reference import dequantize, evaluate, extract_mesh
+from nfencode.reference import dequantize, evaluate, evaluate_color, extract_mesh
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"  # ../shared beside the checkout
 MESH_RESOLUTION = 64
-VECTORS = [  # name, shape, field, width, bits, epochs
-    ("bunny_sdf_w16", "stanford/bun_zipper_res3.ply.gz", "sdf", 16, 8, 40),
-    ("bunny_sdf_w32", "stanford/bun_zipper_res3.ply.gz", "sdf", 32, 8, 40),
-    ("spot_sdf_w24_b6", "misc/spot.obj.gz", "sdf", 24, 6, 40),
-    ("tshirt_udf_w16", "garments/TShirtNoCoat.obj.gz", "udf", 16, 8, 30),
+VECTORS = [  # name, shape, field, width, bits, epochs, colour width (None: geometry only)
+    ("v1_0_bunny_sdf_w16", "stanford/bun_zipper_res3.ply.gz", "sdf", 16, 8, 40, None),
+    ("v1_0_bunny_sdf_w32", "stanford/bun_zipper_res3.ply.gz", "sdf", 32, 8, 40, None),
+    ("v1_0_spot_sdf_w24_b6", "misc/spot.obj.gz", "sdf", 24, 6, 40, None),
+    ("v1_0_tshirt_udf_w16", "garments/TShirtNoCoat.obj.gz", "udf", 16, 8, 30, None),
     # The bunny's ten range scans merged by bun.conf's transforms: a point cloud (nfencode.io).
-    ("bunny_scans_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 30),
+    ("v1_0_bunny_scans_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 30, None),
+    # A coloured point cloud (13,704 points): colour network of width 16 at 8 bits.
+    ("v1_1_milk_udf_w16_c16", "colored/pcl_milk_color.ply.gz", "udf", 16, 8, 30, 16),
 ]
+COLOR_EPOCHS = 30  # the colour schedule's epochs for the v1_1 vectors (short, as the geometry's)
 
 
 def query_points(seed: int = 1234) -> np.ndarray:
@@ -45,24 +51,31 @@ def query_points(seed: int = 1234) -> np.ndarray:
     return np.concatenate([rng.uniform(-1, 1, (1016, 3)), corners]).astype(np.float32)
 
 
-def encode(name: str, rel: str, field: str, width: int, bits: int, epochs: int) -> None:
-    stem = HERE / f"v1_0_{name}"
-    config = EncodeConfig(field=field, width=width, bits=bits, epochs=epochs, seed=7, quiet=True)
+def encode(name: str, rel: str, field: str, width: int, bits: int, epochs: int, color_width: int | None) -> None:
+    stem = HERE / name
+    config = EncodeConfig(field=field, width=width, bits=bits, epochs=epochs, seed=7, quiet=True,
+                          color="off" if color_width is None else "on", color_width=color_width or 16,
+                          color_epochs=COLOR_EPOCHS)
     data = compress(load_shape(DATA / rel), config).data
     stem.with_suffix(".nfc").write_bytes(data)
     points = query_points()
-    values = evaluate(dequantize(read_nfc(data).geometry.network), points)
+    nfc = read_nfc(data)
+    values = evaluate(dequantize(nfc.geometry.network), points)
     np.savetxt(stem.with_suffix(".values.txt"), np.column_stack([points, values]), fmt="%.9g")
+    if nfc.color is not None:
+        colors = evaluate_color(dequantize(nfc.color.network), points)
+        np.savetxt(stem.with_suffix(".colours.txt"), np.column_stack([points, colors]), fmt="%.9g")
     print(f"{stem.name}: encoded, {len(data)} bytes")
 
 
 def main() -> None:
     for name, *encoding in VECTORS:
-        stem = HERE / f"v1_0_{name}"
+        stem = HERE / name
         if not stem.with_suffix(".nfc").exists():
             encode(name, *encoding)
         mesh = extract_mesh(read_nfc(stem.with_suffix(".nfc").read_bytes()), MESH_RESOLUTION)
-        save_mesh(stem.with_suffix(f".mesh{MESH_RESOLUTION}.ply"), mesh.vertices, mesh.faces, mesh.normals)
+        colors = None if mesh.colors is None else mesh.colors.astype(np.float32)
+        save_mesh(stem.with_suffix(f".mesh{MESH_RESOLUTION}.ply"), mesh.vertices, mesh.faces, mesh.normals, colors)
         print(f"{stem.name}: mesh at {MESH_RESOLUTION}, {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
 
 
