@@ -1,14 +1,15 @@
 // CPU reference evaluator (FORMAT.md "Evaluation"): positional encoding, sine layers, linear
 // output, all in f32, optionally with the forward-mode gradient. Points are processed in blocks
 // with activations stored feature-major (h[feature][point]), so the inner loop of every layer runs
-// over points and vectorises; sin and cos are the C library's, accurate on the whole f32 range (no
-// range-reduction shortcut).
+// over points and vectorises; sin and cos are sine.h's (the shaders' reduction and polynomials,
+// ~1 ulp), evaluated over whole rows.
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
 #include "network.h"
 #include "parallel.h"
+#include "sine.h"
 
 namespace nfd {
 namespace {
@@ -49,13 +50,97 @@ float output_slope(OutputActivation activation, float y) {
 }
 
 // acc[p] += w * x[p]: the one multiply-add of every layer, in input order, for values and
-// derivatives alike (so that the value of the gradient path is the value path's, bit for bit).
+// derivatives alike (so that the value of the gradient path is the value path's, bit for bit;
+// network.cpp is compiled without floating-point contraction, so no path fuses it differently).
 void multiply_add(float* acc, float w, const float* x, size_t count) {
     for (size_t p = 0; p < count; ++p) acc[p] += w * x[p];
 }
 
-// C = 1: values; C = 4: values and gradients (forward mode: every derivative row goes through
-// the same weights as its value, then the chain rule of the activation).
+// Outputs of a layer computed together in the value path: each input row loaded feeds this many
+// accumulators (the loads, not the multiply-adds, bound a one-output loop).
+constexpr uint32_t kOutputBlock = 4;
+
+// Rows o .. o + B - 1 of a layer over `count` points: acc[b][p] = sum_i w[o + b][i] x[i][p],
+// each accumulator summed in input order exactly as multiply_add does.
+template <uint32_t B>
+void layer_rows(const Layer& layer, uint32_t o, const float* h, size_t count,
+                float (&acc)[kOutputBlock][kBlock]) {
+    for (uint32_t b = 0; b < B; ++b) std::fill_n(acc[b], count, 0.0f);
+    const float* w = layer.weights.data() + size_t(o) * layer.in;
+    for (uint32_t i = 0; i < layer.in; ++i) {
+        const float* x = h + size_t(i) * kBlock;
+        float wi[B];
+        for (uint32_t b = 0; b < B; ++b) wi[b] = w[size_t(b) * layer.in + i];
+        for (size_t p = 0; p < count; ++p)
+            for (uint32_t b = 0; b < B; ++b) acc[b][p] += wi[b] * x[p];
+    }
+}
+
+// The value path (C = 1) of one layer: outputs kOutputBlock at a time, then the activation of
+// each output row as one array of arguments.
+void value_layer(const Network& net, const Layer& layer, bool hidden, const float* h, size_t count,
+                 float* next) {
+    float acc[kOutputBlock][kBlock];
+    float args[kBlock];
+    auto finish = [&](uint32_t o, const float* sum) {
+        float* value = next + size_t(o) * kBlock;
+        const float bias = layer.bias[o];
+        if (!hidden) {
+            for (size_t p = 0; p < count; ++p) value[p] = sum[p] + bias;
+            return;
+        }
+        for (size_t p = 0; p < count; ++p) args[p] = net.omega0 * (sum[p] + bias);
+        sin_reduced(args, value, count);
+    };
+    uint32_t o = 0;
+    for (; o + kOutputBlock <= layer.out; o += kOutputBlock) {
+        layer_rows<kOutputBlock>(layer, o, h, count, acc);
+        for (uint32_t b = 0; b < kOutputBlock; ++b) finish(o + b, acc[b]);
+    }
+    for (; o < layer.out; ++o) {
+        layer_rows<1>(layer, o, h, count, acc);
+        finish(o, acc[0]);
+    }
+}
+
+// The gradient path (C = 4) of one layer: every derivative row goes through the same weights as
+// its value, then the chain rule of the activation.
+void gradient_layer(const Network& net, const Layer& layer, bool first, bool hidden,
+                    const float* h, size_t count, float* next) {
+    constexpr size_t C = 4;
+    auto row = [](const float* base, size_t feature, size_t c) {
+        return base + (feature * C + c) * kBlock;
+    };
+    float args[kBlock], sines[kBlock], cosines[kBlock];
+    for (uint32_t o = 0; o < layer.out; ++o) {
+        float acc[C][kBlock] = {};
+        const float* w = layer.weights.data() + size_t(o) * layer.in;
+        for (uint32_t i = 0; i < layer.in; ++i) {
+            multiply_add(acc[0], w[i], row(h, i, 0), count);
+            if (first) {  // an encoded input depends on one coordinate only
+                const size_t c = 1 + encoded_axis(i);
+                multiply_add(acc[c], w[i], row(h, i, c), count);
+            } else {
+                for (size_t c = 1; c < C; ++c) multiply_add(acc[c], w[i], row(h, i, c), count);
+            }
+        }
+        float* value = next + (size_t(o) * C) * kBlock;
+        if (!hidden) {  // the output layer is linear
+            for (size_t p = 0; p < count; ++p) value[p] = acc[0][p] + layer.bias[o];
+            for (size_t c = 1; c < C; ++c) std::copy_n(acc[c], count, value + c * kBlock);
+            continue;
+        }
+        // d sin(omega0 z) = omega0 cos(omega0 z) dz.
+        for (size_t p = 0; p < count; ++p) args[p] = net.omega0 * (acc[0][p] + layer.bias[o]);
+        sincos_reduced(args, sines, cosines, count);
+        std::copy_n(sines, count, value);
+        for (size_t c = 1; c < C; ++c)
+            for (size_t p = 0; p < count; ++p)
+                value[c * kBlock + p] = net.omega0 * cosines[p] * acc[c][p];
+    }
+}
+
+// C = 1: values; C = 4: values and gradients (forward mode).
 template <size_t C>
 void evaluate_block(const Network& net, const float* xyz, size_t count, float* out,
                     float* out_gradients, Scratch& s) {
@@ -69,17 +154,15 @@ void evaluate_block(const Network& net, const float* xyz, size_t count, float* o
         for (size_t p = 0; p < count; ++p) row(h, j, 0)[p] = xyz[3 * p + j];
         if (C > 1) std::fill_n(row(h, j, 1 + j), count, 1.0f);
     }
+    float args[kBlock];
     for (size_t k = 0; k < net.frequencies.size(); ++k) {
         const float f = net.frequencies[k];
         for (size_t j = 0; j < 3; ++j) {
             const size_t sin_feature = 3 + 6 * k + j, cos_feature = sin_feature + 3;
             float* sin_row = row(h, sin_feature, 0);
             float* cos_row = row(h, cos_feature, 0);
-            for (size_t p = 0; p < count; ++p) {
-                const float arg = f * xyz[3 * p + j];  // the f32 product FORMAT.md specifies
-                sin_row[p] = std::sin(arg);
-                cos_row[p] = std::cos(arg);
-            }
+            for (size_t p = 0; p < count; ++p) args[p] = f * xyz[3 * p + j];  // FORMAT.md's f32 product
+            sincos_reduced(args, sin_row, cos_row, count);
             if (C > 1) {
                 float* dsin = row(h, sin_feature, 1 + j);
                 float* dcos = row(h, cos_feature, 1 + j);
@@ -93,31 +176,11 @@ void evaluate_block(const Network& net, const float* xyz, size_t count, float* o
 
     float* next = s.b.data();
     for (size_t l = 0; l < net.layers.size(); ++l) {
-        const Layer& layer = net.layers[l];
         const bool hidden = l + 1 < net.layers.size();
-        for (uint32_t o = 0; o < layer.out; ++o) {
-            float acc[C][kBlock] = {};
-            const float* w = layer.weights.data() + size_t(o) * layer.in;
-            for (uint32_t i = 0; i < layer.in; ++i) {
-                multiply_add(acc[0], w[i], row(h, i, 0), count);
-                if (C == 1) continue;
-                if (l == 0) {
-                    const size_t c = 1 + encoded_axis(i);
-                    multiply_add(acc[c], w[i], row(h, i, c), count);
-                } else {
-                    for (size_t c = 1; c < C; ++c) multiply_add(acc[c], w[i], row(h, i, c), count);
-                }
-            }
-            float* value = row(next, o, 0);
-            for (size_t p = 0; p < count; ++p) {
-                const float z = acc[0][p] + layer.bias[o];
-                value[p] = hidden ? std::sin(net.omega0 * z) : z;
-                if (C == 1) continue;
-                // d sin(omega0 z) = omega0 cos(omega0 z) dz; the output layer is linear.
-                const float slope = hidden ? net.omega0 * std::cos(net.omega0 * z) : 1.0f;
-                for (size_t c = 1; c < C; ++c) row(next, o, c)[p] = slope * acc[c][p];
-            }
-        }
+        if (C == 1)
+            value_layer(net, net.layers[l], hidden, h, count, next);
+        else
+            gradient_layer(net, net.layers[l], l == 0, hidden, h, count, next);
         std::swap(h, next);
     }
     // Values: every output of the point, point-major (a colour network's RGB). Gradients: the
@@ -140,6 +203,30 @@ size_t widest(const Network& net) {
     return width;
 }
 
+// The blocks of [begin, end): one function per path, compiled once for each instruction set
+// below (GCC/Clang function multiversioning: the loader picks the widest the CPU has) with
+// everything it calls inlined, so that the row loops vectorise 16 wide on AVX-512, 8 on AVX2,
+// 4 on the x86-64 baseline. Without contraction every clone computes the same bits.
+#if defined(__x86_64__) && defined(__linux__) && (defined(__GNUC__) || defined(__clang__))
+#define NFD_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default"), flatten))
+#else
+#define NFD_VECTOR_CLONES
+#endif
+
+NFD_VECTOR_CLONES void value_range(const Network& net, const float* unit_xyz, size_t begin,
+                                   size_t end, float* out, Scratch& s) {
+    for (size_t p = begin; p < end; p += kBlock)
+        evaluate_block<1>(net, unit_xyz + 3 * p, std::min(kBlock, end - p),
+                          out + p * net.output_width(), nullptr, s);
+}
+
+NFD_VECTOR_CLONES void gradient_range(const Network& net, const float* unit_xyz, size_t begin,
+                                      size_t end, float* out, float* out_gradients, Scratch& s) {
+    for (size_t p = begin; p < end; p += kBlock)
+        evaluate_block<4>(net, unit_xyz + 3 * p, std::min(kBlock, end - p), out + p,
+                          out_gradients + 3 * p, s);
+}
+
 template <size_t C>
 void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float* out,
                      float* out_gradients, unsigned threads) {
@@ -147,11 +234,10 @@ void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float*
     // Below ~4k points a thread costs more than it saves.
     parallel_for(n, 4096, threads, [&](size_t begin, size_t end) {
         Scratch s{std::vector<float>(width * C * kBlock), std::vector<float>(width * C * kBlock)};
-        for (size_t p = begin; p < end; p += kBlock) {
-            const size_t count = std::min(kBlock, end - p);
-            evaluate_block<C>(net, unit_xyz + 3 * p, count, out + p * net.output_width(),
-                              C > 1 ? out_gradients + 3 * p : nullptr, s);
-        }
+        if (C == 1)
+            value_range(net, unit_xyz, begin, end, out, s);
+        else
+            gradient_range(net, unit_xyz, begin, end, out, out_gradients, s);
     });
 }
 
