@@ -284,13 +284,14 @@ def cmd_decode(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from .metrics import chamfer_distance, sampling_floor
+    from .metrics import chamfer_distance, sampling_floor, shape_color_psnr
 
     _positive("--samples", args.samples)
-    gt: Shape = load_shape(args.ground_truth)
-    rec: Shape = load_shape(args.reconstruction)
+    gt: Shape = load_shape(args.ground_truth, warn=_warn)
+    rec: Shape = load_shape(args.reconstruction, warn=_warn)
     cd = chamfer_distance(gt, rec, args.samples, args.seed)
     floor = sampling_floor(gt, args.samples, args.seed)
+    psnr = shape_color_psnr(gt, rec)
     result = {
         "ground_truth": args.ground_truth,
         "reconstruction": args.reconstruction,
@@ -299,6 +300,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         "excess": cd - floor,
         "samples": args.samples,
         "seed": args.seed,
+        "color_psnr": psnr,
     }
     if args.json:
         print(json.dumps(result, indent=2))
@@ -306,6 +308,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
         print(f"CD      {_fmt(cd)}  (ground truth's unit-ball frame, {args.samples} samples per side, seed {args.seed})")
         print(f"floor   {_fmt(floor)}  (two independent samplings of the ground truth)")
         print(f"excess  {_fmt(cd - floor)}  (CD - floor)")
+        if psnr is not None:
+            print(f"PSNR    {_fmt(psnr)} dB  (colour, mean of both directions over all points, peak 255)")
     return 0
 
 
@@ -352,7 +356,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the point sampling")
     p.set_defaults(run=cmd_decode)
 
-    p = sub.add_parser("eval", help="Chamfer distance between a ground truth and a reconstruction")
+    p = sub.add_parser("eval", help="Chamfer distance (and colour PSNR when both are coloured) between a "
+                                    "ground truth and a reconstruction")
     p.add_argument("ground_truth")
     p.add_argument("reconstruction")
     p.add_argument("--json", action="store_true", help="machine-readable output")

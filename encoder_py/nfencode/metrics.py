@@ -70,3 +70,12 @@ def color_psnr(gt_points: np.ndarray, gt_colors: np.ndarray, rec_points: np.ndar
     forward = _one_way_psnr(gt_points, gt_colors, rec_points, rec_colors)
     backward = _one_way_psnr(rec_points, rec_colors, gt_points, gt_colors)
     return 0.5 * (forward + backward)
+
+
+def shape_color_psnr(gt: Shape, rec: Shape) -> float | None:
+    """Colour PSNR (metrics.md) between the vertices/points of two coloured shapes, in the ground
+    truth's unit-ball frame; None unless both carry colours."""
+    if gt.colors is None or rec.colors is None:
+        return None
+    center, scale = unit_ball_frame(gt.vertices)
+    return color_psnr(to_unit(gt.vertices, center, scale), gt.colors, to_unit(rec.vertices, center, scale), rec.colors)

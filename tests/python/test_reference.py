@@ -10,7 +10,7 @@ from typing import Callable
 
 import numpy as np
 import pytest
-from conftest import COS_BLOB_LEVEL, cos_blob, cos_blob_file, random_file
+from conftest import COS_BLOB_LEVEL, cos_blob, cos_blob_file, random_color_file, random_file
 
 from nfencode.bitstream import (
     FIELD_UDF,
@@ -26,18 +26,23 @@ from nfencode.bitstream import (
 from nfencode.errors import NfcError
 from nfencode.reference import (
     DecodedNetwork,
+    color_bytes,
+    decode_points,
     dequantize,
     evaluate,
+    evaluate_color,
     evaluate_gradient,
     extract_mesh,
+    extract_unit_mesh,
     extract_mesh_from_field,
     field_function,
     sample_points,
 )
 
 
-def explicit_field(net: NetworkBlock, u: tuple[float, float, float]) -> float:
-    """FORMAT.md "Evaluation" written out scalar by scalar, independently of reference.py."""
+def explicit_field(net: NetworkBlock, u: tuple[float, float, float], output: int = 0) -> float:
+    """FORMAT.md "Evaluation" written out scalar by scalar, independently of reference.py: the
+    network's `output`-th value."""
     f32 = np.float32
     freqs, a = [], math.pi
     for _ in range(net.num_frequencies):
@@ -57,7 +62,7 @@ def explicit_field(net: NetworkBlock, u: tuple[float, float, float]) -> float:
     for w, b in layers[:-1]:
         h = [math.sin(omega0 * (sum(wi * hi for wi, hi in zip(row, h)) + bo)) for row, bo in zip(w, b)]
     w, b = layers[-1]
-    y = sum(wi * hi for wi, hi in zip(w[0], h)) + b[0]
+    y = sum(wi * hi for wi, hi in zip(w[output], h)) + b[output]
     if net.output == OUTPUT_ABS:
         return abs(y)
     if net.output == OUTPUT_SIGMOID:
@@ -372,3 +377,65 @@ def test_geometry_chunk_is_exposed_for_info() -> None:
     f = cos_blob_file()
     assert isinstance(f, NfcFile) and isinstance(f.geometry, GeometryChunk)
     assert f.geometry.network.parameter_count == 3 * 3 + 3 + 3 + 1
+
+
+# ---------------------------------------------------------------------------------------------
+# Colour (FORMAT.md 1.1, `colr`)
+
+
+def colored_blob() -> NfcFile:
+    f = cos_blob_file()
+    f.color = random_color_file().color
+    return read_nfc(write_nfc(f))
+
+
+def test_evaluate_color_matches_the_explicit_formula() -> None:
+    f = read_nfc(write_nfc(random_color_file()))
+    assert f.color is not None
+    net = f.color.network
+    rng = np.random.default_rng(2)
+    points = np.concatenate([rng.uniform(-1, 1, (15, 3)), [[1, 1, 1], [-1, -1, -1], [0, 0, 0]]])
+    colors = evaluate_color(dequantize(net), points)
+    assert colors.shape == (len(points), 3) and colors.min() >= 0.0 and colors.max() <= 1.0
+    expected = [[explicit_field(net, tuple(p), k) for k in range(3)] for p in points]
+    assert np.abs(colors - np.array(expected)).max() <= 1e-6
+    assert colors.std(axis=0).min() > 1e-3  # the random network really varies
+
+
+def test_evaluate_color_rejects_a_geometry_network() -> None:
+    with pytest.raises(NfcError):
+        evaluate_color(dequantize(random_file().geometry.network), np.zeros((2, 3)))
+
+
+def test_color_bytes_rounds_half_up_and_saturates() -> None:
+    c = np.array([[0.0, 1.0, 0.5], [0.5 / 255, 0.4999 / 255, 254.5 / 255], [1 - 1e-12, 1e-12, 254.49 / 255]])
+    np.testing.assert_array_equal(color_bytes(c), [[0, 255, 128], [1, 0, 255], [255, 0, 254]])
+    assert color_bytes(c).dtype == np.uint8
+
+
+def test_mesh_colours_are_evaluated_at_the_extractors_unit_vertices() -> None:
+    f = colored_blob()
+    assert f.color is not None
+    unit = extract_unit_mesh(f, 32)
+    mesh = extract_mesh(f, 32)
+    np.testing.assert_array_equal(mesh.faces, unit.faces)
+    assert mesh.colors is not None and mesh.colors.shape == (len(mesh.vertices), 3)
+    np.testing.assert_array_equal(mesh.colors, evaluate_color(dequantize(f.color.network), unit.vertices))
+    g = f.geometry
+    np.testing.assert_array_equal(mesh.vertices, (unit.vertices * np.float32(g.scale)
+                                                  + np.asarray(g.center, dtype=np.float32)).astype(np.float32))
+    assert extract_mesh(f, 32, color=False).colors is None
+    assert extract_mesh(cos_blob_file(), 32).colors is None  # no colr chunk
+
+
+def test_decoded_points_carry_the_colour_of_their_unit_position() -> None:
+    f = colored_blob()
+    assert f.color is not None
+    unit = extract_unit_mesh(f, 32)
+    points, colors = decode_points(f, unit, 500, seed=4)
+    assert points.dtype == np.float32 and points.shape == (500, 3) and colors is not None
+    u = sample_points(unit.vertices, unit.faces, 500, seed=4).astype(np.float32)
+    np.testing.assert_array_equal(colors, evaluate_color(dequantize(f.color.network), u))
+    g = f.geometry
+    assert np.abs((points - np.asarray(g.center)) / g.scale - u).max() < 1e-6
+    assert decode_points(cos_blob_file(), unit, 10)[1] is None
