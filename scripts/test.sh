@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test: the C++ suite (CTest: parser, hostile input, CPU reference, Vulkan on lavapipe or a
-# GPU, consumer project), the queue tests under TSan and ASan, and the Python suite (pytest).
+# GPU, consumer project), the C++ suite under ASan + UBSan and the queue tests under TSan, and the
+# Python suite (pytest).
 # Installs what it needs first.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -8,6 +9,6 @@ scripts/setup.sh
 status=0
 export NFD_REQUIRE_VULKAN=1  # lavapipe is installed: GPU tests must run, not skip
 ctest --test-dir build --output-on-failure -j2 || status=1
-scripts/sanitize.sh || status=1  # the queue tests under ThreadSanitizer and AddressSanitizer
+scripts/sanitize.sh || status=1  # ASan + UBSan (the C++ suite), TSan (the queue tests)
 .venv/bin/python -m pytest tests/python -q || status=1
 exit $status
