@@ -11,6 +11,7 @@ APT_PACKAGES=(
   libopenvdb-dev libboost-iostreams-dev libopenvdb-tools
   draco
   libimgui-dev libstb-dev xvfb xauth
+  clang libclang-rt-14-dev
 )
 missing=()
 for p in "${APT_PACKAGES[@]}"; do

@@ -1,8 +1,5 @@
-// libFuzzer entry point over the parser (the only code that reads untrusted bytes), one-shot and
-// incremental:
-//   cmake -DNFD_BUILD_FUZZERS=ON -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ ...
-//   ./tests/fuzz_asset corpus/
-// Seed the corpus with tests/vectors/*.nfc.
+// libFuzzer target over the parser (the only code that reads untrusted bytes), one-shot and
+// incremental (tests/fuzz/README.md; scripts/fuzz.sh builds and runs it).
 #include <nfdecode/nfdecode.h>
 
 #include <algorithm>

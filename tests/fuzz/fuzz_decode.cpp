@@ -1,0 +1,100 @@
+// libFuzzer target: everything a decode does behind the parser, on the C++ path, for any file the
+// parser accepts: a mesh at a small resolution (8-32, from the input's last byte) with its colours,
+// points sampled on it and coloured, the sparse grid with its colours, and the PLY, glTF and VDB
+// writers. Every output must be finite (colours in [0, 1]); anything else aborts.
+#include <nfdecode/nfdecode.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+namespace {
+
+void require(bool ok) {
+    if (!ok) std::abort();
+}
+
+void require_finite(const float* v, size_t n, bool unit_interval = false) {
+    for (size_t i = 0; i < n; ++i)
+        require(std::isfinite(v[i]) && (!unit_interval || (v[i] >= 0.0f && v[i] <= 1.0f)));
+}
+
+nfd_context* cpu_context() {
+    static nfd_context* context = [] {
+        nfd_context_options co{};
+        co.struct_size = sizeof co;
+        co.device = NFD_DEVICE_CPU;
+        co.cpu_threads = 1;
+        nfd_context* c = nullptr;
+        return nfd_context_create(&co, &c) == NFD_SUCCESS ? c : nullptr;
+    }();
+    return context;
+}
+
+std::string scratch_path(const char* extension) {
+    return "/tmp/nfd_fuzz_decode_" + std::to_string(::getpid()) + extension;
+}
+
+void decode(const nfd_asset* asset, uint32_t resolution) {
+    nfd_context* ctx = cpu_context();
+    nfd_mesh_options mo{};
+    mo.struct_size = sizeof mo;
+    mo.resolution = resolution;
+    nfd_mesh* mesh = nullptr;
+    const nfd_result r = nfd_mesh_extract(ctx, asset, &mo, &mesh);
+    if (r == NFD_ERROR_OUT_OF_MEMORY) return;
+    require(r == NFD_SUCCESS);
+    nfd_mesh_data d{};
+    const float* colours = nullptr;
+    require(nfd_mesh_get_data(mesh, &d) == NFD_SUCCESS);
+    require(nfd_mesh_get_colours(mesh, &colours) == NFD_SUCCESS);
+    require_finite(d.positions, 3 * d.vertex_count);
+    require_finite(d.normals, 3 * d.vertex_count);
+    for (size_t i = 0; i < 3 * d.triangle_count; ++i) require(d.indices[i] < d.vertex_count);
+    if (colours) require_finite(colours, 3 * d.vertex_count, true);
+    if (d.triangle_count > 0) {
+        std::vector<float> points(3 * 64), normals(3 * 64), rgb(3 * 64);
+        require(nfd_mesh_sample_points(mesh, 64, 1, points.data(), normals.data()) == NFD_SUCCESS);
+        require_finite(points.data(), points.size());
+        const nfd_result c = nfd_asset_evaluate_colour(ctx, asset, points.data(), 64, rgb.data());
+        require(c == (colours ? NFD_SUCCESS : NFD_ERROR_NO_COLOUR));
+        if (colours) require_finite(rgb.data(), rgb.size(), true);
+        require(nfd_points_write_coloured_ply(points.data(), normals.data(),
+                                              colours ? rgb.data() : nullptr, 64,
+                                              scratch_path(".points.ply").c_str()) == NFD_SUCCESS);
+    }
+    require(nfd_mesh_write_ply(mesh, scratch_path(".ply").c_str()) == NFD_SUCCESS);
+    require(nfd_mesh_write_glb(mesh, scratch_path(".glb").c_str()) == NFD_SUCCESS);
+    nfd_mesh_destroy(mesh);
+
+    nfd_grid_options go{};
+    go.struct_size = sizeof go;
+    go.resolution = resolution;
+    nfd_grid* grid = nullptr;
+    const nfd_result g = nfd_grid_extract(ctx, asset, &go, &grid);
+    if (g == NFD_ERROR_OUT_OF_MEMORY) return;
+    require(g == NFD_SUCCESS);
+    nfd_grid_voxels v{};
+    require(nfd_grid_get_voxels(grid, &v) == NFD_SUCCESS);
+    require(nfd_grid_get_colours(grid, &colours) == NFD_SUCCESS);
+    if (colours) require_finite(colours, 3 * v.count, true);
+    const nfd_result w = nfd_grid_write_vdb(grid, scratch_path(".vdb").c_str(), "fuzz.nfc");
+    require(w == NFD_SUCCESS || w == NFD_ERROR_UNSUPPORTED_FEATURE);  // a build without OpenVDB
+    nfd_grid_destroy(grid);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    if (size == 0 || !cpu_context()) return 0;
+    // The last byte picks the resolution and is not part of the file.
+    const uint32_t resolution = NFD_MIN_RESOLUTION + data[size - 1] % 25;  // 8..32
+    nfd_asset* asset = nullptr;
+    if (nfd_asset_create(data, size - 1, &asset) != NFD_SUCCESS) return 0;
+    decode(asset, resolution);
+    nfd_asset_destroy(asset);
+    return 0;
+}
