@@ -115,10 +115,10 @@ def run_color(gt: Shape, shape: str, geometry: Path, width: int, bits: int, deco
 
 
 def baselines(name: str) -> list[Row]:
-    rows = csv.DictReader(open(SHARED / "baselines" / "baselines.csv"))
-    return [Row(r["codec"], f"{r['mode']} {r['param']}", int(r["bytes"]), float(r["cd"]), float(r["psnr"]))
-            for r in rows
-            if r["shape"] == name and r["psnr"] and r["mode"] in BASELINE_MODES.get(r["codec"], ())]
+    with open(SHARED / "baselines" / "baselines.csv", newline="") as f:
+        return [Row(r["codec"], f"{r['mode']} {r['param']}", int(r["bytes"]), float(r["cd"]), float(r["psnr"]))
+                for r in csv.DictReader(f)
+                if r["shape"] == name and r["psnr"] and r["mode"] in BASELINE_MODES.get(r["codec"], ())]
 
 
 def envelope_at(rows: list[Row], size: int) -> float | None:
@@ -147,14 +147,18 @@ def fmt(x: float | None, digits: str = ".2f") -> str:
 def verdict(psnr: float, gpcc: float | None, gpcc_env: float | None) -> str:
     if gpcc is None:
         return "G-PCC none this small"
-    if psnr > gpcc and (gpcc_env is None or psnr > gpcc_env):
+    above_env = gpcc_env is None or psnr > gpcc_env
+    if psnr > gpcc and above_env:
         return "nfc above G-PCC"
-    return "G-PCC above" if psnr < gpcc else "G-PCC envelope above"
+    if above_env:
+        return "above G-PCC's files ≤ size, below its interpolation"
+    return "G-PCC above"
 
 
 def load_rows(path: Path) -> list[Row]:
-    return [Row(r["codec"], r["setting"], int(r["bytes"]), float(r["cd"]), float(r["psnr"]), float(r["seconds"]))
-            for r in csv.DictReader(open(path)) if r["codec"] == "nfc"]
+    with open(path, newline="") as f:
+        return [Row(r["codec"], r["setting"], int(r["bytes"]), float(r["cd"]), float(r["psnr"]), float(r["seconds"]))
+                for r in csv.DictReader(f) if r["codec"] == "nfc"]
 
 
 def report(shape: str, name: str, ours: list[Row], decoder: str) -> None:

@@ -25,7 +25,7 @@ from .model import Siren
 from .normalize import to_unit
 from .quantize import quantized_network
 from .reference import ExtractedMesh, extract_unit_mesh, sample_points
-from .train import Batch, encode_points, optimize, quantizer
+from .train import Batch, optimize, quantizer
 
 MIN_RESOLUTION, MAX_RESOLUTION = 8, 1024  # the decoder's grid range
 
@@ -67,17 +67,21 @@ def color_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
 class _SurfaceColors:
     """Points on the decoded surface (unit frame) and the nearest ground-truth colour of each."""
 
-    def __init__(self, mesh: ExtractedMesh, shape: Shape, geometry: NfcFile, rng: np.random.Generator) -> None:
+    def __init__(self, mesh: ExtractedMesh, shape: Shape, geometry: NfcFile, rng: np.random.Generator,
+                 device: torch.device) -> None:
         assert shape.colors is not None
         g = geometry.geometry
-        self.mesh, self.rng = mesh, rng
+        self.mesh, self.rng, self.device = mesh, rng, device
         self.tree = cKDTree(to_unit(shape.vertices, np.asarray(g.center, dtype=np.float64), g.scale))
         self.targets = torch.from_numpy(shape.colors.astype(np.float32) * np.float32(2.0 / 255.0) - np.float32(1.0))
 
     def draw(self, model: Siren, n: int) -> Batch:
+        """n fresh points, encoded by `model` (on the training device), and their target colours."""
         u = sample_points(self.mesh.vertices, self.mesh.faces, n, self.rng).astype(np.float32)
         _, nearest = self.tree.query(u, k=1, workers=-1)
-        return encode_points(model, u), self.targets[torch.from_numpy(nearest)]
+        with torch.no_grad():
+            encoded = model.encoding(torch.from_numpy(u).to(self.device))
+        return encoded, self.targets[torch.from_numpy(nearest)].to(self.device)
 
 
 def _validation_loss(model: Siren, batch: Batch, bits: int) -> float:
@@ -100,13 +104,12 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
     generator = torch.Generator().manual_seed(options.seed)
     model = Siren(options.width, "sigmoid", outputs=3, num_frequencies=config.COLOR_NUM_FREQUENCIES,
                   generator=generator)
-    surface = _SurfaceColors(mesh, shape, geometry, rng)
-    encoded, targets = surface.draw(model, schedule.validation_points)
-    validation: Batch = (encoded.to(device), targets.to(device))
     model = model.to(device)
+    surface = _SurfaceColors(mesh, shape, geometry, rng, device)
+    validation = surface.draw(model, schedule.validation_points)
 
     def batches() -> list[Batch]:
-        encoded, targets = (t.to(device) for t in surface.draw(model, schedule.points))
+        encoded, targets = surface.draw(model, schedule.points)
         return list(zip(encoded.split(schedule.batch_size), targets.split(schedule.batch_size)))
 
     steps = -(-schedule.points // schedule.batch_size)

@@ -136,7 +136,7 @@ def _obj_colors(raw: bytes, vertex_count: int) -> Colors:
     """`v x y z r g b` lines (r g b in [0, 1], or 0..255): trimesh clamps 0..255 values and reads NaN
     as 0, so the colours are parsed here, from the same `v` lines trimesh keeps in order."""
     rows = [line.split()[1:] for line in raw.decode("utf-8", errors="replace").splitlines()
-            if line.startswith("v ") or line.startswith("v\t")]
+            if line.startswith(("v ", "v\t"))]
     colored = sum(len(r) >= 6 for r in rows)
     if colored == 0:
         return None

@@ -33,8 +33,7 @@ class TrainingData:
     validation_distances: torch.Tensor
 
 
-def encode_points(model: Siren, points: np.ndarray) -> torch.Tensor:
-    """The positional encoding (n, 3 + 6L) of f32 unit-frame points, in chunks, without gradients."""
+def _encode(model: Siren, points: np.ndarray) -> torch.Tensor:
     u = torch.from_numpy(points)
     out = torch.empty(len(u), model.encoding.out_features)
     with torch.no_grad():
@@ -45,9 +44,9 @@ def encode_points(model: Siren, points: np.ndarray) -> torch.Tensor:
 
 def prepare_data(model: Siren, pool: DistancePool) -> TrainingData:
     return TrainingData(
-        encode_points(model, pool.points),
+        _encode(model, pool.points),
         torch.from_numpy(pool.distances),
-        encode_points(model, pool.validation_points),
+        _encode(model, pool.validation_points),
         torch.from_numpy(pool.validation_distances),
     )
 
