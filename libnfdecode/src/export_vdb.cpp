@@ -4,6 +4,7 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/SignedFloodFill.h>
 
+#include <cmath>
 #include <fstream>
 #include <string>
 
@@ -11,8 +12,25 @@
 
 namespace nfd {
 
+namespace {
+
+// OpenVDB's transforms refuse (ArithmeticError) a voxel whose volume is under 3e-15 (its double
+// tolerance, math::Tolerance: so a voxel size under 1.45e-5 in the file's units), and lose the
+// scale to rounding when the translation exceeds it by 2^52. Found by fuzz_decode: a real shape
+// a millimetre wide in metres, decoded at 256, has voxels of 7.8e-6.
+bool transform_representable(const nfd_grid_voxels& voxels) {
+    const double size = voxels.voxel_size;
+    if (!(size * size * size >= 3.0e-15)) return false;
+    for (float o : voxels.origin)
+        if (!(std::fabs(double(o)) < size * 0x1p52)) return false;
+    return true;
+}
+
+}  // namespace
+
 nfd_result write_vdb(const nfd_grid_voxels& voxels, const float* colours, const VdbSource& source,
                      const char* path) {
+    if (!transform_representable(voxels)) return NFD_ERROR_LIMIT_EXCEEDED;
     openvdb::initialize();  // registers the grid and metadata types; idempotent, thread-safe
     const bool sdf = voxels.field_type == NFD_FIELD_SDF;
     const openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(voxels.background);

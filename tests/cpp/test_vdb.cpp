@@ -201,6 +201,37 @@ TEST(Vdb, WriteFailuresAreIoErrors) {
         EXPECT_EQ(nfd_grid_write_vdb(g.grid, "/dev/full", nullptr), NFD_ERROR_IO);
 }
 
+// Frames OpenVDB's transforms cannot hold give NFD_ERROR_LIMIT_EXCEEDED, with no file written:
+// a voxel of 1e-5 units (a shape a millimetre wide in metres, at 256), an origin 1e20 voxels out
+// (found by fuzz_decode: OpenVDB threw, which read as an internal error). Just inside both
+// limits the file is written.
+TEST(Vdb, TransformsOpenVdbCannotHoldAreLimits) {
+    const ContextPtr ctx = cpu_context();
+    struct Case {
+        float scale, centre_x;
+        nfd_result expected;
+    };
+    // voxel size = scale * 2 / 32; OpenVDB needs >= 1.45e-5, origin = centre - scale.
+    for (const Case& c : {Case{1.6e-4f, 0.0f, NFD_ERROR_LIMIT_EXCEEDED},
+                          Case{3.2e-4f, 0.0f, NFD_SUCCESS},
+                          Case{1.0f, 1e20f, NFD_ERROR_LIMIT_EXCEEDED},
+                          Case{1.0f, 1e14f, NFD_SUCCESS}}) {
+        const float centre[3] = {c.centre_x, 0.0f, 0.0f};
+        const AssetPtr asset = make_asset(geom_file(closed_blob(c.scale, centre)));
+        nfd_grid_options go{};
+        go.struct_size = sizeof go;
+        go.resolution = 32;
+        nfd_grid* raw = nullptr;
+        ASSERT_EQ(nfd_grid_extract(ctx.get(), asset.get(), &go, &raw), NFD_SUCCESS);
+        const std::unique_ptr<nfd_grid, void (*)(nfd_grid*)> grid(raw, &nfd_grid_destroy);
+        const std::string path = temp_vdb("limit");
+        std::remove(path.c_str());
+        EXPECT_EQ(nfd_grid_write_vdb(grid.get(), path.c_str(), nullptr), c.expected) << c.scale;
+        EXPECT_EQ(std::filesystem::exists(path), c.expected == NFD_SUCCESS) << c.scale;
+        std::remove(path.c_str());
+    }
+}
+
 TEST(Vdb, VdbPrintReadsTheFile) {
     if (std::system("command -v vdb_print >/dev/null 2>&1") != 0)
         GTEST_SKIP() << "vdb_print not found (Debian libopenvdb-tools)";

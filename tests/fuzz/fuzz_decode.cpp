@@ -7,15 +7,20 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <string>
 #include <vector>
 
 namespace {
 
-void require(bool ok) {
-    if (!ok) std::abort();
+// A broken promise: says which, then aborts (libFuzzer keeps the input).
+void require_at(bool ok, int line) {
+    if (ok) return;
+    std::fprintf(stderr, "%s:%d: check failed\n", __FILE__, line);
+    std::abort();
 }
+#define require(ok) require_at((ok), __LINE__)
 
 void require_finite(const float* v, size_t n, bool unit_interval = false) {
     for (size_t i = 0; i < n; ++i)
@@ -82,7 +87,9 @@ void decode(const nfd_asset* asset, uint32_t resolution) {
     require(nfd_grid_get_colours(grid, &colours) == NFD_SUCCESS);
     if (colours) require_finite(colours, 3 * v.count, true);
     const nfd_result w = nfd_grid_write_vdb(grid, scratch_path(".vdb").c_str(), "fuzz.nfc");
-    require(w == NFD_SUCCESS || w == NFD_ERROR_UNSUPPORTED_FEATURE);  // a build without OpenVDB
+    if (w != NFD_SUCCESS && w != NFD_ERROR_UNSUPPORTED_FEATURE)  // a build without OpenVDB
+        std::fprintf(stderr, "vdb: %s, voxel size %g\n", nfd_result_string(w), double(v.voxel_size));
+    require(w == NFD_SUCCESS || w == NFD_ERROR_UNSUPPORTED_FEATURE);
     nfd_grid_destroy(grid);
 }
 

@@ -7,15 +7,20 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <vector>
 
 namespace {
 
-void require(bool ok) {
-    if (!ok) std::abort();
+// A broken promise: says which, then aborts (libFuzzer keeps the input).
+void require_at(bool ok, int line) {
+    if (ok) return;
+    std::fprintf(stderr, "%s:%d: check failed\n", __FILE__, line);
+    std::abort();
 }
+#define require(ok) require_at((ok), __LINE__)
 
 nfd_context* cpu_context() {
     static nfd_context* context = [] {

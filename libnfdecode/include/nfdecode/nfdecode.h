@@ -642,8 +642,11 @@ NFD_API nfd_result nfd_grid_get_colours(const nfd_grid* grid, const float** out_
  * active voxels, holding RGB in [0, 1] (see "Colour"), background (0, 0, 0), class unknown.
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (grid or path NULL);
  * NFD_ERROR_UNSUPPORTED_FEATURE in a build without OpenVDB (CMake NFD_WITH_OPENVDB=OFF), before
- * the file is touched; NFD_ERROR_IO if the file cannot be created or fully written;
- * NFD_ERROR_OUT_OF_MEMORY. */
+ * the file is touched; NFD_ERROR_LIMIT_EXCEEDED (0.4), before the file is touched, for a transform
+ * OpenVDB cannot hold: a voxel size under 1.45e-5 in the file's units (OpenVDB refuses a voxel
+ * volume under 3e-15), or an origin more than 2^52 voxel sizes from zero (decode at a lower
+ * resolution, or encode in larger units); NFD_ERROR_IO if the file cannot be created or fully
+ * written; NFD_ERROR_OUT_OF_MEMORY. */
 NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char* source_name);
 
 
