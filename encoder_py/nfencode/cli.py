@@ -121,7 +121,8 @@ def cmd_encode(args: argparse.Namespace) -> int:
     print(
         f"{output}: {len(result.data)} bytes ({result.field}, {geometry_what}, "
         f"{'with' if result.color is not None else 'no'} colour, {device.type}), encoded in {seconds:.1f} s "
-        f"(training {result.seconds:.1f} s, final loss {result.final_loss:.3g})"
+        f"(training {result.seconds:.1f} s" + ("" if geometry is not None else f", final loss {result.final_loss:.3g}")
+        + ")"
     )
     return 0
 

@@ -70,7 +70,7 @@ class EncodeResult:
     field: str  # "sdf" or "udf", after resolving "auto"
     field_reason: str  # why that field (sampling.resolve_field), one line
     seconds: float  # wall-clock time of compress()
-    final_loss: float  # truncated validation loss of the quantized network that was written
+    final_loss: float  # truncated validation loss of the quantized network that was written (NaN: reused)
     color: ColorFit | None = None  # the colour chunk's fit, when one was written
 
 
