@@ -103,7 +103,7 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
     rng = np.random.default_rng(options.seed)
     generator = torch.Generator().manual_seed(options.seed)
     model = Siren(options.width, "sigmoid", outputs=3, num_frequencies=config.COLOR_NUM_FREQUENCIES,
-                  generator=generator)
+                  frequency_base=config.COLOR_FREQUENCY_BASE, generator=generator)
     model = model.to(device)
     surface = _SurfaceColors(mesh, shape, geometry, rng, device)
     validation = surface.draw(model, schedule.validation_points)
@@ -124,5 +124,6 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
         if qat_loss < best_loss:
             best_loss, best_layers = qat_loss, model.layers
     network = quantized_network(best_layers.cpu(), options.bits, num_frequencies=config.COLOR_NUM_FREQUENCIES,
-                                frequency_base=config.FREQUENCY_BASE, omega0=config.OMEGA0, output=OUTPUT_SIGMOID)
+                                frequency_base=config.COLOR_FREQUENCY_BASE, omega0=config.OMEGA0,
+                                output=OUTPUT_SIGMOID)
     return ColorFit(ColorChunk(COLOR_SPACE_RGB, network), best_loss, len(mesh.vertices), time.perf_counter() - start)
