@@ -208,8 +208,10 @@ size_t widest(const Network& net) {
 // it calls inlined, so that the row loops vectorise 16 wide on AVX-512, 8 on AVX2, 4 on the
 // x86-64 baseline. Without contraction every clone computes the same bits. Clang 14 refuses
 // `flatten` on clones, and without it the callees would stay baseline: other compilers build
-// the baseline only.
-#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__)
+// the baseline only. ThreadSanitizer builds too: the clones' resolver runs while the dynamic
+// loader relocates, before TSan's runtime is up, and the instrumented resolver crashed there.
+#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__) && \
+    !defined(__SANITIZE_THREAD__)
 #define NFD_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default"), flatten))
 #else
 #define NFD_VECTOR_CLONES
