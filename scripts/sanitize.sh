@@ -2,7 +2,8 @@
 # The queue tests under ThreadSanitizer, and the whole C++ suite under AddressSanitizer with
 # UndefinedBehaviorSanitizer (leaks included: cancel and destroy must free everything; any UB
 # report fails). CPU path only: Vulkan is off in these builds, as the driver (lavapipe) is not
-# instrumented and would report its own threads. Builds build-tsan/ and build-asan/
+# instrumented and would report its own threads; Vulkan tests skip here even when test.sh
+# requires Vulkan (NFD_REQUIRE_VULKAN) for the main suite. Builds build-tsan/ and build-asan/
 # (incremental), then runs the tests in each.
 #     scripts/sanitize.sh [tsan|asan]...   (default: both)
 set -euo pipefail
@@ -32,6 +33,7 @@ for kind in "${kinds[@]}"; do
   echo "== $kind: nfdecode_tests --gtest_filter=$filter"
   TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
   ASAN_OPTIONS="detect_leaks=1:halt_on_error=1" UBSAN_OPTIONS="print_stacktrace=1" \
+  NFD_REQUIRE_VULKAN=0 \
     "$dir/tests/nfdecode_tests" --gtest_filter="$filter" --gtest_brief=1 || status=1
 done
 exit $status
