@@ -181,6 +181,19 @@ def _layers(net: NetworkBlock) -> list[dict]:
     return [{"in": i, "out": o, "activation": a} for i, o, a in zip(net.in_features, net.out_features, activations)]
 
 
+def _network_info(net: NetworkBlock) -> dict:
+    """What `nfc info --json` says of a network block (geometry and colour alike)."""
+    return {
+        "num_frequencies": net.num_frequencies,
+        "frequency_base": net.frequency_base,
+        "omega0": net.omega0,
+        "layers": _layers(net),
+        "bits": net.bits,
+        "parameters": net.parameter_count,
+        "steps": [list(s) for s in net.steps],
+    }
+
+
 def _color_info(f: NfcFile) -> dict | None:
     if f.color is None:
         return None
@@ -189,13 +202,7 @@ def _color_info(f: NfcFile) -> dict | None:
         "color_space": COLOR_SPACE_NAMES[f.color.color_space],
         "bytes": f.chunk_bytes.get(TAG_COLOR),
         "width": net.out_features[0],
-        "num_frequencies": net.num_frequencies,
-        "frequency_base": net.frequency_base,
-        "omega0": net.omega0,
-        "layers": _layers(net),
-        "bits": net.bits,
-        "parameters": net.parameter_count,
-        "steps": [list(s) for s in net.steps],
+        **_network_info(net),
     }
 
 
@@ -209,13 +216,7 @@ def _info_dict(path: str, f: NfcFile, size: int) -> dict:
         "truncation": g.truncation,
         "center": list(g.center),
         "scale": g.scale,
-        "num_frequencies": net.num_frequencies,
-        "frequency_base": net.frequency_base,
-        "omega0": net.omega0,
-        "layers": _layers(net),
-        "bits": net.bits,
-        "parameters": net.parameter_count,
-        "steps": [list(s) for s in net.steps],
+        **_network_info(net),
         "geometry_bytes": f.chunk_bytes.get(TAG_GEOM),
         "color": _color_info(f),
         "skipped_chunks": list(f.skipped_chunks),

@@ -12,31 +12,13 @@
 #include <string>
 #include <vector>
 
-namespace {
+#include "fuzz_util.h"
 
-// A broken promise: says which, then aborts (libFuzzer keeps the input).
-void require_at(bool ok, int line) {
-    if (ok) return;
-    std::fprintf(stderr, "%s:%d: check failed\n", __FILE__, line);
-    std::abort();
-}
-#define require(ok) require_at((ok), __LINE__)
+namespace {
 
 void require_finite(const float* v, size_t n, bool unit_interval = false) {
     for (size_t i = 0; i < n; ++i)
         require(std::isfinite(v[i]) && (!unit_interval || (v[i] >= 0.0f && v[i] <= 1.0f)));
-}
-
-nfd_context* cpu_context() {
-    static nfd_context* context = [] {
-        nfd_context_options co{};
-        co.struct_size = sizeof co;
-        co.device = NFD_DEVICE_CPU;
-        co.cpu_threads = 1;
-        nfd_context* c = nullptr;
-        return nfd_context_create(&co, &c) == NFD_SUCCESS ? c : nullptr;
-    }();
-    return context;
 }
 
 std::string scratch_path(const char* extension) {

@@ -12,27 +12,9 @@
 #include <cstring>
 #include <vector>
 
+#include "fuzz_util.h"
+
 namespace {
-
-// A broken promise: says which, then aborts (libFuzzer keeps the input).
-void require_at(bool ok, int line) {
-    if (ok) return;
-    std::fprintf(stderr, "%s:%d: check failed\n", __FILE__, line);
-    std::abort();
-}
-#define require(ok) require_at((ok), __LINE__)
-
-nfd_context* cpu_context() {
-    static nfd_context* context = [] {
-        nfd_context_options co{};
-        co.struct_size = sizeof co;
-        co.device = NFD_DEVICE_CPU;
-        co.cpu_threads = 1;
-        nfd_context* c = nullptr;
-        return nfd_context_create(&co, &c) == NFD_SUCCESS ? c : nullptr;
-    }();
-    return context;
-}
 
 // Two assets of the same file agree: info, and the field and colour at fixed points.
 void require_same(const nfd_asset* a, const nfd_asset* b, bool compare_colour) {

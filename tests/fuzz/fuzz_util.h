@@ -1,0 +1,31 @@
+// Shared by the fuzz targets: a failed promise that says which, and one CPU context per process.
+#pragma once
+#include <nfdecode/nfdecode.h>
+
+#include <cstdio>
+#include <cstdlib>
+
+namespace {
+
+// Says which check failed, then aborts (libFuzzer keeps the input).
+inline void require_at(bool ok, const char* file, int line) {
+    if (ok) return;
+    std::fprintf(stderr, "%s:%d: check failed\n", file, line);
+    std::abort();
+}
+#define require(ok) require_at((ok), __FILE__, __LINE__)
+
+// A single-threaded CPU context, made once; null if it cannot be (the target then does nothing).
+inline nfd_context* cpu_context() {
+    static nfd_context* context = [] {
+        nfd_context_options co{};
+        co.struct_size = sizeof co;
+        co.device = NFD_DEVICE_CPU;
+        co.cpu_threads = 1;
+        nfd_context* c = nullptr;
+        return nfd_context_create(&co, &c) == NFD_SUCCESS ? c : nullptr;
+    }();
+    return context;
+}
+
+}  // namespace
