@@ -78,6 +78,16 @@ inline MeshArrays arrays_of(const nfd_mesh* mesh) {
     return m;
 }
 
+// nfd_asset_evaluate_colour at original-frame positions (xyz); throws if it fails.
+inline std::vector<float> colours_at(nfd_context* ctx, const nfd_asset* asset,
+                                     const std::vector<float>& positions) {
+    std::vector<float> rgb(positions.size());
+    if (nfd_asset_evaluate_colour(ctx, asset, positions.data(), positions.size() / 3, rgb.data()) !=
+        NFD_SUCCESS)
+        throw std::runtime_error("colour evaluation failed");
+    return rgb;
+}
+
 // The colour network of a file that has one.
 inline Network parse_colour(const Bytes& bytes) {
     ParsedFile f;

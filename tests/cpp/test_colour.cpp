@@ -58,11 +58,7 @@ TEST(Colour, MeshVerticesCarryTheColourField) {
     ASSERT_GT(m.indices.size(), 0u);
     ASSERT_EQ(m.colours.size(), m.positions.size());
     // The colour at each vertex is the field's there: the same evaluation as the API's.
-    std::vector<float> expected(m.positions.size());
-    ASSERT_EQ(nfd_asset_evaluate_colour(ctx.get(), asset.get(), m.positions.data(),
-                                        m.positions.size() / 3, expected.data()),
-              NFD_SUCCESS);
-    EXPECT_EQ(m.colours, expected);
+    EXPECT_EQ(m.colours, colours_at(ctx.get(), asset.get(), m.positions));
     // Colour changes nothing of the geometry.
     EXPECT_TRUE(m.same_geometry(arrays_of(extract(ctx.get(), plain.get(), 64).get())));
     // Geometry only on request.
@@ -105,6 +101,12 @@ TEST(Colour, ArgumentRules) {
     EXPECT_EQ(nfd_mesh_evaluate_colours(nullptr, asset.get(), mesh.get()), NFD_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(nfd_mesh_evaluate_colours(ctx.get(), asset.get(), nullptr), NFD_ERROR_INVALID_ARGUMENT);
     const float* colours = nullptr;
+    EXPECT_EQ(nfd_points_write_coloured_ply(nullptr, nullptr, rgb, 1, "/tmp/nfd_unused.ply"),
+              NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_points_write_coloured_ply(point, nullptr, rgb, 1, nullptr),
+              NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_points_write_coloured_ply(point, nullptr, rgb, 1, "/nonexistent-dir/x.ply"),
+              NFD_ERROR_IO);
     EXPECT_EQ(nfd_mesh_get_colours(nullptr, &colours), NFD_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(nfd_mesh_get_colours(mesh.get(), nullptr), NFD_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(nfd_grid_get_colours(nullptr, &colours), NFD_ERROR_INVALID_ARGUMENT);
