@@ -1,4 +1,4 @@
-"""The `.nfc` bitstream: writer and verifying reader of libnfdecode/FORMAT.md, version 1.1.
+"""The `.nfc` bitstream: writer and verifying reader of libnfdecode/FORMAT.md, version 1.2.
 
 This is the only Python module that knows the byte layout. The reader treats its input as untrusted:
 every rule and cap of FORMAT.md is checked, every failure is a `FormatError` with FORMAT.md's error
@@ -22,10 +22,13 @@ MAGIC = b"\x89NFC"
 FORMAT_MAJOR = 1
 FORMAT_MINOR = 0  # what a geometry-only file is written as: byte for byte a 1.0 file
 COLOR_MINOR = 1  # a file with a `colr` chunk
+FRAME64_MINOR = 2  # a file with a `fram` chunk (64-bit frame)
 HEADER_SIZE = 16
 CHUNK_OVERHEAD = 12  # tag, length, crc
 TAG_GEOM = "GEOM"
 TAG_COLOR = "colr"
+TAG_FRAME64 = "fram"
+FRAME64_PAYLOAD_SIZE = 32  # f64 center[3], f64 scale
 
 # Hard caps of version 1 (FORMAT.md, "Hard caps").
 MAX_FILE_SIZE = 64 * 1024 * 1024
@@ -83,12 +86,21 @@ class NetworkBlock:
 
 
 @dataclass
+class Frame64:
+    """The `fram` chunk: the frame in f64 (original = unit * scale + center, exactly)."""
+
+    center: tuple[float, float, float]
+    scale: float
+
+
+@dataclass
 class GeometryChunk:
     field_type: int  # FIELD_SDF or FIELD_UDF
     truncation: float
-    center: tuple[float, float, float]
+    center: tuple[float, float, float]  # f32 values; with frame64, its center rounded to f32
     scale: float
     network: NetworkBlock
+    frame64: Frame64 | None = None  # written as the `fram` chunk after GEOM (format 1.2)
 
 
 @dataclass
@@ -100,7 +112,8 @@ class ColorChunk:
 @dataclass
 class NfcFile:
     """A parsed file. `major` and `minor` are the version the reader found; the writer writes the
-    version the content needs (1.1 with a colour chunk, else 1.0), whatever they say."""
+    version the content needs (1.2 with a 64-bit frame, 1.1 with a colour chunk, else 1.0),
+    whatever they say."""
 
     geometry: GeometryChunk
     major: int = FORMAT_MAJOR
@@ -366,8 +379,36 @@ def color_payload(c: ColorChunk, check: bool = True) -> bytes:
 
 
 def required_minor(f: NfcFile) -> int:
-    """The minor version the content of `f` needs: 1 with a colour chunk, else 0."""
+    """The minor version the content of `f` needs: the newest of its chunks' (FORMAT.md)."""
+    if f.geometry.frame64 is not None:
+        return FRAME64_MINOR
     return COLOR_MINOR if f.color is not None else FORMAT_MINOR
+
+
+def _check_frame64_center(c64: float, c32: float) -> None:
+    """FORMAT.md `fram`: finite, and GEOM holding it rounded to f32."""
+    if not math.isfinite(c64) or _f32(c64) != c32:
+        raise _corrupt(f"64-bit frame center {c64!r} does not round to GEOM's {c32!r}")
+
+
+def _check_frame64_scale(s64: float, s32: float) -> None:
+    if not (math.isfinite(s64) and s64 > 0.0) or _f32(s64) != s32:
+        raise _corrupt(f"64-bit frame scale {s64!r} does not round to GEOM's {s32!r}")
+
+
+def _check_frame64(frame: Frame64, g: GeometryChunk) -> None:
+    for c64, c32 in zip(frame.center, g.center):
+        _check_frame64_center(c64, c32)
+    _check_frame64_scale(frame.scale, g.scale)
+
+
+def frame64_payload(g: GeometryChunk) -> bytes:
+    """The `fram` chunk payload of a geometry with a 64-bit frame."""
+    assert g.frame64 is not None
+    rounded = GeometryChunk(g.field_type, g.truncation, tuple(_f32(c) for c in g.center),  # type: ignore[arg-type]
+                            _f32(g.scale), g.network)
+    _check_frame64(g.frame64, rounded)
+    return struct.pack("<4d", *g.frame64.center, g.frame64.scale)
 
 
 def encode_chunk(tag: str, payload: bytes) -> bytes:
@@ -384,12 +425,15 @@ def assemble(chunks: list[bytes], major: int = FORMAT_MAJOR, minor: int = FORMAT
 
 
 def write_nfc(f: NfcFile) -> bytes:
-    """Serialise `f`: GEOM, then `colr` when `f.color` is set, at version 1.required_minor(f).
+    """Serialise `f`: GEOM, then `fram` when the geometry has a 64-bit frame, then `colr` when
+    `f.color` is set, at version 1.required_minor(f).
     Raises ValueError for values FORMAT.md forbids (the reader would reject them)."""
     if f.major != FORMAT_MAJOR:
         raise ValueError(f"cannot write .nfc version {f.major}.{f.minor}: this writer writes {FORMAT_MAJOR}.x")
     try:
         payloads = [(TAG_GEOM, geometry_payload(f.geometry))]
+        if f.geometry.frame64 is not None:
+            payloads.append((TAG_FRAME64, frame64_payload(f.geometry)))
         if f.color is not None:
             payloads.append((TAG_COLOR, color_payload(f.color)))
     except FormatError as e:
@@ -502,6 +546,21 @@ def _read_geometry(data: memoryview, start: int, end: int) -> GeometryChunk:
     return GeometryChunk(field_type, truncation, (center[0], center[1], center[2]), scale, network)
 
 
+def _read_frame64(data: memoryview, start: int, end: int, g: GeometryChunk) -> Frame64:
+    cur = _Cursor(data, start, end, "fram chunk")
+    center = []
+    for c32 in g.center:  # each value checked as soon as it is read, as GEOM's
+        (c,) = cur.unpack("d")
+        _check_frame64_center(c, c32)
+        center.append(c)
+    (scale,) = cur.unpack("d")
+    _check_frame64_scale(scale, g.scale)
+    frame = Frame64((center[0], center[1], center[2]), scale)
+    if cur.remaining():
+        raise _corrupt(f"fram chunk has {cur.remaining()} bytes after the frame")
+    return frame
+
+
 def _read_color(data: memoryview, start: int, end: int) -> ColorChunk:
     cur = _Cursor(data, start, end, "colr chunk")
     (color_space,) = cur.unpack("B")
@@ -559,6 +618,11 @@ def read_nfc(data: bytes) -> NfcFile:
         seen.add(tag)
         if tag == TAG_GEOM:
             geometry = _read_geometry(view, pos + 8, pos + 8 + length)
+        elif tag == TAG_FRAME64:
+            if len(seen) != 2:  # GEOM and this one: it must come directly after GEOM
+                raise _corrupt("fram chunk not directly after GEOM")
+            assert geometry is not None
+            geometry.frame64 = _read_frame64(view, pos + 8, pos + 8 + length, geometry)
         elif tag == TAG_COLOR:
             color = _read_color(view, pos + 8, pos + 8 + length)
         elif tag[0].isupper():

@@ -216,6 +216,7 @@ def _info_dict(path: str, f: NfcFile, size: int) -> dict:
         "truncation": g.truncation,
         "center": list(g.center),
         "scale": g.scale,
+        "frame64": None if g.frame64 is None else {"center": list(g.frame64.center), "scale": g.frame64.scale},
         **_network_info(net),
         "geometry_bytes": f.chunk_bytes.get(TAG_GEOM),
         "color": _color_info(f),
@@ -237,7 +238,12 @@ def cmd_info(args: argparse.Namespace) -> int:
     c = ", ".join(f"{x:.6g}" for x in info["center"])
     print(f"file        {args.file}: {size} bytes, format {info['format']}")
     print(f"field       {info['field']}, truncation {info['truncation']:.6g}")
-    print(f"frame       original = unit * {info['scale']:.6g} + ({c})")
+    frame64 = info["frame64"]
+    if frame64 is None:
+        print(f"frame       original = unit * {info['scale']:.6g} + ({c})")
+    else:  # geo-referenced: the exact values, which decoded positions are offset by
+        c64 = ", ".join(f"{x:.17g}" for x in frame64["center"])
+        print(f"frame       original = unit * {frame64['scale']:.17g} + ({c64})  (64-bit; positions offset by the center)")
     print(
         f"encoding    {info['num_frequencies']} frequencies, pi * {info['frequency_base']:.6g}^k; "
         f"omega0 {info['omega0']:.6g}"
@@ -257,7 +263,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
-    from .reference import color_bytes, decode_points, extract_mesh, extract_unit_mesh
+    from .reference import color_bytes, decode_points, extract_mesh, extract_unit_mesh, frame_offset
 
     output = _output_path(args.output, (".ply", ".obj"))
     _positive("--points", args.points)
@@ -268,12 +274,13 @@ def cmd_decode(args: argparse.Namespace) -> int:
         if len(mesh.faces) == 0:
             raise NfcError(f"{args.file}: the decoded field has no surface, no points to sample")
         points, colors = decode_points(f, mesh, args.points, args.seed)
-        save_points(output, points, None if colors is None else color_bytes(colors))
+        save_points(output, points, None if colors is None else color_bytes(colors), frame_offset(f))
         what = f"{args.points} points"
     else:
         mesh = extract_mesh(f, args.resolution)
         colors = mesh.colors
-        save_mesh(output, mesh.vertices, mesh.faces, mesh.normals, None if colors is None else color_bytes(colors))
+        save_mesh(output, mesh.vertices, mesh.faces, mesh.normals, None if colors is None else color_bytes(colors),
+                  frame_offset(f))
         what = f"{len(mesh.vertices)} vertices, {len(mesh.faces)} triangles"
     seconds = time.perf_counter() - start
     gradients = f" + {mesh.gradients_evaluated} with gradients" if f.geometry.field_type == FIELD_UDF else ""

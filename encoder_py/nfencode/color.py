@@ -24,7 +24,7 @@ from .io import Shape
 from .model import Siren
 from .normalize import to_unit
 from .quantize import quantized_network
-from .reference import ExtractedMesh, extract_unit_mesh, sample_points
+from .reference import ExtractedMesh, extract_unit_mesh, frame_of, sample_points
 from .train import Batch, optimize, quantizer
 
 MIN_RESOLUTION, MAX_RESOLUTION = 8, 1024  # the decoder's grid range
@@ -72,7 +72,7 @@ class _SurfaceColors:
         assert shape.colors is not None
         g = geometry.geometry
         self.mesh, self.rng, self.device = mesh, rng, device
-        self.tree = cKDTree(to_unit(shape.vertices, np.asarray(g.center, dtype=np.float64), g.scale))
+        self.tree = cKDTree(to_unit(shape.vertices, *frame_of(g)))
         self.targets = torch.from_numpy(shape.colors.astype(np.float32) * np.float32(2.0 / 255.0) - np.float32(1.0))
 
     def draw(self, model: Siren, n: int) -> Batch:

@@ -27,6 +27,7 @@ from .bitstream import (
     MIN_BITS,
     OUTPUT_ABS,
     OUTPUT_IDENTITY,
+    Frame64,
     GeometryChunk,
     NfcFile,
     read_nfc,
@@ -37,7 +38,7 @@ from .devices import cpu_threads, resolve_device
 from .errors import InputError
 from .io import COLOR_MODES, Shape
 from .model import Siren
-from .normalize import to_unit, unit_ball_frame
+from .normalize import needs_frame64, to_unit, unit_ball_frame
 from .quantize import quantized_network
 from .sampling import DistancePool, SurfaceSampler, build_pool, resolve_field
 from .train import TrainingData, fit, prepare_data, validation_loss
@@ -123,6 +124,7 @@ class Prepared:
     field_reason: str
     center32: np.ndarray
     scale32: float
+    frame64: Frame64 | None  # the exact frame, for shapes far from their origin (needs_frame64)
     pool: DistancePool
     model: Siren
     data: TrainingData
@@ -133,13 +135,20 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
     """Frame, field choice, pool and initial weights of `shape`; the random draws of one seed."""
     rng = np.random.default_rng(cfg.seed)
     generator = torch.Generator().manual_seed(cfg.seed)
-    # The file stores the frame in f32; train in exactly the frame a decoder will apply.
+    # Train in exactly the frame a decoder will apply: GEOM's f32 frame, or for a shape far from
+    # its origin the f64 frame of a `fram` chunk (GEOM then holds it rounded to f32).
     center, scale = unit_ball_frame(shape.vertices)
-    center32 = np.asarray(center, dtype=np.float32)
-    scale32 = float(np.float32(scale))
+    with np.errstate(over="ignore"):
+        center32 = np.asarray(center, dtype=np.float32)
+        scale32 = float(np.float32(scale))
     if not (np.all(np.isfinite(center32)) and math.isfinite(scale32) and scale32 > 0.0):
         raise InputError("the shape has no extent (all vertices coincide) or coordinates overflow float32")
-    sampler = SurfaceSampler(to_unit(shape.vertices, center32, scale32), shape.faces)
+    frame64 = None
+    if needs_frame64(center, scale):
+        frame64 = Frame64((float(center[0]), float(center[1]), float(center[2])), float(scale))
+        sampler = SurfaceSampler(to_unit(shape.vertices, center, scale), shape.faces)
+    else:
+        sampler = SurfaceSampler(to_unit(shape.vertices, center32, scale32), shape.faces)
     field, field_reason = resolve_field(sampler, cfg.field, rng)
     pool = build_pool(sampler, field, rng)
     model = Siren(cfg.width, "identity" if field == "sdf" else "abs", generator=generator)
@@ -147,7 +156,7 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
     if device.type != "cpu":
         data = TrainingData(*(t.to(device) for t in (data.encoded, data.distances, data.validation_encoded,
                                                       data.validation_distances)))
-    return Prepared(field, field_reason, center32, scale32, pool, model, data, rng)
+    return Prepared(field, field_reason, center32, scale32, frame64, pool, model, data, rng)
 
 
 def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_loss: float, start: float) -> EncodeResult:
@@ -162,6 +171,7 @@ def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_los
         center=(float(c[0]), float(c[1]), float(c[2])),
         scale=prep.scale32,
         network=network,
+        frame64=prep.frame64,
     )
     data_bytes = write_nfc(NfcFile(geometry))
     return EncodeResult(data_bytes, prep.field, prep.field_reason, time.perf_counter() - start, best_loss)

@@ -334,16 +334,25 @@ def _check_output(path: Path, allowed: tuple[str, ...]) -> str:
     return ext
 
 
-PLY_TYPES = {"f": "float", "u": "uchar"}  # by numpy dtype kind: the <f4 and u1 columns written
+PLY_TYPES = {"<f4": "float", "<f8": "double", "|u1": "uchar"}  # the columns written, by dtype
 COLOR_NAMES = ("red", "green", "blue")
+
+
+def placed_positions(positions: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
+    """f32 positions, or with a non-zero offset (a geo-referenced frame: FORMAT.md "Output
+    positions") offset + position in f64, exact where f32 would snap it to a coarse grid."""
+    positions = np.asarray(positions, dtype=np.float32).reshape(-1, 3)
+    if offset is None or not np.any(np.asarray(offset) != 0.0):
+        return positions
+    return np.asarray(offset, dtype=np.float64) + positions.astype(np.float64)
 
 
 def _vertex_table(
     vertices: np.ndarray, normals: np.ndarray | None, colors: np.ndarray | None
 ) -> np.ndarray:
-    """PLY vertex records: x y z, then nx ny nz (float) and red green blue (uchar 0..255, or float
-    when `colors` is floating point) where given."""
-    columns = [(("x", "y", "z"), vertices, "<f4")]
+    """PLY vertex records: x y z (float, or double for f64 vertices), then nx ny nz (float) and red
+    green blue (uchar 0..255, or float when `colors` is floating point) where given."""
+    columns = [(("x", "y", "z"), vertices, "<f8" if vertices.dtype == np.float64 else "<f4")]
     if normals is not None:
         columns.append((("nx", "ny", "nz"), np.asarray(normals, dtype=np.float32).reshape(-1, 3), "<f4"))
     if colors is not None:
@@ -364,12 +373,14 @@ def save_mesh(
     faces: np.ndarray,
     normals: np.ndarray | None = None,
     colors: np.ndarray | None = None,
+    offset: np.ndarray | None = None,
 ) -> None:
     """Write a triangle mesh as binary little-endian PLY or as OBJ, with optional vertex normals and
-    colours (uint8 RGB; PLY also takes float colours, written as float properties)."""
+    colours (uint8 RGB; PLY also takes float colours, written as float properties). The vertices
+    are f32, relative to `offset` (placed_positions: double coordinates when it is non-zero)."""
     path = Path(path)
     ext = _check_output(path, (".ply", ".obj"))
-    vertices = np.asarray(vertices, dtype=np.float32).reshape(-1, 3)
+    vertices = placed_positions(vertices, offset)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     if normals is not None:
         normals = np.asarray(normals, dtype=np.float32).reshape(-1, 3)
@@ -383,7 +394,7 @@ def save_mesh(
             "format binary_little_endian 1.0",
             "comment written by nfencode",
             f"element vertex {len(vertices)}",
-            *[f"property {PLY_TYPES[vdata.dtype[name].kind]} {name}" for name in vdata.dtype.names or ()],
+            *[f"property {PLY_TYPES[vdata.dtype[name].str]} {name}" for name in vdata.dtype.names or ()],
             f"element face {len(faces)}",
             "property list uchar int vertex_indices",
             "end_header",
@@ -407,21 +418,25 @@ def save_mesh(
 def _write_obj_vertices(out: io.TextIOBase, vertices: np.ndarray, colors: np.ndarray | None) -> None:
     """`v x y z`, or `v x y z r g b` with r g b in [0, 1] (the common vertex-colour extension);
     uint8 colours are divided by 255, float ones written as they are."""
+    xyz = "%.17g %.17g %.17g" if vertices.dtype == np.float64 else "%.9g %.9g %.9g"  # round trip
     if colors is None:
-        np.savetxt(out, vertices, fmt="v %.9g %.9g %.9g")
+        np.savetxt(out, vertices, fmt="v " + xyz)
     else:
         unit = np.asarray(colors, dtype=np.float64).reshape(-1, 3)
         if not np.issubdtype(np.asarray(colors).dtype, np.floating):
             unit = unit / 255.0
-        np.savetxt(out, np.column_stack([vertices, unit]), fmt="v %.9g %.9g %.9g %.6g %.6g %.6g")
+        np.savetxt(out, np.column_stack([vertices, unit]), fmt="v " + xyz + " %.6g %.6g %.6g")
 
 
-def save_points(path: str | os.PathLike[str], points: np.ndarray, colors: np.ndarray | None = None) -> None:
+def save_points(
+    path: str | os.PathLike[str], points: np.ndarray, colors: np.ndarray | None = None,
+    offset: np.ndarray | None = None,
+) -> None:
     """Write a point cloud as binary PLY (vertex element only, uchar red/green/blue with `colors`,
-    uint8 RGB) or as OBJ `v` lines."""
+    uint8 RGB) or as OBJ `v` lines; f32 points relative to `offset`, as save_mesh."""
     path = Path(path)
     ext = _check_output(path, POINT_EXTENSIONS)
-    points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
+    points = placed_positions(points, offset)
     if ext == ".ply":
         vdata = _vertex_table(points, None, None if colors is None else np.asarray(colors, dtype=np.uint8))
         plyfile.PlyData([plyfile.PlyElement.describe(vdata, "vertex")], text=False, byte_order="<").write(str(path))

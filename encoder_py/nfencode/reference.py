@@ -22,6 +22,7 @@ from .bitstream import (
     OUTPUT_ABS,
     OUTPUT_IDENTITY,
     OUTPUT_SIGMOID,
+    GeometryChunk,
     NetworkBlock,
     NfcFile,
     positional_frequencies,
@@ -203,11 +204,28 @@ def extract_unit_mesh(file: NfcFile, resolution: int = 256) -> ExtractedMesh:
     return extract_mesh_from_field(field_function(file), resolution, udf_gradient)
 
 
-def to_original(file: NfcFile, unit_points: np.ndarray) -> np.ndarray:
-    """x = u * scale + center, in f32 (FORMAT.md, GEOM)."""
+def frame_of(g: GeometryChunk) -> tuple[np.ndarray, float]:
+    """(center, scale) of the unit frame the field was trained in, f64: the 64-bit frame where the
+    file has one, else GEOM's f32 values."""
+    if g.frame64 is not None:
+        return np.asarray(g.frame64.center, dtype=np.float64), g.frame64.scale
+    return np.asarray(g.center, dtype=np.float64), g.scale
+
+
+def frame_offset(file: NfcFile) -> np.ndarray:
+    """What emitted positions are relative to (FORMAT.md "Output positions"), f64: the 64-bit
+    frame's center, or zero for a file without one."""
+    g = file.geometry
+    return np.asarray(g.frame64.center if g.frame64 is not None else (0.0, 0.0, 0.0), dtype=np.float64)
+
+
+def emitted_positions(file: NfcFile, unit_points: np.ndarray) -> np.ndarray:
+    """x = u * scale + c in f32 (FORMAT.md "Output positions"): c is GEOM's center, or zero for a
+    file with a 64-bit frame, whose positions are relative to frame_offset(file)."""
     g = file.geometry
     u = np.asarray(unit_points, dtype=np.float32)
-    return (u * np.float32(g.scale) + np.asarray(g.center, dtype=np.float32)).astype(np.float32)
+    center = np.zeros(3, np.float32) if g.frame64 is not None else np.asarray(g.center, dtype=np.float32)
+    return (u * np.float32(g.scale) + center).astype(np.float32)
 
 
 def _colors_at(file: NfcFile, unit_points: np.ndarray, color: bool) -> np.ndarray | None:
@@ -217,21 +235,24 @@ def _colors_at(file: NfcFile, unit_points: np.ndarray, color: bool) -> np.ndarra
 
 
 def extract_mesh(file: NfcFile, resolution: int = 256, color: bool = True) -> ExtractedMesh:
-    """Mesh of an SDF or UDF file in the original coordinates (x = u * scale + center, in f32). With
+    """Mesh of an SDF or UDF file in the original coordinates, relative to frame_offset(file) (as
+    emitted_positions places them). With
     `color` and a colour chunk, `colors` holds the colour at each vertex, evaluated at the unit-frame
     vertex the extractor produced."""
     mesh = extract_unit_mesh(file, resolution)
-    return mesh._replace(vertices=to_original(file, mesh.vertices), colors=_colors_at(file, mesh.vertices, color))
+    return mesh._replace(vertices=emitted_positions(file, mesh.vertices),
+                         colors=_colors_at(file, mesh.vertices, color))
 
 
 def decode_points(
     file: NfcFile, unit_mesh: ExtractedMesh, n: int, seed: int | np.random.Generator = 0, color: bool = True
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    """n points (f32, original frame) uniformly on `unit_mesh` (extract_unit_mesh of `file`), and
+    """n points (f32, original frame relative to frame_offset(file)) uniformly on `unit_mesh`
+    (extract_unit_mesh of `file`), and
     with `color` and a colour chunk their colours (n, 3) in [0, 1], evaluated at the f32 unit-frame
     points the positions are made from."""
     u = sample_points(unit_mesh.vertices, unit_mesh.faces, n, seed).astype(np.float32)
-    return to_original(file, u), _colors_at(file, u, color)
+    return emitted_positions(file, u), _colors_at(file, u, color)
 
 
 def sample_points(

@@ -1,6 +1,7 @@
 // The C API: argument checks, then the internal calls, inside a guard that turns every exception
 // into a result code (nothing may unwind into C callers).
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <cstring>
 #include <exception>
@@ -60,6 +61,7 @@ struct nfd_mesh {
 struct nfd_extraction {
     std::unique_ptr<nfd::Extraction> impl;
     nfd_context* context = nullptr;
+    std::array<double, 3> offset{};  // the asset's, for each mesh (Geometry::offset)
     std::optional<nfd::ColourField> colour;  // colours each mesh unless skip_colour
     uint32_t top = 0;
     bool done = false, failed = false;
@@ -69,6 +71,7 @@ struct nfd_recording {
 #if NFD_WITH_VULKAN
     std::unique_ptr<nfd::gpu::Recording> impl;
 #endif
+    std::array<double, 3> offset{};
 };
 
 struct nfd_queue {
@@ -79,6 +82,7 @@ struct nfd_queue {
 struct nfd_job {
     std::shared_ptr<nfd::Job> job;
     uint32_t levels_total = 0, final_resolution = 0;
+    std::array<double, 3> offset{};
 };
 
 // The finest level in the public layout, built once so that nfd_grid_get_voxels hands out stable
@@ -88,10 +92,14 @@ struct nfd_grid {
     std::vector<float> values;   // original units
     std::vector<float> colours;  // rgb per voxel, or empty
     nfd_grid_voxels voxels{};   // points into ijk and values
+    std::array<double, 3> offset{};  // original = offset + voxel position
     uint32_t format_major = 0, format_minor = 0;
 };
 
 namespace {
+
+// What an asset's outputs are placed relative to (Geometry::offset).
+std::array<double, 3> offset_of(const nfd::Geometry& g) { return {g.offset(0), g.offset(1), g.offset(2)}; }
 
 template <class Fn>
 nfd_result guarded(Fn&& fn) noexcept {
@@ -112,7 +120,8 @@ template <class Fn>
 nfd_result evaluate_in_blocks(const nfd_asset& asset, const float* points, size_t count, Fn&& fn) {
     return guarded([&] {
         const nfd::Geometry& g = asset.file.geometry;
-        return nfd::for_each_unit_block(g.center, g.scale, points, count, fn);
+        const float center[3] = {g.emit_center(0), g.emit_center(1), g.emit_center(2)};
+        return nfd::for_each_unit_block(center, g.scale, points, count, fn);
     });
 }
 
@@ -171,7 +180,8 @@ std::unique_ptr<nfd_grid> finest_voxels(nfd::SparseGrid&& sparse, const nfd::Par
     v.values = grid->values.data();
     v.count = grid->values.size();
     v.voxel_size = step * g.scale;  // unit vertex i is -1 + i * step
-    for (int a = 0; a < 3; ++a) v.origin[a] = g.center[a] - g.scale;
+    for (int a = 0; a < 3; ++a) v.origin[a] = g.emit_center(a) - g.scale;
+    grid->offset = offset_of(g);
     v.background = g.truncation * g.scale;
     v.resolution = resolution;
     v.field_type = g.field == nfd::FieldType::Sdf ? NFD_FIELD_SDF : NFD_FIELD_UDF;
@@ -390,6 +400,23 @@ nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info) 
     return NFD_SUCCESS;
 }
 
+nfd_result nfd_asset_get_frame(const nfd_asset* asset, nfd_asset_frame* out_frame) {
+    if (!asset || !out_frame) return NFD_ERROR_INVALID_ARGUMENT;
+    if (out_frame->struct_size && out_frame->struct_size < sizeof(nfd_asset_frame))
+        return NFD_ERROR_INVALID_ARGUMENT;
+    const nfd::Geometry& g = asset->file.geometry;
+    nfd_asset_frame frame{};
+    frame.struct_size = out_frame->struct_size;
+    frame.exact64 = g.frame64 ? 1 : 0;
+    for (int a = 0; a < 3; ++a) {
+        frame.center[a] = g.frame64 ? g.frame64->center[a] : double(g.center[a]);
+        frame.offset[a] = g.offset(a);
+    }
+    frame.scale = g.frame64 ? g.frame64->scale : double(g.scale);
+    *out_frame = frame;
+    return NFD_SUCCESS;
+}
+
 nfd_result nfd_stream_create(const nfd_stream_options* options, nfd_stream** out_stream) {
     if (!out_stream) return NFD_ERROR_INVALID_ARGUMENT;
     *out_stream = nullptr;
@@ -534,6 +561,7 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
             nfd::colour_field(asset->file, opts.skip_colour != 0);
         if (r == NFD_SUCCESS && colour)
             r = nfd::colour_mesh(*colour, device_of(*context), context->cpu_threads, &mesh->data);
+        mesh->data.offset = offset_of(g);
         if (r == NFD_SUCCESS) *out_mesh = mesh.release();
         return r;
     });
@@ -597,13 +625,27 @@ nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path) {
 nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
                                 const char* path) {
     if (!path || (count > 0 && !points)) return NFD_ERROR_INVALID_ARGUMENT;
-    return guarded([&] { return nfd::write_points_ply(points, normals, nullptr, count, path); });
+    return nfd_points_write_placed_ply(points, normals, nullptr, count, nullptr, path);
 }
 
 nfd_result nfd_points_write_coloured_ply(const float* points, const float* normals,
                                          const float* colours, size_t count, const char* path) {
+    return nfd_points_write_placed_ply(points, normals, colours, count, nullptr, path);
+}
+
+nfd_result nfd_points_write_placed_ply(const float* points, const float* normals,
+                                       const float* colours, size_t count, const double* offset,
+                                       const char* path) {
     if (!path || (count > 0 && !points)) return NFD_ERROR_INVALID_ARGUMENT;
-    return guarded([&] { return nfd::write_points_ply(points, normals, colours, count, path); });
+    std::array<double, 3> placed{};
+    if (offset) std::copy(offset, offset + 3, placed.begin());
+    return guarded([&] { return nfd::write_points_ply(points, normals, colours, count, placed, path); });
+}
+
+nfd_result nfd_mesh_get_offset(const nfd_mesh* mesh, double* out_offset) {
+    if (!mesh || !out_offset) return NFD_ERROR_INVALID_ARGUMENT;
+    std::copy(mesh->data.offset.begin(), mesh->data.offset.end(), out_offset);
+    return NFD_SUCCESS;
 }
 
 nfd_result nfd_extraction_ladder(uint32_t resolution, uint32_t* out_resolutions, uint32_t capacity,
@@ -638,6 +680,7 @@ nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
         auto extraction = std::make_unique<nfd_extraction>();
         extraction->top = top;
         extraction->context = context;
+        extraction->offset = offset_of(g);
         extraction->colour = nfd::colour_field(asset->file, opts.skip_colour != 0);
 #if NFD_WITH_VULKAN
         if (context->gpu) {
@@ -678,6 +721,7 @@ nfd_result nfd_extraction_step(nfd_extraction* extraction, nfd_mesh** out_mesh,
             write_level_info(info, out_info);
         }
         if (!report.meshed) return NFD_SUCCESS;
+        mesh->data.offset = extraction->offset;
         if (extraction->colour) {
             const nfd_context& ctx = *extraction->context;
             const nfd_result c = nfd::colour_mesh(*extraction->colour, device_of(ctx),
@@ -732,6 +776,12 @@ nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels
     return NFD_SUCCESS;
 }
 
+nfd_result nfd_grid_get_offset(const nfd_grid* grid, double* out_offset) {
+    if (!grid || !out_offset) return NFD_ERROR_INVALID_ARGUMENT;
+    std::copy(grid->offset.begin(), grid->offset.end(), out_offset);
+    return NFD_SUCCESS;
+}
+
 nfd_result nfd_grid_get_colours(const nfd_grid* grid, const float** out_colours) {
     if (!grid || !out_colours) return NFD_ERROR_INVALID_ARGUMENT;
     *out_colours = grid->colours.empty() ? nullptr : grid->colours.data();
@@ -743,7 +793,7 @@ nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char
 #if NFD_WITH_OPENVDB
     const nfd::VdbSource source{source_name, grid->format_major, grid->format_minor};
     const float* colours = grid->colours.empty() ? nullptr : grid->colours.data();
-    return guarded([&] { return nfd::write_vdb(grid->voxels, colours, source, path); });
+    return guarded([&] { return nfd::write_vdb(grid->voxels, grid->offset, colours, source, path); });
 #else
     (void)source_name;
     return NFD_ERROR_UNSUPPORTED_FEATURE;
@@ -797,6 +847,7 @@ nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
         auto handle = std::make_unique<nfd_job>();
         handle->levels_total = top + 1;
         handle->final_resolution = resolution;
+        handle->offset = offset_of(asset->file.geometry);
         std::function<void(nfd_job_status)> callback;
         if (jo.callback)
             callback = [job = handle.get(), fn = jo.callback, user = jo.user_data](
@@ -838,6 +889,7 @@ nfd_result nfd_job_take_mesh(nfd_job* job, nfd_mesh** out_mesh) {
         if (!taken) return result;  // DONE and taken before: NFD_SUCCESS with no mesh
         auto mesh = std::make_unique<nfd_mesh>();
         mesh->data = std::move(taken->data);
+        mesh->data.offset = job->offset;
         mesh->stats = taken->stats;
         *out_mesh = mesh.release();
         return NFD_SUCCESS;
@@ -892,6 +944,7 @@ nfd_result nfd_recording_create(nfd_context* context, const nfd_asset* asset,
     if (asset->file.geometry.field != nfd::FieldType::Udf) c.gradient_points = 0;
     return guarded([&] {
         auto recording = std::make_unique<nfd_recording>();
+        recording->offset = offset_of(asset->file.geometry);
         const nfd_result r = nfd::gpu::make_recording(*context->gpu, asset->file.geometry,
                                                       resolution, c, &recording->impl);
         if (r == NFD_SUCCESS) *out_recording = recording.release();
@@ -957,6 +1010,7 @@ nfd_result nfd_recording_read_mesh(const nfd_recording* recording, nfd_mesh** ou
         auto mesh = std::make_unique<nfd_mesh>();
         const nfd_result r = nfd::gpu::read_mesh(*recording->impl, &mesh->data, &mesh->stats);
         if (r != NFD_SUCCESS) return r;
+        mesh->data.offset = recording->offset;
         *out_mesh = mesh.release();
         return NFD_SUCCESS;
     });

@@ -26,12 +26,6 @@ namespace {
 
 constexpr uint8_t kMagic[4] = {0x89, 'N', 'F', 'C'};
 
-constexpr uint32_t tag_of(const char (&s)[5]) {
-    return uint32_t(uint8_t(s[0])) | uint32_t(uint8_t(s[1])) << 8 | uint32_t(uint8_t(s[2])) << 16 |
-           uint32_t(uint8_t(s[3])) << 24;
-}
-constexpr uint32_t kTagGeom = tag_of("GEOM");
-constexpr uint32_t kTagColour = tag_of("colr");
 
 // Bounds-checked little-endian reads; running past the end is "truncated" by definition.
 class Reader {
@@ -47,6 +41,12 @@ public:
         uint32_t bits = 0;
         NFD_TRY(u32(&bits));
         std::memcpy(v, &bits, 4);
+        return NFD_SUCCESS;
+    }
+    nfd_result f64(double* v) {
+        uint64_t bits = 0;
+        NFD_TRY(read(&bits, 8));
+        std::memcpy(v, &bits, 8);
         return NFD_SUCCESS;
     }
 
@@ -232,6 +232,21 @@ nfd_result read_geometry(Reader& r, Geometry* g) {
     return read_network(r, activation, 1, &g->network);
 }
 
+// FORMAT.md "`fram` payload": the exact frame, of which GEOM holds the nearest f32 values (so
+// that a 1.0 reader, which skips this chunk, places the shape where the f32 frame can).
+nfd_result read_frame64(Reader& r, Geometry* g) {
+    Frame64 frame;
+    for (int a = 0; a < 3; ++a) {
+        NFD_TRY(r.f64(&frame.center[a]));
+        NFD_CHECK(std::isfinite(frame.center[a]) && float(frame.center[a]) == g->center[a]);
+    }
+    NFD_TRY(r.f64(&frame.scale));
+    NFD_CHECK(std::isfinite(frame.scale) && frame.scale > 0.0 && float(frame.scale) == g->scale);
+    NFD_CHECK(r.remaining() == 0);
+    g->frame64 = frame;
+    return NFD_SUCCESS;
+}
+
 // FORMAT.md "`colr` payload": the colour space (0 only), then an RGB network.
 nfd_result read_colour(Reader& r, Network* net) {
     uint8_t colour_space = 0;
@@ -346,6 +361,10 @@ nfd_result FileParser::read_body(const uint8_t* body) {
     if (tag_ == kTagGeom) {
         Reader payload(body, length_);
         NFD_TRY(read_geometry(payload, &file_.geometry));
+    } else if (tag_ == kTagFrame64) {
+        NFD_CHECK(chunks_read_ == 1);  // directly after GEOM, before anything is placed
+        Reader payload(body, length_);
+        NFD_TRY(read_frame64(payload, &file_.geometry));
     } else if (tag_ == kTagColour) {
         Reader payload(body, length_);
         Network colour;

@@ -15,6 +15,14 @@ constexpr size_t kHeaderSize = 16;
 constexpr size_t kChunkFrameSize = 8;  // tag, length
 constexpr size_t kChunkCrcSize = 4;
 
+constexpr uint32_t tag_of(const char (&s)[5]) {
+    return uint32_t(uint8_t(s[0])) | uint32_t(uint8_t(s[1])) << 8 | uint32_t(uint8_t(s[2])) << 16 |
+           uint32_t(uint8_t(s[3])) << 24;
+}
+constexpr uint32_t kTagGeom = tag_of("GEOM");
+constexpr uint32_t kTagColour = tag_of("colr");
+constexpr uint32_t kTagFrame64 = tag_of("fram");
+
 // CRC-32, ISO-HDLC / zlib: reflected polynomial 0xEDB88320, init and xorout 0xFFFFFFFF.
 // `previous` continues a CRC over more bytes, as zlib's crc32(): crc32(b, m + n) ==
 // crc32(b + m, n, crc32(b, m)).
@@ -72,7 +80,12 @@ public:
     bool header_read() const { return next_ != Next::Header; }
     bool complete() const { return next_ == Next::End; }
     uint32_t chunks_read() const { return chunks_read_; }
-    bool geometry_read() const { return chunks_read_ > 0; }  // GEOM is the first chunk
+    // GEOM and, when the file has one, `fram` (the second chunk) are read: the asset's outputs are
+    // placed. Known when the chunk after GEOM shows its tag (or the file ends there).
+    bool geometry_read() const {
+        return chunks_read_ > 1 ||
+               (chunks_read_ == 1 && (next_ == Next::End || (next_ == Next::Body && tag_ != kTagFrame64)));
+    }
     uint64_t offset() const { return offset_; }              // bytes of the pieces read
     const ParsedFile& file() const { return file_; }
     ParsedFile& file() { return file_; }

@@ -13,7 +13,7 @@ std::optional<ColourField> colour_field(const ParsedFile& file, bool skip) {
     if (skip || !file.colour) return std::nullopt;
     ColourField c;
     c.network = *file.colour;
-    std::copy(file.geometry.center, file.geometry.center + 3, c.center);
+    for (int a = 0; a < 3; ++a) c.center[a] = file.geometry.emit_center(a);
     c.scale = file.geometry.scale;
     return c;
 }

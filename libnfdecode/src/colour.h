@@ -14,11 +14,11 @@ namespace gpu {
 class Device;
 }
 
-// A colour network with the frame it is evaluated in (GEOM's): what a job or an extraction keeps
-// of an asset, which may be destroyed while they run.
+// A colour network with the frame it is evaluated in (GEOM's, as positions are emitted): what a
+// job or an extraction keeps of an asset, which may be destroyed while they run.
 struct ColourField {
     Network network;
-    float center[3] = {0, 0, 0};
+    float center[3] = {0, 0, 0};  // Geometry::emit_center
     float scale = 1.0f;
 };
 

@@ -103,6 +103,10 @@ nfd_result write_glb(const MeshData& mesh, const char* path) {
         m.meshes.push_back(gltf_mesh);
         tinygltf::Node node;
         node.mesh = 0;
+        // A geo-referenced frame: positions stay f32 and local, the far translation is the node's,
+        // which glTF stores as a JSON number (written with round-trip precision).
+        if (mesh.offset != std::array<double, 3>{})
+            node.translation.assign(mesh.offset.begin(), mesh.offset.end());
         m.nodes.push_back(node);
         m.scenes[0].nodes.push_back(0);
     }

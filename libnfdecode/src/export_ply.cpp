@@ -31,6 +31,12 @@ public:
         std::memcpy(&bits, &v, 4);
         u32(bits);
     }
+    void f64(double v) {
+        uint64_t bits;
+        std::memcpy(&bits, &v, 8);
+        u32(uint32_t(bits));
+        u32(uint32_t(bits >> 32));
+    }
     // Writes what is buffered and closes; false if anything failed on the way.
     bool close() {
         flush();
@@ -50,19 +56,32 @@ private:
     bool ok_ = true;
 };
 
-std::string vertex_header(size_t count, bool normals, bool colours) {
+// Positions are f32 unless an offset places them (a geo-referenced frame): then f64 holds
+// offset + position exactly where f32 would snap it to a coarse grid.
+bool has_offset(const std::array<double, 3>& offset) {
+    return offset[0] != 0.0 || offset[1] != 0.0 || offset[2] != 0.0;
+}
+
+std::string vertex_header(size_t count, bool doubles, bool normals, bool colours) {
     std::string h = "ply\nformat binary_little_endian 1.0\ncomment written by libnfdecode\n";
     h += "element vertex " + std::to_string(count) + "\n";
-    h += "property float x\nproperty float y\nproperty float z\n";
+    h += doubles ? "property double x\nproperty double y\nproperty double z\n"
+                 : "property float x\nproperty float y\nproperty float z\n";
     if (normals) h += "property float nx\nproperty float ny\nproperty float nz\n";
     if (colours) h += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
     return h;
 }
 
-// One vertex record: position, then normal and colour where given.
-void write_vertex(LittleEndianFile& out, size_t i, const float* positions, const float* normals,
-                  const float* colours) {
-    for (int a = 0; a < 3; ++a) out.f32(positions[3 * i + a]);
+// One vertex record: position (offset by `offset` in f64 when it has one), then normal and colour
+// where given.
+void write_vertex(LittleEndianFile& out, size_t i, const float* positions,
+                  const std::array<double, 3>* offset, const float* normals, const float* colours) {
+    for (int a = 0; a < 3; ++a) {
+        if (offset)
+            out.f64((*offset)[a] + double(positions[3 * i + a]));
+        else
+            out.f32(positions[3 * i + a]);
+    }
     if (normals)
         for (int a = 0; a < 3; ++a) out.f32(normals[3 * i + a]);
     if (colours)
@@ -80,11 +99,12 @@ nfd_result write_mesh_ply(const MeshData& mesh, const char* path) {
     LittleEndianFile out(path);
     if (!out.is_open()) return NFD_ERROR_IO;
     const float* colours = mesh.colours.empty() ? nullptr : mesh.colours.data();
-    out.text(vertex_header(mesh.vertex_count(), true, colours != nullptr));
+    const std::array<double, 3>* offset = has_offset(mesh.offset) ? &mesh.offset : nullptr;
+    out.text(vertex_header(mesh.vertex_count(), offset != nullptr, true, colours != nullptr));
     out.text("element face " + std::to_string(mesh.triangle_count()) + "\n");
     out.text("property list uchar uint vertex_indices\nend_header\n");
     for (size_t i = 0; i < mesh.vertex_count(); ++i)
-        write_vertex(out, i, mesh.positions.data(), mesh.normals.data(), colours);
+        write_vertex(out, i, mesh.positions.data(), offset, mesh.normals.data(), colours);
     for (size_t t = 0; t < mesh.triangle_count(); ++t) {
         out.u8(3);
         for (int k = 0; k < 3; ++k) out.u32(mesh.indices[3 * t + k]);
@@ -93,11 +113,13 @@ nfd_result write_mesh_ply(const MeshData& mesh, const char* path) {
 }
 
 nfd_result write_points_ply(const float* points, const float* normals, const float* colours,
-                            size_t count, const char* path) {
+                            size_t count, const std::array<double, 3>& offset, const char* path) {
     LittleEndianFile out(path);
     if (!out.is_open()) return NFD_ERROR_IO;
-    out.text(vertex_header(count, normals != nullptr, colours != nullptr) + "end_header\n");
-    for (size_t i = 0; i < count; ++i) write_vertex(out, i, points, normals, colours);
+    const std::array<double, 3>* placed = has_offset(offset) ? &offset : nullptr;
+    out.text(vertex_header(count, placed != nullptr, normals != nullptr, colours != nullptr) +
+             "end_header\n");
+    for (size_t i = 0; i < count; ++i) write_vertex(out, i, points, placed, normals, colours);
     return out.close() ? NFD_SUCCESS : NFD_ERROR_IO;
 }
 

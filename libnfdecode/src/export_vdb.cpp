@@ -18,29 +18,33 @@ namespace {
 // tolerance, math::Tolerance: so a voxel size under 1.45e-5 in the file's units), and lose the
 // scale to rounding when the translation exceeds it by 2^52. Found by fuzz_decode: a real shape
 // a millimetre wide in metres, decoded at 256, has voxels of 7.8e-6.
-bool transform_representable(const nfd_grid_voxels& voxels) {
-    const double size = voxels.voxel_size;
+bool transform_representable(double size, const openvdb::Vec3d& translation) {
     if (!(size * size * size >= 3.0e-15)) return false;
-    for (float o : voxels.origin)
-        if (!(std::fabs(double(o)) < size * 0x1p52)) return false;
+    for (int a = 0; a < 3; ++a)
+        if (!(std::fabs(translation[a]) < size * 0x1p52)) return false;
     return true;
 }
 
 }  // namespace
 
-nfd_result write_vdb(const nfd_grid_voxels& voxels, const float* colours, const VdbSource& source,
-                     const char* path) {
-    if (!transform_representable(voxels)) return NFD_ERROR_LIMIT_EXCEEDED;
+nfd_result write_vdb(const nfd_grid_voxels& voxels, const std::array<double, 3>& offset,
+                     const float* colours, const VdbSource& source, const char* path) {
+    // The transform is double: a geo-referenced offset stays exact in it.
+    const double voxel_size = voxels.voxel_size;
+    const openvdb::Vec3d translation(offset[0] + double(voxels.origin[0]),
+                                     offset[1] + double(voxels.origin[1]),
+                                     offset[2] + double(voxels.origin[2]));
+    if (!transform_representable(voxel_size, translation)) return NFD_ERROR_LIMIT_EXCEEDED;
     openvdb::initialize();  // registers the grid and metadata types; idempotent, thread-safe
     const bool sdf = voxels.field_type == NFD_FIELD_SDF;
     const openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(voxels.background);
     grid->setName("distance");
     grid->setGridClass(sdf ? openvdb::GRID_LEVEL_SET : openvdb::GRID_UNKNOWN);
     // OpenVDB samples sit at integer index points, as the grid's vertices do: original =
-    // ijk * voxel_size + origin is exactly a scale then a translation.
+    // ijk * voxel_size + origin + offset is exactly a scale then a translation.
     const openvdb::math::Transform::Ptr transform =
-        openvdb::math::Transform::createLinearTransform(double(voxels.voxel_size));
-    transform->postTranslate(openvdb::Vec3d(voxels.origin[0], voxels.origin[1], voxels.origin[2]));
+        openvdb::math::Transform::createLinearTransform(voxel_size);
+    transform->postTranslate(translation);
     grid->setTransform(transform);
 
     // The voxels come in 8^3 blocks aligned as OpenVDB's leaf nodes are, so the accessor's cached

@@ -31,7 +31,7 @@ nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshDa
                              : mesh_sdf_cpu(level, &out, &st.active_cells);
     if (m != NFD_SUCCESS) return m;
     for (size_t i = 0; i < out.positions.size(); ++i)
-        out.positions[i] = out.positions[i] * geometry.scale + geometry.center[i % 3];
+        out.positions[i] = out.positions[i] * geometry.scale + geometry.emit_center(int(i % 3));
     st.seconds_mesh =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_mesh).count();
     const GridStats& grid = builder.grid().stats;

@@ -2,6 +2,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace nfd {
@@ -26,14 +27,28 @@ struct Network {
     uint32_t output_width() const { return layers.empty() ? 0u : layers.back().out; }
 };
 
+// The frame in f64 (FORMAT.md `fram`, 1.2): original = unit * scale + center, exactly.
+struct Frame64 {
+    double center[3] = {0, 0, 0};
+    double scale = 1.0;
+};
+
 // Geometry chunk after parsing and dequantization. Positions in the original frame are
 // u * scale + center for u in the unit frame [-1, 1]^3.
 struct Geometry {
     FieldType field = FieldType::Sdf;
     float truncation = 0.1f;
-    float center[3] = {0, 0, 0};
+    float center[3] = {0, 0, 0};  // GEOM's f32 frame (nfd_asset_info)
     float scale = 1.0f;
+    std::optional<Frame64> frame64;
     Network network;
+
+    // Where outputs are placed (FORMAT.md "Output positions"): positions are emitted in f32 as
+    // u * scale + emit_center(), relative to offset(). Without a 64-bit frame that is GEOM's f32
+    // center and a zero offset, as in 1.0; with one, zero and the exact center, so that positions
+    // stay small and exact while the offset carries the far translation in f64.
+    float emit_center(int axis) const { return frame64 ? 0.0f : center[axis]; }
+    double offset(int axis) const { return frame64 ? frame64->center[axis] : 0.0; }
 };
 
 // Evaluates the field at n points given in the unit frame (xyz interleaved), writing

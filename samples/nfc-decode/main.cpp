@@ -249,9 +249,11 @@ void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
         }
         ms_sample = ms_since(t);
         t = Clock::now();
-        check(nfd_points_write_coloured_ply(points.data(), normals.data(),
-                                            colours.empty() ? nullptr : colours.data(), o.points,
-                                            o.output.c_str()),
+        double offset[3];  // non-zero for geo-referenced files: the PLY gets double x, y, z
+        check(nfd_mesh_get_offset(h->mesh, offset), "mesh");
+        check(nfd_points_write_placed_ply(points.data(), normals.data(),
+                                          colours.empty() ? nullptr : colours.data(), o.points,
+                                          offset, o.output.c_str()),
               o.output);
     } else if (ends_with(o.output, ".glb")) {
         check(nfd_mesh_write_glb(h->mesh, o.output.c_str()), o.output);
@@ -471,6 +473,13 @@ void run(const Options& o) {
                     info.file_size, info.format_major, info.format_minor, field_name(info),
                     info.bits, info.num_layers, info.layer_widths[0],
                     info.has_colour ? o.no_colour ? ", colour skipped" : ", colour" : "");
+        nfd_asset_frame frame{};
+        frame.struct_size = sizeof frame;
+        check(nfd_asset_get_frame(h.asset, &frame), o.input);
+        if (frame.exact64)
+            std::printf("offset      (%.17g, %.17g, %.17g)  (64-bit frame: positions are local "
+                        "to it)\n",
+                        frame.offset[0], frame.offset[1], frame.offset[2]);
         std::printf("device      %s (%s)\n", nfd_context_device_name(h.context),
                     nfd_context_device_reason(h.context));
         std::printf("read        %9.2f ms\n", in.ms_read);

@@ -207,8 +207,10 @@ TEST_F(Api, EvaluateGradientOnGoldenVectors) {
         const size_t n = 3000;
         std::vector<float> points(3 * n), unit(3 * n);
         for (size_t i = 0; i < 3 * n; ++i) {
-            points[i] = uniform(rng) * g.scale + g.center[i % 3];
-            unit[i] = (points[i] - g.center[i % 3]) / g.scale;  // as the API maps them
+            // Relative to the asset's offset, as the API takes positions (geo-referenced files)
+            const float center = g.emit_center(int(i % 3));
+            points[i] = uniform(rng) * g.scale + center;
+            unit[i] = (points[i] - center) / g.scale;  // as the API maps them
         }
         std::vector<float> want(n), want_gradients(3 * n);
         evaluate_gradient_cpu(g.network, unit.data(), n, want.data(), want_gradients.data());

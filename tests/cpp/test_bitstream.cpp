@@ -13,6 +13,9 @@ nfd_result parse(const Bytes& b, ParsedFile* out = nullptr) {
     return parse_file(b.data(), b.size(), out ? out : &f);
 }
 
+// A survey's frame: 600 km east, 200 km north (UTM metres), not representable in f32.
+constexpr double kFarCenter[3] = {600123.4567891, 200654.3219876, -12.25};
+
 bool is_data_error(nfd_result r) {
     return r == NFD_ERROR_TRUNCATED || r == NFD_ERROR_CORRUPT ||
            r == NFD_ERROR_UNSUPPORTED_VERSION || r == NFD_ERROR_UNSUPPORTED_FEATURE;
@@ -30,6 +33,7 @@ std::vector<std::pair<std::string, Bytes>> synthetic_files() {
                chunk("colr", colour_payload(random_colour_siren(8, 6, 5))),
                chunk("xtra", Bytes{}), chunk("zzZZ", Bytes(40, 7))},
               {1, 3, 0})},
+        {"sdf_frame64", geo_file(random_siren(8, 8, 6), kFarCenter, 12.5)},
     };
 }
 
@@ -228,6 +232,79 @@ TEST(Bitstream, ColourChunkRules) {
     EXPECT_EQ(with_colour(cut), NFD_ERROR_CORRUPT);
     cut.resize(10);  // inside the block's fields
     EXPECT_EQ(with_colour(cut), NFD_ERROR_TRUNCATED);
+}
+
+// ---- the 64-bit frame (1.2) ----------------------------------------------------------------
+
+TEST(Bitstream, Frame64IsDecodedAndPlacesTheOutputs) {
+    ParsedFile f;
+    ASSERT_EQ(parse(geo_file(random_siren(8, 8, 20), kFarCenter, 12.5), &f), NFD_SUCCESS);
+    EXPECT_EQ(f.minor, 2u);
+    const Geometry& g = f.geometry;
+    ASSERT_TRUE(g.frame64.has_value());
+    for (int a = 0; a < 3; ++a) {
+        EXPECT_EQ(g.frame64->center[a], kFarCenter[a]);
+        EXPECT_EQ(g.center[a], float(kFarCenter[a]));  // GEOM: the nearest f32
+        EXPECT_EQ(g.emit_center(a), 0.0f);              // positions local ...
+        EXPECT_EQ(g.offset(a), kFarCenter[a]);          // ... to the exact center
+    }
+    EXPECT_EQ(g.frame64->scale, 12.5);
+
+    ParsedFile plain;
+    ASSERT_EQ(parse(geom_file(random_siren(8, 8, 20)), &plain), NFD_SUCCESS);
+    EXPECT_FALSE(plain.geometry.frame64.has_value());
+    for (int a = 0; a < 3; ++a) {
+        EXPECT_EQ(plain.geometry.emit_center(a), plain.geometry.center[a]);  // as in 1.0
+        EXPECT_EQ(plain.geometry.offset(a), 0.0);
+    }
+}
+
+// Each `fram` rule: GEOM must hold its values rounded to f32, they are finite (scale > 0), the
+// payload is exactly 32 bytes, and the chunk comes directly after GEOM.
+TEST(Bitstream, Frame64Rules) {
+    const GeomSpec spec = random_siren(8, 8, 21);
+    auto with_frame = [&](const double center[3], double scale) {
+        return parse(geo_file(spec, center, scale));
+    };
+    const double* c = kFarCenter;
+    EXPECT_EQ(with_frame(c, 12.5), NFD_SUCCESS);
+    // GEOM's center or scale not the f32 rounding of fram's (one ulp off either way).
+    GeomSpec off = spec;
+    for (int a = 0; a < 3; ++a) off.center[a] = float(c[a]);
+    off.center[1] = std::nextafter(off.center[1], 0.0f);
+    off.scale = 12.5f;
+    const Bytes frame = frame64_payload(c, 12.5);
+    EXPECT_EQ(parse(file({chunk("GEOM", geom_payload(off)), chunk("fram", frame)})),
+              NFD_ERROR_CORRUPT);
+    off.center[1] = float(c[1]);
+    off.scale = std::nextafter(12.5f, 13.0f);
+    EXPECT_EQ(parse(file({chunk("GEOM", geom_payload(off)), chunk("fram", frame)})),
+              NFD_ERROR_CORRUPT);
+    off.scale = 12.5f;
+    const Bytes geom = chunk("GEOM", geom_payload(off));
+    ASSERT_EQ(parse(file({geom, chunk("fram", frame)})), NFD_SUCCESS);
+    // Non-finite or non-positive values (GEOM cannot match them either, which is checked first
+    // for the center: both are corrupt).
+    for (double bad : {double(NAN), double(INFINITY), 0.0, -12.5}) {
+        const double center[3] = {c[0], c[1], c[2]};
+        EXPECT_EQ(parse(file({geom, chunk("fram", frame64_payload(center, bad))})),
+                  NFD_ERROR_CORRUPT) << bad;
+        const double bad_center[3] = {c[0], bad, c[2]};
+        EXPECT_EQ(parse(file({geom, chunk("fram", frame64_payload(bad_center, 12.5))})),
+                  NFD_ERROR_CORRUPT) << bad;
+    }
+    // Payload size: short is truncated, long is corrupt.
+    Bytes cut = frame;
+    cut.resize(31);
+    EXPECT_EQ(parse(file({geom, chunk("fram", cut)})), NFD_ERROR_TRUNCATED);
+    Bytes longer = frame;
+    longer.push_back(0);
+    EXPECT_EQ(parse(file({geom, chunk("fram", longer)})), NFD_ERROR_CORRUPT);
+    // Position: only directly after GEOM; and once.
+    const Bytes colr = chunk("colr", colour_payload(random_colour_siren(8, 8, 22)));
+    EXPECT_EQ(parse(file({geom, chunk("fram", frame), colr})), NFD_SUCCESS);
+    EXPECT_EQ(parse(file({geom, colr, chunk("fram", frame)})), NFD_ERROR_CORRUPT);
+    EXPECT_EQ(parse(file({geom, chunk("fram", frame), chunk("fram", frame)})), NFD_ERROR_CORRUPT);
 }
 
 TEST(Bitstream, ChunkRules) {

@@ -260,7 +260,8 @@ TEST(Stream, ProgressAtTheRightByteCounts) {
         ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[n - 1], 1, &p), NFD_SUCCESS) << n;
         ASSERT_EQ(p.bytes_consumed, n);
         ASSERT_EQ((p.flags & NFD_STREAM_HEADER_READ) != 0, n >= 16) << n;
-        ASSERT_EQ((p.flags & NFD_STREAM_GEOMETRY_READY) != 0, n >= geom_end) << n;
+        // Ready when the chunk after GEOM shows it is not the 64-bit frame (FORMAT.md).
+        ASSERT_EQ((p.flags & NFD_STREAM_GEOMETRY_READY) != 0, n >= geom_end + 8) << n;
         ASSERT_EQ((p.flags & NFD_STREAM_COLOUR_SEEN) != 0, n >= colr_end) << n;
         ASSERT_EQ((p.flags & NFD_STREAM_COMPLETE) != 0, n == bytes.size()) << n;
         if (n >= 16) {
@@ -279,11 +280,12 @@ TEST(Stream, ProgressAtTheRightByteCounts) {
     EXPECT_EQ(nfd_stream_finish(s.get()), NFD_SUCCESS);
 }
 
-// The asset is there once GEOM's CRC has arrived, before the colour chunk; it is the one-shot's,
-// survives the stream, and is handed out once.
+// The asset is there once GEOM's CRC and the next chunk's tag (not a 64-bit frame) have arrived,
+// before the colour chunk; it is the one-shot's, survives the stream, and is handed out once.
 TEST(Stream, AssetBeforeTheLaterChunks) {
     const Bytes bytes = file_with_optional_chunks();
     const size_t geom_end = 16 + 12 + geom_payload(closed_blob()).size();
+    const size_t ready = geom_end + 8;
     nfd_asset* reference = nullptr;
     ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &reference), NFD_SUCCESS);
     const AssetPtr owned_reference(reference);
@@ -291,11 +293,11 @@ TEST(Stream, AssetBeforeTheLaterChunks) {
     StreamPtr s = new_stream();
     nfd_stream_progress p{};
     nfd_asset* a = reinterpret_cast<nfd_asset*>(0x1);
-    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), geom_end - 1, &p), NFD_SUCCESS);
+    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), ready - 1, &p), NFD_SUCCESS);
     EXPECT_EQ(p.flags & NFD_STREAM_GEOMETRY_READY, 0u);
     EXPECT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_ERROR_INVALID_ARGUMENT);  // not yet
     EXPECT_EQ(a, nullptr);
-    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[geom_end - 1], 1, &p), NFD_SUCCESS);
+    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[ready - 1], 1, &p), NFD_SUCCESS);
     EXPECT_NE(p.flags & NFD_STREAM_GEOMETRY_READY, 0u);
     EXPECT_EQ(p.flags & NFD_STREAM_COLOUR_SEEN, 0u);
     ASSERT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_SUCCESS);
@@ -309,7 +311,7 @@ TEST(Stream, AssetBeforeTheLaterChunks) {
     EXPECT_EQ(info.file_size, bytes.size());
 
     // The rest arrives; the stream reports it; the asset taken does not change.
-    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[geom_end], bytes.size() - geom_end, &p), NFD_SUCCESS);
+    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[ready], bytes.size() - ready, &p), NFD_SUCCESS);
     EXPECT_NE(p.flags & NFD_STREAM_COLOUR_SEEN, 0u);
     EXPECT_EQ(nfd_stream_finish(s.get()), NFD_SUCCESS);
     s.reset();
@@ -317,6 +319,39 @@ TEST(Stream, AssetBeforeTheLaterChunks) {
     EXPECT_EQ(info.has_colour, 0);
     EXPECT_TRUE(mesh_of(asset.get()).same_geometry(mesh_of(reference)));
     EXPECT_TRUE(mesh_of(asset.get()).colours.empty());
+}
+
+// A geo-referenced file (GEOM, then its 64-bit frame, then colour): the asset waits for the frame,
+// which places every output, and carries it.
+TEST(Stream, AssetWaitsForTheFrameAfterGeom) {
+    const double center[3] = {600123.4567891, 200654.3219876, -12.25};
+    GeomSpec blob = closed_blob();
+    for (int a = 0; a < 3; ++a) blob.center[a] = float(center[a]);
+    blob.scale = 2.0f;
+    const Bytes bytes = file({chunk("GEOM", geom_payload(blob)),
+                              chunk("fram", frame64_payload(center, 2.0)),
+                              chunk("colr", optional_colour())},
+                             {1, 2, 0});
+    const size_t frame_end = 16 + 12 + geom_payload(blob).size() + 12 + 32;
+    StreamPtr s = new_stream();
+    nfd_stream_progress p{};
+    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), frame_end - 1, &p), NFD_SUCCESS);
+    EXPECT_EQ(p.chunks_complete, 1u);  // GEOM is verified ...
+    EXPECT_EQ(p.flags & NFD_STREAM_GEOMETRY_READY, 0u);  // ... but not yet placed
+    nfd_asset* a = nullptr;
+    EXPECT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_ERROR_INVALID_ARGUMENT);
+    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[frame_end - 1], 1, &p), NFD_SUCCESS);
+    EXPECT_NE(p.flags & NFD_STREAM_GEOMETRY_READY, 0u);
+    ASSERT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_SUCCESS);
+    const AssetPtr early(a);
+    nfd_asset_frame frame{};
+    ASSERT_EQ(nfd_asset_get_frame(early.get(), &frame), NFD_SUCCESS);
+    EXPECT_EQ(frame.exact64, 1);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(frame.offset[k], center[k]);
+    nfd_asset* reference = nullptr;
+    ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &reference), NFD_SUCCESS);
+    const AssetPtr owned_reference(reference);
+    EXPECT_TRUE(mesh_of(early.get()).same_geometry(mesh_of(reference)));
 }
 
 // The complete asset: only once every byte is verified, once, with the colour; the geometry's
@@ -368,7 +403,8 @@ TEST(Stream, MeshBeforeTheColourIsColouredLater) {
 
     StreamPtr s = new_stream();
     nfd_asset* a = nullptr;
-    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), geom_end, nullptr), NFD_SUCCESS);
+    const size_t ready = geom_end + 8;  // GEOM and the next chunk's frame
+    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), ready, nullptr), NFD_SUCCESS);
     ASSERT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_SUCCESS);
     const AssetPtr early(a);
     nfd_mesh* m = nullptr;
@@ -379,7 +415,7 @@ TEST(Stream, MeshBeforeTheColourIsColouredLater) {
     EXPECT_EQ(colours, nullptr);
     EXPECT_EQ(nfd_mesh_evaluate_colours(ctx.get(), early.get(), mesh.get()), NFD_ERROR_NO_COLOUR);
 
-    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[geom_end], bytes.size() - geom_end, nullptr),
+    ASSERT_EQ(nfd_stream_feed(s.get(), &bytes[ready], bytes.size() - ready, nullptr),
               NFD_SUCCESS);
     ASSERT_EQ(nfd_stream_take_complete_asset(s.get(), &a), NFD_SUCCESS);
     const AssetPtr complete(a);
@@ -406,10 +442,11 @@ TEST(Stream, FailureAfterTheAssetWasTaken) {
 
     StreamPtr s = new_stream();
     nfd_asset* a = nullptr;
-    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), geom_end, nullptr), NFD_SUCCESS);
+    const size_t ready = geom_end + 8;  // GEOM and the next chunk's frame
+    ASSERT_EQ(nfd_stream_feed(s.get(), bytes.data(), ready, nullptr), NFD_SUCCESS);
     ASSERT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_SUCCESS);
     const AssetPtr asset(a);
-    EXPECT_EQ(nfd_stream_feed(s.get(), &bytes[geom_end], bytes.size() - geom_end, nullptr),
+    EXPECT_EQ(nfd_stream_feed(s.get(), &bytes[ready], bytes.size() - ready, nullptr),
               NFD_ERROR_CORRUPT);
     EXPECT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_ERROR_CORRUPT);
     EXPECT_EQ(nfd_stream_finish(s.get()), NFD_ERROR_CORRUPT);

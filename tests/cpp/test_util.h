@@ -47,6 +47,12 @@ inline void put_f32(Bytes& b, float v) {
     std::memcpy(&bits, &v, 4);
     put_u32(b, bits);
 }
+inline void put_f64(Bytes& b, double v) {
+    uint64_t bits;
+    std::memcpy(&bits, &v, 8);
+    put_u32(b, uint32_t(bits));
+    put_u32(b, uint32_t(bits >> 32));
+}
 inline void set_u32(Bytes& b, size_t at, uint32_t v) {
     if (at + 4 > b.size()) throw std::out_of_range("set_u32");
     uint8_t* p = b.data() + at;
@@ -158,6 +164,23 @@ inline Bytes geom_file(const GeomSpec& s, HeaderSpec h = {}) {
 inline Bytes coloured_file(const GeomSpec& geometry, const GeomSpec& colour) {
     return file({chunk("GEOM", geom_payload(geometry)), chunk("colr", colour_payload(colour))},
                 {1, 1, 0});
+}
+
+// The `fram` payload (FORMAT.md 1.2): the frame in f64.
+inline Bytes frame64_payload(const double center[3], double scale) {
+    Bytes b;
+    for (int a = 0; a < 3; ++a) put_f64(b, center[a]);
+    put_f64(b, scale);
+    return b;
+}
+
+// A geometry placed by a 64-bit frame, as the encoder writes one for a shape far from its origin:
+// GEOM holds the frame rounded to f32, `fram` the exact values (format 1.2).
+inline Bytes geo_file(GeomSpec s, const double center[3], double scale) {
+    for (int a = 0; a < 3; ++a) s.center[a] = float(center[a]);
+    s.scale = float(scale);
+    return file({chunk("GEOM", geom_payload(s)), chunk("fram", frame64_payload(center, scale))},
+                {1, 2, 0});
 }
 
 inline Bytes geom_file_with_payload(const GeomSpec& s, const Bytes& brotli_stream) {
@@ -280,8 +303,9 @@ inline double evaluate_f64(const Network& net, const float* u) { return evaluate
 // ---- meshes ----------------------------------------------------------------------------------------
 
 // Reads PLY (ascii or binary_little_endian) vertices x y z (float or double), normals, colours
-// (red green blue: uchar read as v / 255, floats as they are) and triangle faces.
-inline MeshData read_ply(const std::string& path) {
+// (red green blue: uchar read as v / 255, floats as they are) and triangle faces; the positions
+// unrounded in `positions64` when given (double coordinates of geo-referenced output).
+inline MeshData read_ply(const std::string& path, std::vector<double>* positions64 = nullptr) {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw std::runtime_error("cannot open " + path);
     std::string line, format;
@@ -355,8 +379,10 @@ inline MeshData read_ply(const std::string& path) {
                     continue;
                 }
                 const double v = read_value(type);
-                if (e.name == "vertex" && (name == "x" || name == "y" || name == "z"))
+                if (e.name == "vertex" && (name == "x" || name == "y" || name == "z")) {
                     m.positions.push_back(float(v));
+                    if (positions64) positions64->push_back(v);
+                }
                 if (e.name == "vertex" && (name == "nx" || name == "ny" || name == "nz"))
                     m.normals.push_back(float(v));
                 if (e.name == "vertex" && (name == "red" || name == "green" || name == "blue"))
@@ -588,7 +614,7 @@ inline void skip_without_vulkan(const std::string& why) {
 
 // tests/vectors/v1_<minor>_<name><suffix>, the minor being the one its .nfc has.
 inline std::string golden_path(const std::string& name, const std::string& suffix) {
-    for (const char* prefix : {"/v1_0_", "/v1_1_"}) {
+    for (const char* prefix : {"/v1_0_", "/v1_1_", "/v1_2_"}) {
         const std::string stem = vectors_dir() + prefix + name;
         if (std::filesystem::exists(stem + ".nfc")) return stem + suffix;
     }

@@ -21,6 +21,10 @@ void require_finite(const float* v, size_t n, bool unit_interval = false) {
         require(std::isfinite(v[i]) && (!unit_interval || (v[i] >= 0.0f && v[i] <= 1.0f)));
 }
 
+void require_finite_f64(const double* v, size_t n) {
+    for (size_t i = 0; i < n; ++i) require(std::isfinite(v[i]));
+}
+
 std::string scratch_path(const char* extension) {
     return "/tmp/nfd_fuzz_decode_" + std::to_string(::getpid()) + extension;
 }
@@ -49,9 +53,12 @@ void decode(const nfd_asset* asset, uint32_t resolution) {
         const nfd_result c = nfd_asset_evaluate_colour(ctx, asset, points.data(), 64, rgb.data());
         require(c == (colours ? NFD_SUCCESS : NFD_ERROR_NO_COLOUR));
         if (colours) require_finite(rgb.data(), rgb.size(), true);
-        require(nfd_points_write_coloured_ply(points.data(), normals.data(),
-                                              colours ? rgb.data() : nullptr, 64,
-                                              scratch_path(".points.ply").c_str()) == NFD_SUCCESS);
+        double offset[3];  // a 64-bit frame's center: finite, so the double PLY is too
+        require(nfd_mesh_get_offset(mesh, offset) == NFD_SUCCESS);
+        require_finite_f64(offset, 3);
+        require(nfd_points_write_placed_ply(points.data(), normals.data(),
+                                            colours ? rgb.data() : nullptr, 64, offset,
+                                            scratch_path(".points.ply").c_str()) == NFD_SUCCESS);
     }
     require(nfd_mesh_write_ply(mesh, scratch_path(".ply").c_str()) == NFD_SUCCESS);
     require(nfd_mesh_write_glb(mesh, scratch_path(".glb").c_str()) == NFD_SUCCESS);

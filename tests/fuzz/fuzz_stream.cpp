@@ -16,12 +16,15 @@
 
 namespace {
 
-// Two assets of the same file agree: info, and the field and colour at fixed points.
+// Two assets of the same file agree: info, frame, and the field and colour at fixed points.
 void require_same(const nfd_asset* a, const nfd_asset* b, bool compare_colour) {
     nfd_asset_info x{}, y{};
     require(nfd_asset_get_info(a, &x) == NFD_SUCCESS && nfd_asset_get_info(b, &y) == NFD_SUCCESS);
     x.has_colour = y.has_colour = 0;  // an early asset may predate the colour chunk
     require(std::memcmp(&x, &y, sizeof x) == 0);
+    nfd_asset_frame fa{}, fb{};  // the early asset is placed as the complete one (`fram`)
+    require(nfd_asset_get_frame(a, &fa) == NFD_SUCCESS && nfd_asset_get_frame(b, &fb) == NFD_SUCCESS);
+    require(std::memcmp(&fa, &fb, sizeof fa) == 0);
     const float points[6] = {0.1f, -0.2f, 0.3f, 1.5f, 2.0f, -0.5f};
     float va[2], vb[2], ca[6], cb[6];
     require(nfd_asset_evaluate(cpu_context(), a, points, 2, va) == NFD_SUCCESS);

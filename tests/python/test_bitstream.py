@@ -26,7 +26,9 @@ from nfencode.bitstream import (
     OUTPUT_IDENTITY,
     OUTPUT_SIGMOID,
     TAG_COLOR,
+    TAG_FRAME64,
     TAG_GEOM,
+    Frame64,
     GeometryChunk,
     NfcFile,
     assemble,
@@ -432,3 +434,67 @@ def test_color_chunk_order() -> None:
     f = random_color_file()
     reject(file_with([color_chunk(f), geom_chunk(f)], minor=1), "corrupt")  # GEOM not first
     reject(file_with([geom_chunk(f), color_chunk(f), color_chunk(f)], minor=1), "corrupt")  # duplicate
+
+
+# ---- the 64-bit frame (1.2) -------------------------------------------------------------------
+
+FAR_CENTER = (600123.4567891, 200654.3219876, -12.25)  # UTM-like metres, not representable in f32
+
+
+def geo_file(with_color: bool = False) -> NfcFile:
+    f = random_color_file() if with_color else random_file()
+    f.geometry.center = tuple(f32(c) for c in FAR_CENTER)  # type: ignore[assignment]
+    f.geometry.scale = 12.5
+    f.geometry.frame64 = Frame64(FAR_CENTER, 12.5)
+    return f
+
+
+def frame_chunk(center: tuple[float, ...], scale: float, extra: bytes = b"") -> bytes:
+    return encode_chunk(TAG_FRAME64, struct.pack("<4d", *center, scale) + extra)
+
+
+def test_frame64_round_trip_is_version_1_2_with_fram_after_geom() -> None:
+    for with_color in (False, True):
+        data = write_nfc(geo_file(with_color))
+        assert (data[4], data[5]) == (1, 2)
+        decoded = read_nfc(data)
+        assert decoded.minor == 2 and decoded.geometry.frame64 == Frame64(FAR_CENTER, 12.5)
+        assert list(decoded.chunk_bytes) == ["GEOM", "fram"] + (["colr"] if with_color else [])
+        assert decoded.chunk_bytes["fram"] == 12 + 32
+        assert write_nfc(decoded) == data
+
+
+def test_frame64_rules_are_corrupt_and_unwritable() -> None:
+    f = geo_file()
+    geom = geom_chunk(f)
+    assert read_nfc(file_with([geom, frame_chunk(FAR_CENTER, 12.5)], minor=2)).geometry.frame64 is not None
+    nudged = (FAR_CENTER[0], float(np.nextafter(np.float32(FAR_CENTER[1]), np.float32(0))) - 1.0, FAR_CENTER[2])
+    for center, scale in [(nudged, 12.5), (FAR_CENTER, 12.6), (FAR_CENTER, 0.0), (FAR_CENTER, -12.5),
+                          (FAR_CENTER, math.nan), ((math.inf, 0.0, 0.0), 12.5), ((FAR_CENTER[0], math.nan, 0.0), 12.5)]:
+        reject(file_with([geom, frame_chunk(center, scale)], minor=2), "corrupt")
+        bad = geo_file()
+        bad.geometry.frame64 = Frame64(center, scale)  # type: ignore[arg-type]
+        with pytest.raises(ValueError):
+            write_nfc(bad)
+    reject(file_with([geom, encode_chunk(TAG_FRAME64, struct.pack("<4d", *FAR_CENTER, 12.5)[:31])], minor=2),
+           "truncated")
+    reject(file_with([geom, frame_chunk(FAR_CENTER, 12.5, b"\0")], minor=2), "corrupt")
+
+
+def test_frame64_only_directly_after_geom_and_once() -> None:
+    f = geo_file(with_color=True)
+    geom, frame, colr = geom_chunk(f), frame_chunk(FAR_CENTER, 12.5), color_chunk(f)
+    assert read_nfc(file_with([geom, frame, colr], minor=2)).color is not None
+    reject(file_with([geom, colr, frame], minor=2), "corrupt")
+    reject(file_with([geom, frame, frame], minor=2), "corrupt")
+    reject(file_with([frame, geom], minor=2), "corrupt")  # GEOM first
+
+
+def test_frame64_file_corruption_and_truncation_are_rejected() -> None:
+    data = write_nfc(geo_file())
+    for n in range(len(data)):
+        reject(data[:n])
+    for i in range(len(data)):
+        damaged = bytearray(data)
+        damaged[i] ^= 0x10
+        reject(bytes(damaged))

@@ -4,20 +4,23 @@ an existing `.nfc` is never re-encoded (a vector's bytes and field values are fi
 format change gets new names), only its meshes are rewritten from it, when the reference decoder's
 algorithm changes on purpose.
 
-For each vector `v1_0_<name>` (geometry only, format 1.0) or `v1_1_<name>` (with colour, 1.1):
+For each vector `v1_0_<name>` (geometry only, format 1.0), `v1_1_<name>` (with colour, 1.1) or
+`v1_2_<name>` (geometry with a 64-bit frame, 1.2):
   <name>.nfc          a real encode of a shape from ../shared/data (short schedule: these vectors
                       test decoding, not rate-distortion); written once
   <name>.values.txt   `x y z value` per line: unit-frame query points and the numpy reference
                       decoder's field values (%.9g); written once, with the .nfc
   <name>.colours.txt  (v1_1 only) `x y z r g b`: the same points and the reference colours in
                       [0, 1] (%.9g); written once, with the .nfc
-  <name>.mesh64.ply   the reference decoder's mesh at resolution 64 (SDF or UDF), original frame,
-                      vertices and faces in the reference's order (README.md); v1_1: float
-                      red, green, blue in [0, 1] per vertex after the normal
+  <name>.mesh64.ply   the reference decoder's mesh at resolution 64 (SDF or UDF), original frame
+                      relative to the frame offset (v1_2: the 64-bit center; else 0), vertices
+                      and faces in the reference's order (README.md); v1_1: float red, green,
+                      blue in [0, 1] per vertex after the normal
 """
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +42,11 @@ VECTORS = [  # name, shape, field, width, bits, epochs, colour width (None: geom
     ("v1_0_bunny_scans_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 30, None),
     # A coloured point cloud (13,704 points): colour network of width 16 at 8 bits.
     ("v1_1_milk_udf_w16_c16", "colored/pcl_milk_color.ply.gz", "udf", 16, 8, 30, 16),
+    # The range-scan cloud placed as geo-referenced survey data (UTM-like metres, GEO_OFFSETS):
+    # the encoder keeps its frame in 64 bits.
+    ("v1_2_bunny_scans_geo_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 30, None),
 ]
+GEO_OFFSETS = {"v1_2_bunny_scans_geo_udf_w16": (600123.456, 200654.321, 0.0)}  # added to the shape
 COLOR_EPOCHS = 30  # the colour schedule's epochs for the v1_1 vectors (short, as the geometry's)
 
 
@@ -56,7 +63,10 @@ def encode(name: str, rel: str, field: str, width: int, bits: int, epochs: int, 
     config = EncodeConfig(field=field, width=width, bits=bits, epochs=epochs, seed=7, quiet=True,
                           color="off" if color_width is None else "on", color_width=color_width or 16,
                           color_epochs=COLOR_EPOCHS)
-    data = compress(load_shape(DATA / rel), config).data
+    shape = load_shape(DATA / rel)
+    if name in GEO_OFFSETS:
+        shape = dataclasses.replace(shape, vertices=shape.vertices + np.asarray(GEO_OFFSETS[name]))
+    data = compress(shape, config).data
     stem.with_suffix(".nfc").write_bytes(data)
     points = query_points()
     nfc = read_nfc(data)

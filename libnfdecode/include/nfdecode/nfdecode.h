@@ -54,14 +54,14 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 4
+#define NFD_VERSION_MINOR 5
 #define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
 /* The newest bitstream version this library reads (FORMAT.md, "Version policy"). */
 #define NFD_FORMAT_MAJOR 1
-#define NFD_FORMAT_MINOR 1
+#define NFD_FORMAT_MINOR 2
 
 /* Hard caps from FORMAT.md. Inputs beyond them are rejected before any allocation. */
 #define NFD_MAX_FILE_SIZE (64u * 1024u * 1024u)
@@ -197,7 +197,8 @@ typedef struct nfd_asset_info {
     uint32_t file_size;                  /* bytes */
     nfd_field_type field_type;
     float truncation;                    /* d* in the unit frame */
-    float center[3], scale;              /* original = unit * scale + center */
+    float center[3], scale;              /* original = unit * scale + center: GEOM's f32 frame
+                                            (exact in f64: nfd_asset_get_frame) */
     uint32_t num_frequencies;            /* positional-encoding frequencies L */
     uint32_t num_layers;                 /* linear layers, output layer included */
     uint32_t layer_widths[NFD_MAX_LAYERS]; /* out_features of each layer */
@@ -214,6 +215,28 @@ typedef struct nfd_asset_info {
 NFD_API nfd_result nfd_asset_create(const void* bytes, size_t size, nfd_asset** out_asset);
 NFD_API void nfd_asset_destroy(nfd_asset* asset);
 NFD_API nfd_result nfd_asset_get_info(const nfd_asset* asset, nfd_asset_info* out_info);
+
+/* (0.5) Positions and the offset: geo-referenced data.
+ * Every position the library emits for an asset (mesh vertices, sampled points, a grid's origin,
+ * recorded vertex buffers) and takes (nfd_asset_evaluate_colour's points) is in the original frame
+ * relative to an offset: original = offset + position. The offset is (0, 0, 0) unless the file
+ * stores its frame in 64 bits (exact64: format 1.2's `fram` chunk, which the encoder writes for
+ * shapes far from their origin, e.g. LiDAR in UTM metres); then it is the frame's exact center, so
+ * that positions stay small and exact in f32 while the offset keeps the far translation exact in
+ * f64. Engines put the offset into the node's transform (the glTF writer does); the PLY writers
+ * write offset + position as double coordinates; the VDB writer puts it into the double
+ * transform. nfd_mesh_get_offset and nfd_grid_get_offset give it with each output. */
+typedef struct nfd_asset_frame {
+    uint32_t struct_size; /* set by the caller: sizeof(nfd_asset_frame), or 0 for this layout */
+    int exact64;          /* the file stores its frame in f64 */
+    double center[3];     /* original = unit * scale + center: the f64 frame, else GEOM's f32 one */
+    double scale;
+    double offset[3];     /* what positions are relative to: center if exact64, else (0, 0, 0) */
+} nfd_asset_frame;
+
+/* (0.5) Writes the asset's frame. NFD_ERROR_INVALID_ARGUMENT for NULL arguments or a non-zero
+ * struct_size below this layout. */
+NFD_API nfd_result nfd_asset_get_frame(const nfd_asset* asset, nfd_asset_frame* out_frame);
 
 /* Evaluates the field at `count` points given in the ORIGINAL frame (xyz interleaved, 3*count
  * floats), writing `count` distances in the unit frame (multiply by info.scale for original
@@ -256,7 +279,8 @@ NFD_API nfd_result nfd_asset_evaluate_gradient(nfd_context* context, const nfd_a
  * made before it arrived.
  * ------------------------------------------------------------------------------------------- */
 
-/* The colour at `count` points in the ORIGINAL frame (xyz interleaved), 3*count floats RGB to
+/* The colour at `count` points in the ORIGINAL frame relative to the asset's offset (as the
+ * library emits positions: nfd_asset_frame; xyz interleaved), 3*count floats RGB to
  * out_rgb. Same argument rules, outcomes and bounded memory as nfd_asset_evaluate, and
  * NFD_ERROR_NO_COLOUR when the asset has no colour field. */
 NFD_API nfd_result nfd_asset_evaluate_colour(nfd_context* context, const nfd_asset* asset,
@@ -267,7 +291,9 @@ NFD_API nfd_result nfd_asset_evaluate_colour(nfd_context* context, const nfd_ass
  *
  * An nfd_stream verifies a file while it is being received (network, slow storage) and hands out
  * the asset as soon as the geometry chunk is complete, before the rest of the file (optional
- * chunks such as colour) has arrived. The chunk framing makes this possible (FORMAT.md,
+ * chunks such as colour) has arrived. "Complete" includes the 64-bit frame of a geo-referenced
+ * file, which directly follows the geometry: the asset is ready once the 8 bytes after the
+ * geometry chunk show another chunk (or the file ends there), or that frame has arrived. The chunk framing makes this possible (FORMAT.md,
  * "Incremental reading"): the header announces file_size, and each chunk's length precedes its
  * payload.
  *
@@ -320,8 +346,9 @@ typedef struct nfd_stream_options {
 /* Bits of nfd_stream_progress.flags. Once set, a bit stays set (also after a failure, for what was
  * verified before it, and after the asset is taken). */
 #define NFD_STREAM_HEADER_READ 0x1u     /* the header is verified: file_size, format_* are known */
-#define NFD_STREAM_GEOMETRY_READY 0x2u  /* GEOM (the first chunk) is verified and decoded: the
-                                           asset can be taken */
+#define NFD_STREAM_GEOMETRY_READY 0x2u  /* GEOM (the first chunk) is verified and decoded, and
+                                           with it the 64-bit frame of a file that has one (see
+                                           above): the asset can be taken */
 #define NFD_STREAM_COLOUR_SEEN 0x4u     /* a `colr` chunk is verified and decoded (0.4: before,
                                            verified only) */
 #define NFD_STREAM_COMPLETE 0x8u        /* all file_size bytes are verified: finish will succeed */
@@ -412,7 +439,8 @@ typedef struct nfd_mesh_options {
 } nfd_mesh_options;
 
 typedef struct nfd_mesh_data {
-    const float* positions;   /* 3 * vertex_count floats, original frame */
+    const float* positions;   /* 3 * vertex_count floats, original frame relative to the offset
+                                 (nfd_mesh_get_offset; (0, 0, 0) but for geo-referenced files) */
     const float* normals;     /* 3 * vertex_count floats, unit length, outward (UDF: see below) */
     const uint32_t* indices;  /* 3 * triangle_count, counter-clockwise seen from outside */
     size_t vertex_count;
@@ -449,11 +477,15 @@ NFD_API nfd_result nfd_mesh_get_colours(const nfd_mesh* mesh, const float** out_
  * NFD_ERROR_DEVICE, NFD_ERROR_OUT_OF_MEMORY (the mesh keeps its former colours). */
 NFD_API nfd_result nfd_mesh_evaluate_colours(nfd_context* context, const nfd_asset* asset,
                                              nfd_mesh* mesh);
+/* (0.5) The offset the mesh's positions are relative to, 3 doubles: original = offset + position
+ * (see nfd_asset_frame). NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
+NFD_API nfd_result nfd_mesh_get_offset(const nfd_mesh* mesh, double* out_offset);
 /* Timings and counts of the extraction that produced this mesh. */
 NFD_API nfd_result nfd_mesh_get_stats(const nfd_mesh* mesh, nfd_decode_stats* out_stats);
 
 /* Samples `count` points uniformly by area on the mesh (deterministic for a seed on every
- * platform), writing 3*count floats to out_points (original frame) and, if out_normals is not
+ * platform), writing 3*count floats to out_points (as the mesh's positions: relative to its
+ * offset) and, if out_normals is not
  * NULL, 3*count floats of unit face normals. count == 0 succeeds and writes nothing. An empty mesh
  * with count > 0, or out_points NULL, gives NFD_ERROR_INVALID_ARGUMENT. */
 NFD_API nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, uint64_t seed,
@@ -461,8 +493,10 @@ NFD_API nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, ui
 
 /* Writes the mesh as binary glTF 2.0 (.glb: one scene/node/mesh, POSITION with min/max, NORMAL,
  * COLOR_0 (float VEC3) when the mesh has colours, UNSIGNED_INT indices; an empty mesh gives an
- * empty scene) or binary little-endian PLY (vertex float x,y,z,nx,ny,nz, then uchar
- * red,green,blue when the mesh has colours; face list uchar uint vertex_indices).
+ * empty scene; a non-zero offset is the node's translation, positions stay local) or binary
+ * little-endian PLY (vertex float x,y,z,nx,ny,nz, then uchar red,green,blue when the mesh has
+ * colours; face list uchar uint vertex_indices; with a non-zero offset x,y,z are double,
+ * offset + position, exact).
  * NFD_ERROR_INVALID_ARGUMENT for NULL arguments, NFD_ERROR_IO if the file cannot be opened or
  * fully written. */
 NFD_API nfd_result nfd_mesh_write_glb(const nfd_mesh* mesh, const char* path);
@@ -476,6 +510,12 @@ NFD_API nfd_result nfd_points_write_ply(const float* points, const float* normal
 NFD_API nfd_result nfd_points_write_coloured_ply(const float* points, const float* normals,
                                                  const float* colours, size_t count,
                                                  const char* path);
+/* (0.5) As nfd_points_write_coloured_ply, the points relative to `offset` (3 doubles, e.g. the
+ * mesh's nfd_mesh_get_offset; NULL or zero: none): a non-zero offset writes double x,y,z =
+ * offset + point. */
+NFD_API nfd_result nfd_points_write_placed_ply(const float* points, const float* normals,
+                                               const float* colours, size_t count,
+                                               const double* offset, const char* path);
 
 /* ---------------------------------------------------------------------------------------------
  * Progressive extraction: a mesh per level of detail, coarse to fine
@@ -587,9 +627,10 @@ typedef struct nfd_grid_options {
 
 /* The voxels of a grid's finest level. A voxel is a grid vertex (a point sample, as in OpenVDB)
  * with integer indices 0..resolution on each axis; voxel n lies in the original frame at
- *     (ijk[3n], ijk[3n + 1], ijk[3n + 2]) * voxel_size + origin,
+ *     (ijk[3n], ijk[3n + 1], ijk[3n + 2]) * voxel_size + origin   (+ nfd_grid_get_offset),
  * where voxel_size = 2 * scale / resolution and origin = center - scale (the unit cube's corner
- * (-1, -1, -1)), scale and center those of nfd_asset_info.
+ * (-1, -1, -1)), scale and center those of nfd_asset_info; for a file with a 64-bit frame (see
+ * nfd_asset_frame) origin = -scale and the offset holds the center.
  * The band: the corners of the finest cells that refinement visited (the children of the coarser
  * cells that may hold the surface), several cells deep on each side of it (the bunny at 256: up
  * to 8; 6% of the dense grid's vertices). A resolution too low to refine (under 63) keeps the
@@ -623,6 +664,9 @@ NFD_API void nfd_grid_destroy(nfd_grid* grid);
 
 /* Pointers stay valid until nfd_grid_destroy. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
 NFD_API nfd_result nfd_grid_get_voxels(const nfd_grid* grid, nfd_grid_voxels* out_voxels);
+/* (0.5) The offset of the grid's positions, 3 doubles (see nfd_asset_frame): original = offset +
+ * ijk * voxel_size + origin. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
+NFD_API nfd_result nfd_grid_get_offset(const nfd_grid* grid, double* out_offset);
 /* (0.4) The voxels' colours, 3 * count floats RGB in [0, 1] in the voxels' order (the colour at
  * each voxel's position; see "Colour"), or NULL when the grid has none. Valid until
  * nfd_grid_destroy. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
@@ -630,7 +674,7 @@ NFD_API nfd_result nfd_grid_get_colours(const nfd_grid* grid, const float** out_
 
 /* Writes the voxels as an OpenVDB file holding one openvdb::FloatGrid named "distance": the voxels
  * active with their values (full float precision), the linear transform index -> original frame
- * above, background value `background`.
+ * above (in double, the offset included), background value `background`.
  *   SDF: grid class level set. Inactive voxels and tiles inside the surface read -background
  *        (OpenVDB's signed flood fill), so every read has the sign of inside/outside.
  *   UDF: grid class unknown, holding an unsigned distance: >= 0 everywhere, +background off the
@@ -924,7 +968,8 @@ typedef struct nfd_recording_options {
  * UNIFORM, TRANSFER_SRC/DST, VERTEX, INDEX and INDIRECT usage. Only the first vertex_count /
  * triangle_count entries (nfd_recording_result) are the mesh; the draw record covers exactly them. */
 typedef struct nfd_device_mesh {
-    uint64_t positions;       /* 3 floats per vertex, original frame: a vertex buffer, stride 12 */
+    uint64_t positions;       /* 3 floats per vertex, original frame relative to the asset's offset
+                                 (nfd_asset_frame): a vertex buffer, stride 12 */
     uint64_t normals;         /* 3 floats per vertex, unit length (as nfd_mesh_data) */
     uint64_t indices;         /* 3 uint32 per triangle: VK_INDEX_TYPE_UINT32 */
     uint64_t draw;            /* one VkDrawIndexedIndirectCommand at offset 0 (20 bytes):

@@ -105,7 +105,7 @@ LevelBuilder::LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometr
       level_(*job.device.vk), kept_(*job.device.vk) {
     base_.step = step_;
     base_.scale = geometry.scale;
-    for (int a = 0; a < 3; ++a) base_.center[a] = geometry.center[a];
+    for (int a = 0; a < 3; ++a) base_.center[a] = geometry.emit_center(a);
 }
 
 LevelPush LevelBuilder::refine_push(uint32_t child_level, uint32_t parent_cells,
