@@ -58,13 +58,13 @@ def main() -> None:
     ap.add_argument("--epochs", type=int, default=None, help="override the fast preset's epochs")
     args = ap.parse_args()
     cfg = EncodeConfig(field="udf", width=args.width, epochs=args.epochs, seed=0, quiet=True)
-    print(f"| shape | offset (m) | format | bytes | frame error | CD | encode s |")
-    print("|---|---:|---|---:|---:|---:|---:|")
+    print("| shape | offset (m) | encoder | file | bytes | frame error | CD | encode s |")
+    print("|---|---:|---|---|---:|---:|---:|---:|")
     for name in args.shapes:
         base = dataclasses.replace(load_shape(SHARED / "data" / SHAPES[name], colors="off"), faces=None)
         for offset in args.offsets:
             shape = dataclasses.replace(base, vertices=base.vertices + np.array([offset, offset / 3, 0.0]))
-            for label, frame64 in (("1.2 (fram)", True), ("1.1 (f32 frame)", False)):
+            for label, frame64 in (("64-bit frame when needed", True), ("f32 frame only (1.1)", False)):
                 if not frame64 and offset == 0.0:
                     continue  # the same file
                 original = encoder.needs_frame64
@@ -78,8 +78,9 @@ def main() -> None:
                     encoder.needs_frame64 = original  # type: ignore[assignment]
                 written, faces, error = written_vertices(data)
                 cd = chamfer_distance(shape, Shape(written, faces, None, "decoded"), CD_SAMPLES, 0)
-                fmt = f"{read_nfc(data).major}.{read_nfc(data).minor}"
-                print(f"| {name} | {offset:.0f} | {label} {fmt} | {len(data)} | {error * 1e3:.3g} mm | "
+                f = read_nfc(data)
+                fmt = f"{f.major}.{f.minor}" + (" + fram" if f.geometry.frame64 is not None else "")
+                print(f"| {name} | {offset:.0f} | {label} | {fmt} | {len(data)} | {error * 1e3:.3g} mm | "
                       f"{cd:.5f} | {seconds:.0f} |", flush=True)
 
 
