@@ -37,6 +37,7 @@ MAX_FREQUENCIES = 24
 MAX_LAYERS = 8
 MAX_WIDTH = 512
 MAX_PARAMETERS = 1024 * 1024
+MAX_FRAME_EXTENT = 2.0**126  # max |center| + scale: decoded f32 positions stay finite
 MIN_LAYERS = 2
 MIN_BITS = 2
 MAX_BITS = 16
@@ -191,6 +192,12 @@ def _check_scale(scale: float) -> None:
         raise _corrupt(f"frame scale {scale} is not a finite positive number")
 
 
+def _check_frame_extent(center: tuple[float, ...] | list[float], scale: float) -> None:
+    extent = max(abs(c) for c in center) + scale
+    if not extent <= MAX_FRAME_EXTENT:
+        raise _corrupt(f"frame extent {extent:.3g} (|center| + scale) exceeds {MAX_FRAME_EXTENT:.3g}")
+
+
 def _check_frequencies(num_frequencies: int) -> None:
     if not 0 <= num_frequencies <= MAX_FREQUENCIES:
         raise _corrupt(f"{num_frequencies} frequencies (at most {MAX_FREQUENCIES})")
@@ -274,6 +281,7 @@ def _check_geometry(g: GeometryChunk) -> None:
     for c in g.center:
         _check_center_coordinate(c)
     _check_scale(g.scale)
+    _check_frame_extent(g.center, g.scale)
     _check_network(g.network, _geometry_role(g.field_type))
 
 
@@ -542,6 +550,7 @@ def _read_geometry(data: memoryview, start: int, end: int) -> GeometryChunk:
         center.append(c)
     (scale,) = cur.unpack("f")
     _check_scale(scale)
+    _check_frame_extent(center, scale)
     network = _read_network(cur, _geometry_role(field_type))
     return GeometryChunk(field_type, truncation, (center[0], center[1], center[2]), scale, network)
 

@@ -23,6 +23,7 @@ from .bitstream import (
     FIELD_SDF,
     FIELD_UDF,
     MAX_BITS,
+    MAX_FRAME_EXTENT,
     MAX_WIDTH,
     MIN_BITS,
     OUTPUT_ABS,
@@ -143,6 +144,12 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
         scale32 = float(np.float32(scale))
     if not (np.all(np.isfinite(center32)) and math.isfinite(scale32) and scale32 > 0.0):
         raise InputError("the shape has no extent (all vertices coincide) or coordinates overflow float32")
+    if scale32 < float(np.finfo(np.float32).tiny):  # subnormal: decoded positions lose their bits
+        raise InputError(f"the shape is too small for float32 coordinates: its radius {scale:.3g} is below "
+                         f"{float(np.finfo(np.float32).tiny):.3g} (scale it up, e.g. to other units)")
+    if float(np.abs(center32).max()) + scale32 > MAX_FRAME_EXTENT:
+        raise InputError(f"coordinates too large for float32 outputs: |center| + radius reaches "
+                         f"{float(np.abs(center).max()) + scale:.3g}, the format's limit is {MAX_FRAME_EXTENT:.3g}")
     frame64 = None
     if needs_frame64(center, scale):
         frame64 = Frame64((float(center[0]), float(center[1]), float(center[2])), float(scale))

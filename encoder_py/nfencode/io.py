@@ -3,12 +3,13 @@ listed in a scanalyze .conf) and writing results.
 
 Loading validates what the encoder relies on and reports anything else as a one-line InputError:
 missing or unreadable files, unknown extensions, empty shapes, non-finite coordinates, meshes whose
-faces all have zero area, and shapes whose points all coincide.
+faces all have zero area, and shapes whose points all coincide. Memory stays bounded by the input:
+files (after gzip) above MAX_INPUT_BYTES, and PLY headers announcing more elements than the file's
+bytes can hold, are refused before anything is allocated for them.
 """
 
 from __future__ import annotations
 
-import gzip
 import io
 import os
 import warnings
@@ -55,11 +56,36 @@ def split_extension(path: str | os.PathLike[str]) -> tuple[str, bool]:
     return Path(name).suffix, gzipped
 
 
+MAX_INPUT_BYTES = 4 << 30  # a shape file's size after gzip: 4 GiB (~150 M binary PLY points)
+
+
+def _gunzip(path: Path, raw: bytes) -> bytes:
+    """gzip members decompressed up to MAX_INPUT_BYTES: a bomb stops at the limit."""
+    out, data = [], raw
+    total = 0
+    try:
+        while data:
+            stream = zlib.decompressobj(16 + zlib.MAX_WBITS)
+            out.append(stream.decompress(data, MAX_INPUT_BYTES - total + 1))
+            total += len(out[-1])
+            if total > MAX_INPUT_BYTES or stream.unconsumed_tail:
+                raise InputError(f"{path}: decompresses to more than {MAX_INPUT_BYTES} bytes (the input limit)")
+            if not stream.eof:
+                raise InputError(f"{path}: not a valid gzip file (truncated)")
+            data = stream.unused_data.lstrip(b"\0")  # concatenated members; zero padding
+    except zlib.error as e:
+        raise InputError(f"{path}: not a valid gzip file ({e})") from None
+    return b"".join(out)
+
+
 def _read_bytes(path: Path, gzipped: bool) -> bytes:
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.is_dir():
         raise InputError(f"{path}: is a directory, not a shape file")
+    size = path.stat().st_size
+    if size > MAX_INPUT_BYTES:
+        raise InputError(f"{path}: {size} bytes, more than the input limit of {MAX_INPUT_BYTES}")
     try:
         raw = path.read_bytes()
     except OSError as e:
@@ -67,10 +93,7 @@ def _read_bytes(path: Path, gzipped: bool) -> bytes:
     if not raw:
         raise InputError(f"{path}: file is empty")
     if gzipped:
-        try:
-            raw = gzip.decompress(raw)
-        except (OSError, EOFError, zlib.error) as e:
-            raise InputError(f"{path}: not a valid gzip file ({e})") from None
+        raw = _gunzip(path, raw)
         if not raw:
             raise InputError(f"{path}: file is empty after gzip decompression")
     return raw
@@ -151,7 +174,37 @@ def _obj_colors(raw: bytes, vertex_count: int) -> Colors:
     return _eight_bit(rgb, integer=False)
 
 
+PLY_SIZES = {name: size for size, names in ((1, "char uchar int8 uint8"), (2, "short ushort int16 uint16"),
+                                           (4, "int uint int32 uint32 float float32"), (8, "double float64"))
+             for name in names.split()}
+
+
+def _check_ply_counts(raw: bytes) -> None:
+    """Refuses a PLY header whose elements need more bytes than follow it (each binary record at
+    least its fixed fields and one byte per list count; each ASCII value at least two characters),
+    so that a few bytes announcing 10^12 vertices cannot make the parser allocate for them."""
+    end = raw.find(b"end_header")
+    if end < 0:
+        return  # not a PLY header: the parser says so
+    lines = raw[:end].decode("ascii", errors="replace").splitlines()
+    binary = any(line.split()[:2] in (["format", "binary_little_endian"], ["format", "binary_big_endian"])
+                 for line in lines if line.strip())
+    needed, count, record = 0, 0, 0
+    for words in (line.split() for line in lines):
+        if words[:1] == ["element"] and len(words) >= 3 and words[2].isdigit():
+            needed += count * record
+            count, record = int(words[2]), 0
+        elif words[:1] == ["property"] and len(words) >= 3:
+            kind = "list" if words[1] == "list" else words[1]
+            record += 2 if not binary else PLY_SIZES.get(words[2], 1) if kind == "list" else PLY_SIZES.get(kind, 1)
+    needed += count * record
+    available = len(raw) - end
+    if needed > available:
+        raise InputError(f"PLY header announces elements of at least {needed} bytes, but only {available} follow it")
+
+
 def _load_ply(raw: bytes) -> tuple[np.ndarray, np.ndarray | None, Colors]:
+    _check_ply_counts(raw)
     with warnings.catch_warnings():  # plyfile warns about empty list rows (e.g. range_grid of raw scans)
         warnings.simplefilter("ignore")
         ply = plyfile.PlyData.read(io.BytesIO(raw))

@@ -227,6 +227,10 @@ nfd_result read_geometry(Reader& r, Geometry* g) {
     }
     NFD_TRY(r.f32(&g->scale));
     NFD_CHECK(finite(g->scale) && g->scale > 0.0f);
+    // Positions u * scale + center (|u| <= 1.1 with a rounded-up level's last cells) stay finite.
+    double extent = 0;
+    for (float c : g->center) extent = std::max(extent, std::fabs(double(c)));
+    NFD_CHECK(extent + double(g->scale) <= NFD_MAX_FRAME_EXTENT);
     const OutputActivation activation =
         g->field == FieldType::Sdf ? OutputActivation::Identity : OutputActivation::Abs;
     return read_network(r, activation, 1, &g->network);

@@ -365,6 +365,15 @@ TEST(Bitstream, GeometryFieldRules) {
     expect_corrupt([](GeomSpec& s) { s.center[1] = INFINITY; }, "center inf");
     expect_corrupt([](GeomSpec& s) { s.center[2] = NAN; }, "center NaN");
     expect_corrupt([](GeomSpec& s) { s.scale = 0; }, "scale 0");
+    // Frames whose positions would overflow f32 (a valid 1.1 file could make infinite vertices).
+    expect_corrupt([](GeomSpec& s) { s.center[0] = 3e38f, s.scale = 3e38f; }, "extent > 2^126");
+    expect_corrupt([](GeomSpec& s) { s.center[2] = -0x1p126f, s.scale = 0x1p100f; }, "extent over 2^126");
+    {
+        GeomSpec s = base;
+        s.center[0] = s.center[1] = s.center[2] = 0;
+        s.scale = 0x1p126f;  // exactly at the cap: positions stay below 1.1 * 2^126
+        EXPECT_EQ(parse_spec(s), NFD_SUCCESS);
+    }
     expect_corrupt([](GeomSpec& s) { s.scale = -1; }, "scale < 0");
     expect_corrupt([](GeomSpec& s) { s.beta = 0.99f; }, "beta < 1");
     expect_corrupt([](GeomSpec& s) { s.beta = 2.01f; }, "beta > 2");

@@ -498,3 +498,14 @@ def test_frame64_file_corruption_and_truncation_are_rejected() -> None:
         damaged = bytearray(data)
         damaged[i] ^= 0x10
         reject(bytes(damaged))
+
+
+@pytest.mark.parametrize("center,scale", [((3e38, 0.0, 0.0), 3e38), ((0.0, 0.0, -(2.0**126)), 2.0**100)])
+def test_frames_whose_positions_overflow_f32_are_corrupt_and_unwritable(center, scale) -> None:
+    f = random_file()
+    f.geometry.center, f.geometry.scale = center, scale
+    with pytest.raises(ValueError):
+        write_nfc(f)
+    reject(file_with([geom_chunk(f, check=False)]), "corrupt")
+    f.geometry.center, f.geometry.scale = (0.0, 0.0, 0.0), 2.0**126  # at the cap
+    assert read_nfc(write_nfc(f)).geometry.scale == 2.0**126

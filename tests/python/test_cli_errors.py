@@ -80,6 +80,11 @@ BAD_INPUTS = {
                       "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 -2\n", "does not exist"),
     "shape.xyz": ("0 0 0\n", "unknown extension"),
     "not_gzip.ply.gz": (PLY_HEADER.format(n=1) + "end_header\n0 0 0\n", "gzip"),
+    # Hostile sizes and coordinates (issue 13, item 5): refused before any allocation or training.
+    "announces_1e12.ply": (PLY_HEADER.format(n=10**12) + "end_header\n0 0 0\n", "announces elements"),
+    "enormous.obj": ("v 0 0 0\nv 1e38 0 0\nv 0 1e38 0\nf 1 2 3\n", "too large for float32"),
+    "beyond_f32.obj": ("v 0 0 0\nv 1e39 0 0\nv 0 1e39 0\nf 1 2 3\n", "overflow float32"),
+    "tiny.obj": ("v 0 0 0\nv 1e-40 0 0\nv 0 1e-40 0\nf 1 2 3\n", "too small for float32"),
 }
 
 
@@ -166,3 +171,16 @@ def test_info_decode_eval_succeed(tmp_path: Path) -> None:
     assert "seed 7" in result.stdout and "floor" in result.stdout
     result = nfc("eval", "blob.ply", "points.ply", "--json", "--samples", "5000", cwd=tmp_path)
     assert result.returncode == 0 and '"chamfer_distance"' in result.stdout
+
+
+def test_input_beyond_the_size_limit_is_refused_while_decompressing(tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """A gzip bomb stops at the input limit (here lowered to 4 KiB; 4 GiB by default)."""
+    from nfencode import io as nfio
+    monkeypatch.setattr(nfio, "MAX_INPUT_BYTES", 4096)
+    body = "".join(f"v {i} {i % 7} {i % 3}\n" for i in range(2000)) + "f 1 2 3\n"
+    (tmp_path / "bomb.obj.gz").write_bytes(gzip.compress(body.encode()))
+    assert_one_line_error(nfc("encode", "bomb.obj.gz", "-o", "out.nfc", cwd=tmp_path), contains="input limit")
+    (tmp_path / "big.obj").write_text(body)
+    assert_one_line_error(nfc("encode", "big.obj", "-o", "out.nfc", cwd=tmp_path), contains="input limit")
+    assert not (tmp_path / "out.nfc").exists()

@@ -106,3 +106,46 @@ def test_presets_are_the_documented_schedules() -> None:
     paper = config.PRESETS["paper"]
     assert (paper.epochs, paper.lr, paper.cosine) == (500, 1e-4, False)
     assert config.PRESETS[config.DEFAULT_PRESET].epochs < paper.epochs
+
+
+def _decoded_cd(shape: Shape, data: bytes) -> float:
+    from nfencode.reference import frame_offset
+
+    f = read_nfc(data)
+    mesh = extract_mesh(f, resolution=64)
+    placed = frame_offset(f) + mesh.vertices.astype(np.float64)
+    return chamfer_distance(shape, Shape(placed, mesh.faces, None, "decoded"), 20_000, 0)
+
+
+def _with_degenerate_and_non_manifold_faces(shape: Shape) -> Shape:
+    """The bunny plus what scanned and modelled meshes carry: repeated-index and collinear (zero-
+    area) triangles, a fin (a third face on an existing edge: non-manifold) and a dangling
+    triangle touching the surface at one vertex."""
+    assert shape.faces is not None
+    v, f = shape.vertices, shape.faces
+    a, b, c = f[0]
+    extra_vertices = np.array([v[a] + 0.02 * (v[b] - v[a]) + [0.0, 0.01, 0.0], (v[a] + v[b]) / 2,
+                               v[c] + [0.005, 0.005, 0.0], v[c] + [0.0, 0.005, 0.005]])
+    n = len(v)
+    extra_faces = np.array([[a, a, b], [a, b, n + 1],  # repeated index; collinear (midpoint of a-b)
+                            [a, b, n],                 # the fin on edge a-b
+                            [c, n + 2, n + 3]])        # dangling at vertex c
+    return Shape(np.concatenate([v, extra_vertices]), np.concatenate([f, extra_faces]), None, shape.name)
+
+
+@pytest.mark.parametrize("case", ["scaled_1e30", "scaled_1e-30", "degenerate_and_non_manifold"])
+def test_hostile_but_valid_meshes_encode_in_place(small_epochs: None, case: str) -> None:
+    """Issue 13, item 5: extreme coordinates and imperfect topology are encoded, not refused, and
+    decode where the input is (the CD, in the input's own frame, as for the plain mesh)."""
+    plain = load_shape(BUNNY_RES4)
+    cfg = EncodeConfig(width=16, epochs=4, quiet=True)
+    reference = _decoded_cd(plain, compress(plain, cfg).data)
+    if case == "degenerate_and_non_manifold":
+        shape = _with_degenerate_and_non_manifold_faces(plain)
+    else:
+        factor = 1e30 if case == "scaled_1e30" else 1e-30
+        shape = Shape(plain.vertices * factor, plain.faces, None, plain.name)
+    data = compress(shape, cfg).data
+    assert read_nfc(data).geometry.frame64 is None  # centred shapes stay 1.0 files at any scale
+    cd = _decoded_cd(shape, data)
+    assert cd < 1.5 * reference + 0.01, (case, cd, reference)

@@ -70,6 +70,8 @@ extern "C" {
 #define NFD_MAX_LAYERS 8u
 #define NFD_MAX_WIDTH 512u
 #define NFD_MAX_PARAMETERS (1024u * 1024u)
+/* max_k |center_k| + scale of GEOM's frame (2^126): every emitted position stays finite in f32 */
+#define NFD_MAX_FRAME_EXTENT 8.507059173023462e37
 
 /* Caps of the mesh extraction. */
 #define NFD_DEFAULT_RESOLUTION 256u
