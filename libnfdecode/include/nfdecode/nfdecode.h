@@ -100,9 +100,13 @@ typedef enum nfd_result {
     NFD_ERROR_CAPACITY_EXCEEDED = -24,  /* a recorded decode outgrew its capacities (0.3) */
     NFD_ERROR_NO_COLOUR = -25,          /* a colour call on an asset without colour (0.4) */
 
-    NFD_ERROR_OUT_OF_MEMORY = -40,      /* host or device allocation failed */
+    NFD_ERROR_OUT_OF_MEMORY = -40,      /* host or device allocation failed; the context and
+                                           queue stay usable, a later call may succeed */
     NFD_ERROR_DEVICE_UNAVAILABLE = -41, /* no usable Vulkan driver/device (CPU still works) */
-    NFD_ERROR_DEVICE = -42,             /* a Vulkan call failed (device lost, ...) */
+    NFD_ERROR_DEVICE = -42,             /* a Vulkan call failed (device lost, ...). A lost device
+                                           stays lost: every later call on that context gives
+                                           this too; destroy it and create another (the CPU
+                                           path is never taken behind a Vulkan context's back) */
     NFD_ERROR_IO = -43,                 /* a file could not be written */
 
     NFD_ERROR_INTERNAL = -60            /* an unexpected internal failure, caught at the API */

@@ -5,6 +5,7 @@ set(NFD_GPU_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/gpu_decode.cpp
   ${CMAKE_CURRENT_LIST_DIR}/device.h
   ${CMAKE_CURRENT_LIST_DIR}/device.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/faults.h
   ${CMAKE_CURRENT_LIST_DIR}/field.cpp
   ${CMAKE_CURRENT_LIST_DIR}/job.cpp
   ${CMAKE_CURRENT_LIST_DIR}/levels.h

@@ -36,6 +36,23 @@ nfd_result to_result(VkResult result) {
     }
 }
 
+namespace {
+
+std::atomic<int> g_fault_countdown[int(Fault::Count)];
+
+// Whether the armed fault of `kind` strikes at this call (its countdown reaching 1).
+bool fault_now(Fault kind) {
+    std::atomic<int>& countdown = g_fault_countdown[int(kind)];
+    int left = countdown.load(std::memory_order_relaxed);
+    while (left > 0 && !countdown.compare_exchange_weak(left, left - 1)) {
+    }
+    return left == 1;
+}
+
+}  // namespace
+
+void inject_fault(Fault kind, int after) { g_fault_countdown[int(kind)] = after > 0 ? after : 0; }
+
 #define NFD_VK_TRY(call)                                             \
     do {                                                             \
         VkResult vk_result_ = (call);                                \
@@ -185,6 +202,7 @@ nfd_result Context::create_logical_device() {
     info.sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO;
     info.queueCreateInfoCount = 1;
     info.pQueueCreateInfos = &queue;
+    if (fault_now(Fault::DeviceCreation)) return to_result(VK_ERROR_INITIALIZATION_FAILED);
     NFD_VK_TRY(vkCreateDevice(physical_, &info, nullptr, &device_));
     return NFD_SUCCESS;
 }
@@ -371,7 +389,8 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out, Memory memory)
     alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
     alloc.allocationSize = requirements.size;
     alloc.memoryTypeIndex = type;
-    VkResult r = vkAllocateMemory(device_, &alloc, nullptr, &b.memory);
+    VkResult r = fault_now(Fault::Allocation) ? VK_ERROR_OUT_OF_DEVICE_MEMORY
+                                              : vkAllocateMemory(device_, &alloc, nullptr, &b.memory);
     if (r == VK_SUCCESS) {
         b.allocated = alloc.allocationSize;
         const VkDeviceSize live = live_bytes_ += b.allocated;
@@ -624,6 +643,7 @@ void Context::fill(Batch& batch, const Buffer& buffer, uint32_t value) {
 }
 
 nfd_result Context::submit_and_wait(VkCommandBuffer commands, VkFence fence) {
+    if (lost_) return to_result(VK_ERROR_DEVICE_LOST);
     VkSubmitInfo info{};
     info.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;
     info.commandBufferCount = 1;
@@ -633,8 +653,10 @@ nfd_result Context::submit_and_wait(VkCommandBuffer commands, VkFence fence) {
         std::lock_guard<std::mutex> lock(queue_mutex_);
         NFD_VK_TRY(vkQueueSubmit(queue_, 1, &info, fence));
     }
-    NFD_VK_TRY(vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX));
-    return NFD_SUCCESS;
+    VkResult waited = vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX);
+    if (waited == VK_SUCCESS && fault_now(Fault::Submission)) waited = VK_ERROR_DEVICE_LOST;
+    if (waited == VK_ERROR_DEVICE_LOST) lost_ = true;
+    return to_result(waited);
 }
 
 nfd_result Context::submit(Batch& batch) {

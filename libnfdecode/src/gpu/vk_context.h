@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "faults.h"
 #include "nfd_shaders.h"
 #include "nfdecode/nfdecode.h"
 
@@ -233,6 +234,7 @@ private:
     uint32_t device_type_ = UINT32_MAX, host_type_ = UINT32_MAX;  // pick_memory_types()
     bool unified_ = false;
     std::atomic<VkDeviceSize> live_bytes_{0}, peak_bytes_{0};
+    std::atomic<bool> lost_{false};  // a submission reported VK_ERROR_DEVICE_LOST: for good
     std::mutex queue_mutex_;     // vkQueueSubmit: the queue is externally synchronized
     std::mutex transfer_mutex_;  // upload/download's command buffer and fence
     std::string name_;
