@@ -190,6 +190,21 @@ std::unique_ptr<nfd_grid> finest_voxels(nfd::SparseGrid&& sparse, const nfd::Par
     return grid;
 }
 
+// Runs queue work to its end on the calling thread and takes its final mesh (nfd_mesh_extract
+// with memory limits).
+nfd_result run_bounded(nfd::ExtractWork&& work, nfd::MeshData* mesh, nfd::ExtractStats* stats) {
+    nfd::StepResult step;
+    while (!step.finished) {
+        step = nfd::StepResult{};
+        const nfd_result r = work.step(&step);
+        if (r != NFD_SUCCESS) return r;
+    }
+    if (!step.mesh) return NFD_ERROR_INTERNAL;  // the finest level is always meshed
+    *mesh = std::move(step.mesh->data);
+    *stats = step.mesh->stats;
+    return NFD_SUCCESS;
+}
+
 // A C caller may store any int in an enum field, which C++ may not even load as the enum type:
 // read the bytes as an int so that the range check itself is defined.
 bool is_device_kind(const nfd_device_kind& k) {
@@ -547,20 +562,28 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
     const uint32_t resolution = options_resolution(opts.resolution);
     if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
     const nfd::Geometry& g = asset->file.geometry;
+    const nfd::MemoryBytes limit{opts.max_host_bytes, opts.max_device_bytes};
     return guarded([&] {
         auto mesh = std::make_unique<nfd_mesh>();
         nfd_result r;
-#if NFD_WITH_VULKAN
-        if (context->gpu)
-            r = nfd::gpu::extract_mesh(*context->gpu, g, resolution, &mesh->data, &mesh->stats);
-        else
-#endif
-            r = nfd::extract_mesh_cpu(g, resolution, &mesh->data, &mesh->stats,
-                                      context->cpu_threads);
         const std::optional<nfd::ColourField> colour =
             nfd::colour_field(asset->file, opts.skip_colour != 0);
-        if (r == NFD_SUCCESS && colour)
-            r = nfd::colour_mesh(*colour, device_of(*context), context->cpu_threads, &mesh->data);
+        if (limit.host || limit.device) {
+            // Limited: level by level as a queue job runs, each step's bound checked first.
+            r = run_bounded(nfd::ExtractWork(g, colour, resolution, 1u, device_of(*context),
+                                             context->cpu_threads, limit),
+                            &mesh->data, &mesh->stats);
+        } else {
+#if NFD_WITH_VULKAN
+            if (context->gpu)
+                r = nfd::gpu::extract_mesh(*context->gpu, g, resolution, &mesh->data, &mesh->stats);
+            else
+#endif
+                r = nfd::extract_mesh_cpu(g, resolution, &mesh->data, &mesh->stats,
+                                          context->cpu_threads);
+            if (r == NFD_SUCCESS && colour)
+                r = nfd::colour_mesh(*colour, device_of(*context), context->cpu_threads, &mesh->data);
+        }
         mesh->data.offset = offset_of(g);
         if (r == NFD_SUCCESS) *out_mesh = mesh.release();
         return r;
@@ -752,8 +775,12 @@ nfd_result nfd_grid_extract(nfd_context* context, const nfd_asset* asset,
         // The CPU reference builds the grid on every context for now: a grid built on the device
         // (gpu/) has the same SparseGrid layout and takes its place here.
         nfd::SparseGrid sparse;
+        nfd::GridOptions grid_options;
+        grid_options.max_host_bytes = opts.max_host_bytes;
+        const bool coloured = asset->file.has_colour() && !opts.skip_colour;
+        grid_options.bytes_per_voxel = 16 + (coloured ? 24 : 0);  // ijk + value; rgb + unit xyz
         const nfd_result r =
-            nfd::build_grid_cpu(g, resolution, nfd::GridOptions{}, &sparse, context->cpu_threads);
+            nfd::build_grid_cpu(g, resolution, grid_options, &sparse, context->cpu_threads);
         if (r != NFD_SUCCESS) return r;
         const float step = sparse.step;
         std::unique_ptr<nfd_grid> grid = finest_voxels(std::move(sparse), asset->file);
@@ -843,7 +870,8 @@ nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
         nfd_context& ctx = *queue->context;
         auto work = std::make_unique<nfd::ExtractWork>(
             asset->file.geometry, nfd::colour_field(asset->file, mo.skip_colour != 0), resolution,
-            mask, device_of(ctx), ctx.cpu_threads);
+            mask, device_of(ctx), ctx.cpu_threads,
+            nfd::MemoryBytes{mo.max_host_bytes, mo.max_device_bytes});
         auto handle = std::make_unique<nfd_job>();
         handle->levels_total = top + 1;
         handle->final_resolution = resolution;

@@ -51,9 +51,9 @@ MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, b
 
 ExtractWork::ExtractWork(const Geometry& geometry, std::optional<ColourField> colour,
                          uint32_t resolution, uint32_t mesh_mask, gpu::Device* device,
-                         unsigned cpu_threads)
+                         unsigned cpu_threads, MemoryBytes limit)
     : geometry_(geometry), colour_(std::move(colour)), resolution_(resolution), top_(refinement_levels(resolution)),
-      mesh_mask_(mesh_mask), device_(device), cpu_threads_(cpu_threads) {
+      mesh_mask_(mesh_mask), device_(device), cpu_threads_(cpu_threads), limit_(limit) {
     restart();
 }
 
@@ -64,6 +64,9 @@ void ExtractWork::restart() {
 }
 
 nfd_result ExtractWork::step(StepResult* out) {
+    const MemoryBytes need = next_step_bytes();
+    if ((limit_.host && need.host > limit_.host) || (limit_.device && device_ && need.device > limit_.device))
+        return NFD_ERROR_LIMIT_EXCEEDED;
     if (!extraction_) {
 #if NFD_WITH_VULKAN
         if (device_) {

@@ -27,7 +27,8 @@ MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, b
 // Keeps a copy of the geometry and the colour field (none: geometry only), so that the asset may
 // be destroyed while the job is pending; a delivered mesh is coloured by the step that meshed it.
 // `mesh_mask`: bit l meshes grid level l (0 = the finest, always meshed). `device` null: the CPU
-// path with `cpu_threads`.
+// path with `cpu_threads`. `limit`: a step whose reservation (below) exceeds a non-zero field
+// fails with NFD_ERROR_LIMIT_EXCEEDED before it allocates (nfd_mesh_options.max_*_bytes).
 //
 // The reservation of a step is what the job may hold when the step starts plus the extraction's
 // bound of what the step allocates (LevelReport: a true bound, not measured). What it holds at a
@@ -40,7 +41,8 @@ MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, b
 class ExtractWork final : public JobWork {
 public:
     ExtractWork(const Geometry& geometry, std::optional<ColourField> colour, uint32_t resolution,
-                uint32_t mesh_mask, gpu::Device* device, unsigned cpu_threads);
+                uint32_t mesh_mask, gpu::Device* device, unsigned cpu_threads,
+                MemoryBytes limit = {});
     MemoryBytes next_step_bytes() const override { return held_ + next_; }
     nfd_result step(StepResult* out) override;
     void restart() override;
@@ -52,6 +54,7 @@ private:
     uint32_t mesh_mask_;  // levels still to deliver: a restart does not deliver a level twice
     gpu::Device* device_;
     const unsigned cpu_threads_;
+    const MemoryBytes limit_;
     std::unique_ptr<Extraction> extraction_;  // made by the first step
     MemoryBytes held_, next_;
     uint32_t levels_done_ = 0;  // ladder levels completed, the most over restarts

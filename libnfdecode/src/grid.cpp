@@ -384,9 +384,22 @@ nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const G
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
         return NFD_ERROR_LIMIT_EXCEEDED;
     GridBuilder builder(geometry, resolution, threads);
-    do builder.step();
-    while (!builder.done());
-    if (options.udf_gradients) builder.evaluate_udf_gradients();
+    const uint64_t limit = options.max_host_bytes;
+    uint64_t held = 0;
+    auto reserve = [&](uint64_t bytes) {
+        held += bytes;
+        return !limit || held <= limit;
+    };
+    do {
+        if (!reserve(builder.next_step_bytes_bound())) return NFD_ERROR_LIMIT_EXCEEDED;
+        builder.step();
+    } while (!builder.done());
+    if (options.udf_gradients) {
+        if (!reserve(builder.next_gradients_bytes_bound())) return NFD_ERROR_LIMIT_EXCEEDED;
+        builder.evaluate_udf_gradients();
+    }
+    const uint64_t voxels = builder.grid().levels.front().vertices.size();
+    if (!reserve(voxels * options.bytes_per_voxel)) return NFD_ERROR_LIMIT_EXCEEDED;
     *out = builder.take();
     return NFD_SUCCESS;
 }

@@ -120,6 +120,11 @@ struct GridOptions {
     // Also evaluate the field gradient (unit frame) at the corners of the finest level's cells
     // with min corner value <= udf_near_threshold(step): what the UDF mesher needs.
     bool udf_gradients = false;
+    // Non-zero: the bound of what the build holds (each step's next_*_bytes_bound added up, plus
+    // `bytes_per_voxel` for each finest voxel: what the caller copies them into) must stay within
+    // it, checked before each allocation, else NFD_ERROR_LIMIT_EXCEEDED.
+    uint64_t max_host_bytes = 0;
+    uint32_t bytes_per_voxel = 0;
 };
 
 // A finest-level cell of a UDF is *near* (may carry triangles) when its smallest corner value is
@@ -182,7 +187,7 @@ private:
 };
 
 // Coarse-to-fine evaluation to the finest level, with GridOptions. NFD_ERROR_LIMIT_EXCEEDED
-// outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION.
+// outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION or beyond options.max_host_bytes.
 nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,
                           SparseGrid* grid, unsigned threads = 0);
 

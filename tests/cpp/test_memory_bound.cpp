@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <new>
 #include <optional>
 
@@ -121,6 +122,66 @@ TEST(MemoryBound, VulkanJobStaysWithinItsReservations) {
     }
 }
 #endif
+
+// The memory limits of one decode (nfd_mesh_options / nfd_grid_options max_host_bytes): at the
+// smallest limit a decode accepts (found by bisection), what it really holds at its peak, the
+// result included, stays within that limit. CPU path; SDF, UDF and coloured golden vectors at 128.
+uint64_t peak_under_limit(const std::function<nfd_result(uint64_t)>& decode, uint64_t limit) {
+    const int64_t base = g_live.load();
+    g_peak.store(base);
+    EXPECT_EQ(decode(limit), NFD_SUCCESS);
+    return uint64_t(g_peak.load() - base);
+}
+
+void smallest_limit_holds(const std::function<nfd_result(uint64_t)>& decode) {
+    uint64_t refused = 1u << 16, accepted = uint64_t(1) << 34;
+    ASSERT_EQ(decode(refused), NFD_ERROR_LIMIT_EXCEEDED);
+    ASSERT_EQ(decode(accepted), NFD_SUCCESS);
+    while (accepted - refused > accepted / 64) {
+        const uint64_t mid = refused + (accepted - refused) / 2;
+        (decode(mid) == NFD_SUCCESS ? accepted : refused) = mid;
+    }
+    const uint64_t peak = peak_under_limit(decode, accepted);
+    std::printf("limit %7.1f MB  peak %7.1f MB\n", accepted / 1e6, peak / 1e6);
+    EXPECT_LE(peak, accepted);
+}
+
+TEST(MemoryBound, LimitsAreNeverExceeded) {
+    nfd_context_options co{};
+    co.struct_size = sizeof co;
+    co.device = NFD_DEVICE_CPU;
+    co.cpu_threads = 2;
+    nfd_context* ctx = nullptr;
+    ASSERT_EQ(nfd_context_create(&co, &ctx), NFD_SUCCESS);
+    for (const std::string name : {"bunny_sdf_w16", "tshirt_udf_w16", "milk_udf_w16_c16"}) {
+        SCOPED_TRACE(name);
+        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
+        nfd_asset* asset = nullptr;
+        ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &asset), NFD_SUCCESS);
+        smallest_limit_holds([&](uint64_t limit) {
+            nfd_mesh_options mo{};
+            mo.struct_size = sizeof mo;
+            mo.resolution = 128;
+            mo.max_host_bytes = limit;
+            nfd_mesh* mesh = nullptr;
+            const nfd_result r = nfd_mesh_extract(ctx, asset, &mo, &mesh);
+            nfd_mesh_destroy(mesh);
+            return r;
+        });
+        smallest_limit_holds([&](uint64_t limit) {
+            nfd_grid_options go{};
+            go.struct_size = sizeof go;
+            go.resolution = 128;
+            go.max_host_bytes = limit;
+            nfd_grid* grid = nullptr;
+            const nfd_result r = nfd_grid_extract(ctx, asset, &go, &grid);
+            nfd_grid_destroy(grid);
+            return r;
+        });
+        nfd_asset_destroy(asset);
+    }
+    nfd_context_destroy(ctx);
+}
 
 }  // namespace
 }  // namespace nfd::test

@@ -442,6 +442,16 @@ typedef struct nfd_mesh_options {
     uint32_t resolution; /* grid cells per axis over the unit cube; 0 = NFD_DEFAULT_RESOLUTION;
                             NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION, else LIMIT_EXCEEDED */
     int skip_colour;     /* 0.4: non-zero: geometry only, even when the asset has colour */
+    /* 0.5: memory limits of one decode, 0 = none. The decode runs level by level and checks,
+     * before each level allocates, the upper bound of what it then holds (its levels, the mesh,
+     * the evaluator's scratch: the bounds the queue's budget uses) against them: a decode that
+     * could exceed a limit stops with NFD_ERROR_LIMIT_EXCEEDED before allocating it, whatever the
+     * file's field makes of the surface. Output triangles are bounded through it (28 bytes per
+     * vertex, 12 per triangle). Host: heap bytes; device: Vulkan buffer memory (ignored on the
+     * CPU path). The mesh is the one without limits, byte for byte. Queue jobs honour them too
+     * (their job fails with that code), beside the queue's budget. */
+    uint64_t max_host_bytes;
+    uint64_t max_device_bytes;
 } nfd_mesh_options;
 
 typedef struct nfd_mesh_data {
@@ -629,6 +639,8 @@ typedef struct nfd_grid_options {
     uint32_t struct_size; /* 0.2: sizeof(nfd_grid_options), or 0 */
     uint32_t resolution; /* grid cells per axis over the unit cube, as in nfd_mesh_options */
     int skip_colour;     /* 0.4: as nfd_mesh_options.skip_colour */
+    uint64_t max_host_bytes; /* 0.5: as nfd_mesh_options.max_host_bytes (the grid's voxels, 16
+                                bytes each, counted): 0 = none, else LIMIT_EXCEEDED beyond it */
 } nfd_grid_options;
 
 /* The voxels of a grid's finest level. A voxel is a grid vertex (a point sample, as in OpenVDB)
