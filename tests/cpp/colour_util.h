@@ -1,4 +1,4 @@
-// Helpers of the colour tests (test_colour.cpp, test_colour_gpu.cpp, test_vdb.cpp): handles that
+// Helpers of the API-level tests (colour, VDB, geo frames, limits): handles that
 // free themselves, a mesh as plain arrays, the golden vectors' colour files.
 #pragma once
 #include <nfdecode/nfdecode.h>
@@ -37,6 +37,14 @@ inline ContextPtr make_context(nfd_device_kind kind) {
     return ContextPtr(nfd_context_create(&co, &c) == NFD_SUCCESS ? c : nullptr);
 }
 inline ContextPtr cpu_context() { return make_context(NFD_DEVICE_CPU); }
+
+// The CPU context and, where there is a Vulkan device, a Vulkan one.
+inline std::vector<ContextPtr> cpu_and_vulkan_contexts() {
+    std::vector<ContextPtr> all;
+    all.push_back(cpu_context());
+    if (ContextPtr vk = make_context(NFD_DEVICE_VULKAN)) all.push_back(std::move(vk));
+    return all;
+}
 
 inline AssetPtr make_asset(const Bytes& bytes) {
     nfd_asset* a = nullptr;

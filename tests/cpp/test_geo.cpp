@@ -66,13 +66,6 @@ GeoFiles geo_files() {
     return f;
 }
 
-std::vector<ContextPtr> contexts() {
-    std::vector<ContextPtr> all;
-    all.push_back(cpu_context());
-    if (ContextPtr vk = make_context(NFD_DEVICE_VULKAN)) all.push_back(std::move(vk));
-    return all;
-}
-
 // max over vertices of |written - (center + twin)|, the frame error of an output.
 double frame_error(const std::vector<double>& written, const double center[3],
                    const std::vector<float>& twin) {
@@ -111,7 +104,7 @@ TEST(Geo, TheFrameIsExactAndPositionsAreLocal) {
     EXPECT_EQ(nfd_asset_get_frame(geo.get(), &small), NFD_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(nfd_asset_get_frame(nullptr, &frame), NFD_ERROR_INVALID_ARGUMENT);
 
-    for (const ContextPtr& ctx : contexts()) {
+    for (const ContextPtr& ctx : cpu_and_vulkan_contexts()) {
         SCOPED_TRACE(nfd_context_device_name(ctx.get()));
         const MeshPtr mesh = extract(ctx.get(), geo.get(), 128);
         const MeshArrays local = arrays_of(mesh.get());
@@ -135,7 +128,7 @@ TEST(Geo, TheFrameIsExactAndPositionsAreLocal) {
 TEST(Geo, ProgressiveLevelsAndQueueJobsCarryTheOffset) {
     const GeoFiles f = geo_files();
     const AssetPtr geo = make_asset(f.geo);
-    for (const ContextPtr& ctx : contexts()) {
+    for (const ContextPtr& ctx : cpu_and_vulkan_contexts()) {
         SCOPED_TRACE(nfd_context_device_name(ctx.get()));
         nfd_extraction_options eo{};
         eo.struct_size = sizeof eo;

@@ -30,13 +30,6 @@ nfd_result mesh_with_limits(nfd_context* ctx, const nfd_asset* asset, uint32_t r
     return r;
 }
 
-std::vector<ContextPtr> contexts() {
-    std::vector<ContextPtr> all;
-    all.push_back(cpu_context());
-    if (ContextPtr vk = make_context(NFD_DEVICE_VULKAN)) all.push_back(std::move(vk));
-    return all;
-}
-
 TEST(Limits, ResolutionOutsideTheCapsIsLimitExceeded) {
     const AssetPtr asset = make_asset(geom_file(closed_blob()));
     const ContextPtr ctx = cpu_context();
@@ -58,7 +51,7 @@ TEST(Limits, MeshDecodeStopsAtItsMemoryLimit) {
     for (const std::string& name : golden_names()) {
         SCOPED_TRACE(name);
         const AssetPtr asset = make_asset(read_bytes(golden_path(name, ".nfc")));
-        for (const ContextPtr& ctx : contexts()) {
+        for (const ContextPtr& ctx : cpu_and_vulkan_contexts()) {
             SCOPED_TRACE(nfd_context_device_name(ctx.get()));
             const bool vulkan = nfd_context_device_kind(ctx.get()) == NFD_DEVICE_VULKAN;
             MeshPtr unlimited, limited, refused;
