@@ -32,7 +32,7 @@ from .bitstream import (
     NfcFile,
     read_nfc,
 )
-from .config import COLOR_RESOLUTION, COLOR_WIDTH, DEFAULT_BITS, MAX_TORCH_THREADS
+from .config import COLOR_RESOLUTION, COLOR_WIDTH, DEFAULT_BITS, DEFAULT_WIDTH, MAX_TORCH_THREADS
 from .devices import DEVICE_CHOICES
 from .errors import InputError, NfcError
 from .io import Shape, load_shape, save_mesh, save_points
@@ -105,19 +105,30 @@ def cmd_encode(args: argparse.Namespace) -> int:
     config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads, color=args.color,
                                   color_width=args.color_width, color_bits=args.color_bits,
                                   color_resolution=args.color_resolution, color_epochs=args.color_epochs)
-    result = encoder.compress(shape, config, None if geometry is None else write_nfc(geometry))
+    choice = None
+    if args.target_bytes is not None:
+        result, choice = _encode_to_target(shape, config, args, geometry is not None)
+    else:
+        result = encoder.compress(shape, config, None if geometry is None else write_nfc(geometry))
     from .batch import write_atomic
 
     write_atomic(output, result.data)
     seconds = time.perf_counter() - start
+    if args.json:
+        print(json.dumps(_encode_report(args, output, result, choice, seconds)))
+        return 0
     print(f"field: {result.field}, {result.field_reason}")
     if result.color is not None:
         c = result.color
         print(f"colour: width {args.color_width}, {args.color_bits} bits, {c.chunk.network.parameter_count} "
               f"parameters, fitted on the surface decoded at {args.color_resolution} ({c.surface_vertices} vertices) "
               f"in {c.seconds:.1f} s, validation MSE {c.validation_loss:.3g} (colours in [-1, 1])")
+    width, bits = (choice.width, choice.bits) if choice is not None else (config.width, config.bits)
     geometry_what = (f"geometry of {args.geometry}" if geometry is not None else
-                     f"width {args.width}, {args.bits} bits, preset {args.preset}")
+                     f"width {width}, {bits} bits, preset {args.preset}")
+    if choice is not None:
+        tried = ", ".join(f"w{a.width}/{a.bits}b {a.bytes} B" for a in choice.attempts)
+        print(f"target {args.target_bytes} bytes: chose width {width}, {bits} bits (encodes: {tried})")
     print(
         f"{output}: {len(result.data)} bytes ({result.field}, {geometry_what}, "
         f"{'with' if result.color is not None else 'no'} colour, {device.type}), encoded in {seconds:.1f} s "
@@ -127,9 +138,51 @@ def cmd_encode(args: argparse.Namespace) -> int:
     return 0
 
 
+def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool):  # type: ignore[no-untyped-def]
+    """--target-bytes: the widest file of at most that many bytes (nfencode.rate), and the choice."""
+    import dataclasses
+
+    from . import encoder, rate
+
+    _positive("--target-bytes", args.target_bytes)
+    if args.width is not None:
+        raise InputError("--target-bytes chooses the width: give one or the other, not --width too")
+    if reuses_geometry or encoder.wants_color(shape, cfg):
+        raise InputError("--target-bytes encodes geometry only: pass --no-color (and no --geometry)")
+    results: dict[tuple[int, int], encoder.EncodeResult] = {}
+
+    def encode(width: int, bits: int) -> bytes:
+        results[(width, bits)] = encoder.compress(shape, dataclasses.replace(cfg, width=width, bits=bits))
+        return results[(width, bits)].data
+
+    _, choice = rate.choose(args.target_bytes, cfg.bits, encode)
+    return results[(choice.width, choice.bits)], choice
+
+
+def _encode_report(args: argparse.Namespace, output: Path, result, choice, seconds: float) -> dict:  # type: ignore[no-untyped-def]
+    """encode --json: the file written and how."""
+    f = read_nfc(result.data)
+    net = f.geometry.network
+    return {
+        "output": str(output),
+        "bytes": len(result.data),
+        "field": result.field,
+        "width": net.out_features[0],
+        "bits": net.bits,
+        "preset": args.preset,
+        "color": f.color is not None,
+        "frame64": f.geometry.frame64 is not None,
+        "seconds": round(seconds, 3),
+        "target_bytes": args.target_bytes,
+        "attempts": None if choice is None else [{"width": a.width, "bits": a.bits, "bytes": a.bytes}
+                                                 for a in choice.attempts],
+    }
+
+
 def _encode_options(args: argparse.Namespace) -> dict:
     """The EncodeConfig fields that `encode` and `encode-batch` share (batch.ENCODE_OPTIONS)."""
-    return {"field": args.field, "width": args.width, "bits": args.bits, "preset": args.preset,
+    width = args.width if args.width is not None else DEFAULT_WIDTH
+    return {"field": args.field, "width": width, "bits": args.bits, "preset": args.preset,
             "epochs": args.epochs, "seed": args.seed, "device": args.device}
 
 
@@ -331,6 +384,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", help="PLY, OBJ, OFF, glTF or GLB file (optionally .gz), or a scanalyze .conf of scans")
     p.add_argument("-o", "--output", required=True, help="output .nfc file")
     _add_encode_options(p)
+    p.add_argument("--target-bytes", type=int, default=None, metavar="B",
+                   help="write the widest network whose file is at most B bytes (chooses --width, and fewer "
+                        "bits below width 4; geometry only)")
+    p.add_argument("--json", action="store_true", help="print what was written as one JSON object")
     _add_color_options(p)
     p.set_defaults(run=cmd_encode)
 
@@ -379,7 +436,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_encode_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--field", choices=("sdf", "udf", "auto"), default="auto",
                    help="signed (watertight shapes), unsigned (anything) or auto (SDF when closed, nearly manifold)")
-    p.add_argument("--width", type=int, default=32, help="hidden layer width: sets the rate (default 32)")
+    p.add_argument("--width", type=int, default=None,
+                   help=f"hidden layer width: sets the rate (default {DEFAULT_WIDTH})")
     p.add_argument("--bits", type=int, default=8, help="quantization bit width (default 8)")
     p.add_argument("--preset", choices=("fast", "paper"), default="fast", help="training schedule")
     p.add_argument("--epochs", type=int, default=None, help="override the preset's epoch count")

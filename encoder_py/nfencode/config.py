@@ -73,6 +73,7 @@ L1_WEIGHT = 1e-8
 """λ of the λ·Σ|θ| term (paper)."""
 
 DEFAULT_BITS = 8
+DEFAULT_WIDTH = 32  # hidden layer width of `nfc encode` without --width or --target-bytes
 """Bit width b of the symmetric uniform quantization grid (paper)."""
 
 

@@ -50,7 +50,7 @@ class EncodeConfig:
     """What `nfc encode` exposes. `epochs` overrides the preset's epoch count (QAT unchanged)."""
 
     field: str = "auto"  # "auto", "sdf" or "udf"
-    width: int = 32
+    width: int = config.DEFAULT_WIDTH
     bits: int = config.DEFAULT_BITS
     preset: str = config.DEFAULT_PRESET
     epochs: int | None = None

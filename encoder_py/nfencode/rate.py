@@ -1,0 +1,94 @@
+"""Rate control (`nfc encode --target-bytes B`): the widest network whose file fits in B bytes.
+
+The width sets the rate (FORMAT.md: P = W^2 + (3 + 6L + 3) W + 1 parameters for two hidden layers),
+and a file costs about `rate` bytes per parameter at a given bit width, plus framing. The rate is
+the shape's own (how well brotli compresses its levels), so it is measured, not assumed: the first
+encode uses a prior, every encode after it the rate of the previous file. Encodes are repeated at a
+smaller width while the file is too large and tried once at a larger width when the best fitting one
+leaves room; the result is the widest file found that is at most B bytes, never a larger one. Below
+width MIN_WIDTH at the requested bit width, the bit width comes down (7, then 6) before giving up.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from . import config
+from .bitstream import CHUNK_OVERHEAD, HEADER_SIZE, MAX_WIDTH, MIN_BITS, parameter_count
+from .errors import InputError
+
+MIN_WIDTH = 4
+MAX_ENCODES = 5  # each is a full encode: the search stops there with the best that fits
+PRIOR_BYTES_PER_PARAMETER_8_BITS = 0.72  # measured: bunny and armadillo, widths 16-96 (RESULTS.md)
+FIXED_BYTES = HEADER_SIZE + CHUNK_OVERHEAD + 48  # header, GEOM framing, frame and network fields
+LOWEST_BITS = 6  # the bit widths tried below MIN_WIDTH: the requested one down to this
+SAFETY = 1.03  # after a file too large: aim 3% under the measured rate's prediction
+
+
+@dataclass
+class Attempt:
+    width: int
+    bits: int
+    bytes: int
+
+
+@dataclass
+class RateChoice:
+    """What --target-bytes chose: the written file's width and bits, and every encode tried."""
+
+    width: int
+    bits: int
+    attempts: list[Attempt]
+
+
+def parameters(width: int) -> int:
+    return parameter_count(config.NUM_FREQUENCIES, [width, width, 1])
+
+
+def width_for(budget: int, bytes_per_parameter: float) -> int:
+    """The largest width whose predicted file fits in `budget` bytes (0 if none)."""
+    usable = (budget - FIXED_BYTES) / bytes_per_parameter
+    inputs = 3 + 6 * config.NUM_FREQUENCIES
+    # W^2 + (inputs + 3) W + 1 <= usable
+    b = inputs + 3
+    disc = b * b - 4 * (1 - usable)
+    return max(0, int((-b + math.sqrt(disc)) / 2)) if disc >= 0 else 0
+
+
+def choose(budget: int, bits: int, encode: Callable[[int, int], bytes]) -> tuple[bytes, RateChoice]:
+    """The widest file of at most `budget` bytes that `encode(width, bits)` writes, with what was
+    tried. InputError when none of the encodes fits (even width MIN_WIDTH at LOWEST_BITS)."""
+    attempts: list[Attempt] = []
+    best: tuple[bytes, Attempt] | None = None
+    too_large = MAX_WIDTH + 1  # the smallest width found too large at the current bits
+    rate = PRIOR_BYTES_PER_PARAMETER_8_BITS * bits / 8
+    width = min(width_for(budget, rate), MAX_WIDTH)
+    while len(attempts) < MAX_ENCODES:
+        if width < MIN_WIDTH:
+            if best is not None or bits <= max(LOWEST_BITS, MIN_BITS):
+                break
+            rate *= (bits - 1) / bits  # nothing fits at this bit width: one bit less
+            bits -= 1
+            too_large = MAX_WIDTH + 1
+            width = max(MIN_WIDTH, min(width_for(budget, rate), MAX_WIDTH))
+        data = encode(width, bits)
+        attempts.append(Attempt(width, bits, len(data)))
+        rate = max((len(data) - FIXED_BYTES) / parameters(width), 1e-3)  # this shape's own
+        if len(data) <= budget:
+            if best is None or width > best[1].width:
+                best = (data, attempts[-1])
+            wider = min(width_for(budget, rate), too_large - 1, MAX_WIDTH)
+            if wider <= width:
+                break  # no room for a wider network at the measured rate
+            width = wider
+        else:
+            too_large = min(too_large, width)
+            width = min(width_for(budget, rate * SAFETY), width - 1)
+            if best is not None and width <= best[1].width:
+                break  # the best fitting width is the widest below a too-large one
+    if best is None:
+        tried = ", ".join(f"w{a.width} {a.bits} bits: {a.bytes} B" for a in attempts)
+        raise InputError(f"no file fits in {budget} bytes (tried {tried})")
+    return best[0], RateChoice(best[1].width, best[1].bits, attempts)

@@ -1,0 +1,72 @@
+"""Rate control (`nfc encode --target-bytes B`, nfencode.rate): never more than B bytes, the widest
+network that fits, and what was chosen reported."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from conftest import SHARED_DATA
+from nfencode import config, rate
+from nfencode.bitstream import read_nfc
+from nfencode.cli import main
+from nfencode.errors import InputError
+
+BUNNY = SHARED_DATA / "stanford" / "bun_zipper_res2.ply.gz"
+
+
+def synthetic(bytes_per_parameter: float):
+    """An encoder whose files cost `bytes_per_parameter` at 8 bits (proportionally fewer bits)."""
+    calls: list[tuple[int, int]] = []
+
+    def encode(width: int, bits: int) -> bytes:
+        calls.append((width, bits))
+        return bytes(int(90 + bytes_per_parameter * bits / 8 * rate.parameters(width)))
+
+    return encode, calls
+
+
+@pytest.mark.parametrize("budget", [800, 1000, 1500, 3000, 5000, 8000, 12000, 20000])
+@pytest.mark.parametrize("bytes_per_parameter", [0.55, 0.72, 0.95])  # easier and harder than the prior
+def test_never_more_than_the_budget_and_the_widest_that_fits(budget: int, bytes_per_parameter: float) -> None:
+    encode, calls = synthetic(bytes_per_parameter)
+    data, choice = rate.choose(budget, 8, encode)
+    assert len(data) <= budget
+    assert len(calls) <= rate.MAX_ENCODES and [(a.width, a.bits) for a in choice.attempts] == calls
+    if choice.bits == 8:  # one width more would not have fitted
+        assert len(encode(choice.width + 1, 8)) > budget
+
+
+def test_small_budgets_lower_the_bit_width_and_impossible_ones_are_one_line_errors() -> None:
+    encode, _ = synthetic(0.72)
+    data, choice = rate.choose(340, 8, encode)  # width 4 costs 396 B at 8 bits, 357 at 7, 319 at 6
+    assert len(data) <= 340 and (choice.width, choice.bits) == (rate.MIN_WIDTH, 6)
+    with pytest.raises(InputError, match="no file fits in 100 bytes"):
+        rate.choose(100, 8, encode)
+
+
+@pytest.mark.skipif(not BUNNY.exists(), reason="shared data not available")
+@pytest.mark.parametrize("budget", [800, 2500])
+def test_nfc_encode_target_bytes_on_a_real_scan(tmp_path: Path, budget: int, monkeypatch: pytest.MonkeyPatch,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 10_000)
+    out = tmp_path / "b.nfc"
+    code = main(["encode", str(BUNNY), "-o", str(out), "--target-bytes", str(budget), "--epochs", "3",
+                 "--quiet", "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert out.stat().st_size <= budget and report["bytes"] == out.stat().st_size
+    f = read_nfc(out.read_bytes())
+    assert f.geometry.network.out_features[0] == report["width"] and f.geometry.network.bits == report["bits"]
+    assert report["target_bytes"] == budget and 1 <= len(report["attempts"]) <= rate.MAX_ENCODES
+
+
+def test_target_bytes_refuses_width_and_colour(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    shape = tmp_path / "t.obj"
+    shape.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n")
+    assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "900",
+                 "--width", "16"]) == 1
+    assert "not --width too" in capsys.readouterr().err
+    assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "10"]) != 0
