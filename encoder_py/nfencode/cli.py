@@ -10,6 +10,7 @@ exits 1 when any failed.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -140,8 +141,6 @@ def cmd_encode(args: argparse.Namespace) -> int:
 
 def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool):  # type: ignore[no-untyped-def]
     """--target-bytes: the widest file of at most that many bytes (nfencode.rate), and the choice."""
-    import dataclasses
-
     from . import encoder, rate
 
     _positive("--target-bytes", args.target_bytes)

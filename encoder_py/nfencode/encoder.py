@@ -151,11 +151,11 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
         raise InputError(f"coordinates too large for float32 outputs: |center| + radius reaches "
                          f"{float(np.abs(center).max()) + scale:.3g}, the format's limit is {MAX_FRAME_EXTENT:.3g}")
     frame64 = None
+    train_center, train_scale = center32, scale32
     if needs_frame64(center, scale):
         frame64 = Frame64((float(center[0]), float(center[1]), float(center[2])), float(scale))
-        sampler = SurfaceSampler(to_unit(shape.vertices, center, scale), shape.faces)
-    else:
-        sampler = SurfaceSampler(to_unit(shape.vertices, center32, scale32), shape.faces)
+        train_center, train_scale = center, scale
+    sampler = SurfaceSampler(to_unit(shape.vertices, train_center, train_scale), shape.faces)
     field, field_reason = resolve_field(sampler, cfg.field, rng)
     pool = build_pool(sampler, field, rng)
     model = Siren(cfg.width, "identity" if field == "sdf" else "abs", generator=generator)

@@ -647,7 +647,6 @@ nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path) {
 
 nfd_result nfd_points_write_ply(const float* points, const float* normals, size_t count,
                                 const char* path) {
-    if (!path || (count > 0 && !points)) return NFD_ERROR_INVALID_ARGUMENT;
     return nfd_points_write_placed_ply(points, normals, nullptr, count, nullptr, path);
 }
 

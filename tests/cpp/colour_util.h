@@ -65,6 +65,22 @@ inline MeshPtr extract(nfd_context* ctx, const nfd_asset* asset, uint32_t resolu
     return MeshPtr(m);
 }
 
+// Submits one decode to the queue, waits for it and takes its mesh (null unless DONE): the job's
+// result, and its final status in *status when given.
+inline nfd_result run_job(nfd_queue* q, const nfd_asset* asset, const nfd_mesh_options& mo,
+                          MeshPtr* out, nfd_job_status* status = nullptr) {
+    nfd_job* job = nullptr;
+    const nfd_result submitted = nfd_queue_submit(q, asset, &mo, nullptr, &job);
+    if (submitted != NFD_SUCCESS) return submitted;
+    const nfd_job_status s = nfd_job_wait(job, UINT64_MAX);
+    if (status) *status = s;
+    nfd_mesh* m = nullptr;
+    const nfd_result r = nfd_job_take_mesh(job, &m);
+    out->reset(m);
+    nfd_job_destroy(job);
+    return r;
+}
+
 struct MeshArrays {
     std::vector<float> positions, normals, colours;  // colours empty: none
     std::vector<uint32_t> indices;

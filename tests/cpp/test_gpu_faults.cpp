@@ -102,17 +102,13 @@ TEST_F(GpuFaults, LostDeviceStaysLostAndANewContextWorks) {
     EXPECT_EQ(extract_into(fresh.get(), &mesh), NFD_SUCCESS);
 }
 
-nfd_result run_job(nfd_queue* q, const nfd_asset* asset, MeshPtr* out) {
+// A resolution-32 job through the queue; DONE exactly when it succeeds.
+nfd_result run_job_at_32(nfd_queue* q, const nfd_asset* asset, MeshPtr* out) {
     nfd_mesh_options mo{};
     mo.struct_size = sizeof mo;
     mo.resolution = 32;
-    nfd_job* job = nullptr;
-    if (nfd_queue_submit(q, asset, &mo, nullptr, &job) != NFD_SUCCESS) return NFD_ERROR_INTERNAL;
-    const nfd_job_status s = nfd_job_wait(job, UINT64_MAX);
-    nfd_mesh* m = nullptr;
-    const nfd_result r = nfd_job_take_mesh(job, &m);
-    out->reset(m);
-    nfd_job_destroy(job);
+    nfd_job_status s = NFD_JOB_QUEUED;
+    const nfd_result r = run_job(q, asset, mo, out, &s);
     EXPECT_EQ(s == NFD_JOB_DONE, r == NFD_SUCCESS) << s;
     return r;
 }
@@ -123,14 +119,14 @@ TEST_F(GpuFaults, QueueSurvivesFailedJobs) {
     nfd_queue* q = nullptr;
     ASSERT_EQ(nfd_queue_create(vulkan_.get(), nullptr, &q), NFD_SUCCESS);
     MeshPtr reference, mesh;
-    ASSERT_EQ(run_job(q, asset_.get(), &reference), NFD_SUCCESS);
+    ASSERT_EQ(run_job_at_32(q, asset_.get(), &reference), NFD_SUCCESS);
     gpu::inject_fault(gpu::Fault::Allocation, 1);
-    EXPECT_EQ(run_job(q, asset_.get(), &mesh), NFD_ERROR_OUT_OF_MEMORY);
-    ASSERT_EQ(run_job(q, asset_.get(), &mesh), NFD_SUCCESS);
+    EXPECT_EQ(run_job_at_32(q, asset_.get(), &mesh), NFD_ERROR_OUT_OF_MEMORY);
+    ASSERT_EQ(run_job_at_32(q, asset_.get(), &mesh), NFD_SUCCESS);
     EXPECT_TRUE(arrays_of(mesh.get()).same_geometry(arrays_of(reference.get())));
     gpu::inject_fault(gpu::Fault::Submission, 1);
-    EXPECT_EQ(run_job(q, asset_.get(), &mesh), NFD_ERROR_DEVICE);
-    EXPECT_EQ(run_job(q, asset_.get(), &mesh), NFD_ERROR_DEVICE);
+    EXPECT_EQ(run_job_at_32(q, asset_.get(), &mesh), NFD_ERROR_DEVICE);
+    EXPECT_EQ(run_job_at_32(q, asset_.get(), &mesh), NFD_ERROR_DEVICE);
     nfd_queue_destroy(q);
 }
 

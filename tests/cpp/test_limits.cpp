@@ -103,12 +103,9 @@ TEST(Limits, QueueJobFailsAtItsMemoryLimit) {
         mo.struct_size = sizeof mo;
         mo.resolution = 96;
         mo.max_host_bytes = limit;
-        nfd_job* job = nullptr;
-        ASSERT_EQ(nfd_queue_submit(q, asset.get(), &mo, nullptr, &job), NFD_SUCCESS);
-        const nfd_job_status s = nfd_job_wait(job, UINT64_MAX);
-        nfd_mesh* m = nullptr;
-        const nfd_result r = nfd_job_take_mesh(job, &m);
-        const MeshPtr mesh(m);
+        MeshPtr mesh;
+        nfd_job_status s = NFD_JOB_QUEUED;
+        const nfd_result r = run_job(q, asset.get(), mo, &mesh, &s);
         if (limit == kTiny) {
             EXPECT_EQ(s, NFD_JOB_FAILED);
             EXPECT_EQ(r, NFD_ERROR_LIMIT_EXCEEDED);
@@ -116,7 +113,6 @@ TEST(Limits, QueueJobFailsAtItsMemoryLimit) {
             EXPECT_EQ(s, NFD_JOB_DONE);
             EXPECT_EQ(r, NFD_SUCCESS);
         }
-        nfd_job_destroy(job);
     }
     nfd_queue_destroy(q);
 }

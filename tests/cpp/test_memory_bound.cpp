@@ -14,6 +14,7 @@
 #include <functional>
 #include <new>
 #include <optional>
+#include <type_traits>
 
 #include "extract.h"
 #include "extract_work.h"
@@ -146,6 +147,26 @@ void smallest_limit_holds(const std::function<nfd_result(uint64_t)>& decode) {
     EXPECT_LE(peak, accepted);
 }
 
+// A decode at 128 under `limit`: a mesh (nfd_mesh_options) or a grid (nfd_grid_options), freed.
+template <class Options>
+nfd_result decode_with_limit(nfd_context* ctx, const nfd_asset* asset, uint64_t limit) {
+    Options o{};
+    o.struct_size = sizeof o;
+    o.resolution = 128;
+    o.max_host_bytes = limit;
+    if constexpr (std::is_same_v<Options, nfd_mesh_options>) {
+        nfd_mesh* mesh = nullptr;
+        const nfd_result r = nfd_mesh_extract(ctx, asset, &o, &mesh);
+        nfd_mesh_destroy(mesh);
+        return r;
+    } else {
+        nfd_grid* grid = nullptr;
+        const nfd_result r = nfd_grid_extract(ctx, asset, &o, &grid);
+        nfd_grid_destroy(grid);
+        return r;
+    }
+}
+
 TEST(MemoryBound, LimitsAreNeverExceeded) {
     nfd_context_options co{};
     co.struct_size = sizeof co;
@@ -158,26 +179,10 @@ TEST(MemoryBound, LimitsAreNeverExceeded) {
         const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
         nfd_asset* asset = nullptr;
         ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &asset), NFD_SUCCESS);
-        smallest_limit_holds([&](uint64_t limit) {
-            nfd_mesh_options mo{};
-            mo.struct_size = sizeof mo;
-            mo.resolution = 128;
-            mo.max_host_bytes = limit;
-            nfd_mesh* mesh = nullptr;
-            const nfd_result r = nfd_mesh_extract(ctx, asset, &mo, &mesh);
-            nfd_mesh_destroy(mesh);
-            return r;
-        });
-        smallest_limit_holds([&](uint64_t limit) {
-            nfd_grid_options go{};
-            go.struct_size = sizeof go;
-            go.resolution = 128;
-            go.max_host_bytes = limit;
-            nfd_grid* grid = nullptr;
-            const nfd_result r = nfd_grid_extract(ctx, asset, &go, &grid);
-            nfd_grid_destroy(grid);
-            return r;
-        });
+        smallest_limit_holds(
+            [&](uint64_t limit) { return decode_with_limit<nfd_mesh_options>(ctx, asset, limit); });
+        smallest_limit_holds(
+            [&](uint64_t limit) { return decode_with_limit<nfd_grid_options>(ctx, asset, limit); });
         nfd_asset_destroy(asset);
     }
     nfd_context_destroy(ctx);
