@@ -111,6 +111,8 @@ TEST(Geo, TheFrameIsExactAndPositionsAreLocal) {
         EXPECT_TRUE(local.same_geometry(arrays_of(extract(ctx.get(), twin.get(), 128).get())));
         EXPECT_GT(local.indices.size(), 3000u);
         double offset[3];
+        EXPECT_EQ(nfd_mesh_get_offset(nullptr, offset), NFD_ERROR_INVALID_ARGUMENT);
+        EXPECT_EQ(nfd_mesh_get_offset(mesh.get(), nullptr), NFD_ERROR_INVALID_ARGUMENT);
         ASSERT_EQ(nfd_mesh_get_offset(mesh.get(), offset), NFD_SUCCESS);
         for (int a = 0; a < 3; ++a) EXPECT_EQ(offset[a], f.center[a]);
         // Without the 64-bit frame positions would be f32 at 600 km: a 6 cm step, which moves
@@ -208,6 +210,11 @@ TEST(Geo, PlyHasTheExactPositions) {
               std::string::npos);
     EXPECT_EQ(nfd_points_write_placed_ply(nullptr, nullptr, nullptr, 3, offset, ply.c_str()),
               NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_points_write_placed_ply(points.data(), nullptr, nullptr, n, offset, nullptr),
+              NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_points_write_placed_ply(points.data(), nullptr, nullptr, n, offset,
+                                          "/nonexistent-dir/x.ply"),
+              NFD_ERROR_IO);
     std::remove(ply.c_str());
 
 #ifdef NFD_CLI_PATH

@@ -72,6 +72,11 @@ TEST_F(GridApi, ArgumentsLimitsAndDefaults) {
     nfd_grid_voxels v;
     EXPECT_EQ(nfd_grid_get_voxels(nullptr, &v), NFD_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(nfd_grid_get_voxels(grid, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    double offset[3] = {1, 1, 1};
+    EXPECT_EQ(nfd_grid_get_offset(nullptr, offset), NFD_ERROR_INVALID_ARGUMENT);
+    EXPECT_EQ(nfd_grid_get_offset(grid, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    ASSERT_EQ(nfd_grid_get_offset(grid, offset), NFD_SUCCESS);
+    EXPECT_EQ(offset[0], 0.0);  // no 64-bit frame: positions are original coordinates
     const std::string path = (std::filesystem::temp_directory_path() /
                               ("nfd_grid_api_" + std::to_string(::getpid()) + ".vdb"))
                                  .string();

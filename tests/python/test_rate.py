@@ -70,3 +70,7 @@ def test_target_bytes_refuses_width_and_colour(tmp_path: Path, capsys: pytest.Ca
                  "--width", "16"]) == 1
     assert "not --width too" in capsys.readouterr().err
     assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "10"]) != 0
+    for bad in ("0", "-5"):
+        assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", bad]) == 1
+        assert "--target-bytes must be >= 1" in capsys.readouterr().err
+    assert not (tmp_path / "x.nfc").exists()
