@@ -9,6 +9,10 @@
 //     build/bench/queue_frame --device vulkan --resolution 256 --levels 32,64,128,256 \
 //         bench/out/nfc/*.nfc
 //
+// With --submit-stream each file's job is submitted before its first byte
+// (nfd_queue_submit_stream, skip_colour: it starts on the geometry, as the asset that
+// nfd_stream_take_asset gives) and every frame feeds the job (nfd_job_feed).
+//
 // Arrival: each file's bytes arrive at --bandwidth (default 256 KB/s; B/s, KB/s, MB/s with
 // 1 KB = 1024 B), all files at once from the first frame, as over parallel connections. Each
 // frame feeds every stream the bytes that arrived since the last.
@@ -35,8 +39,9 @@ using Clock = std::chrono::steady_clock;
 struct Source {
     std::string path;
     std::vector<unsigned char> bytes;
-    nfd_stream* stream = nullptr;  // until the whole file is fed
+    nfd_stream* stream = nullptr;  // until the whole file is fed (without --submit-stream)
     size_t fed = 0;
+    bool feeding = true;           // bytes still to come
     nfd_job* job = nullptr;
     uint32_t taken_resolution = 0;  // of the newest mesh taken
     bool collected = false;
@@ -129,6 +134,7 @@ int usage() {
                  "usage: queue_frame [--device cpu|vulkan] [--resolution N] [--workers N]\n"
                  "                   [--cpu-threads N] [--budget BYTES[KB|MB|GB]]\n"
                  "                   [--bandwidth N[B/s|KB/s|MB/s]] [--levels R,R,...]\n"
+                 "                   [--submit-stream]\n"
                  "                   file.nfc...\n");
     return 2;
 }
@@ -152,6 +158,7 @@ int main(int argc, char** argv) {
     uint64_t budget = 0;
     double bandwidth = 256.0 * 1024.0;  // bytes per second per file
     const char* levels = "";
+    bool submit_stream = false;
     std::vector<Source> sources;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -171,6 +178,8 @@ int main(int argc, char** argv) {
             if ((bandwidth = parse_bandwidth(v)) <= 0) return usage();
         } else if (a == "--levels" && (v = value())) {
             levels = v;
+        } else if (a == "--submit-stream") {
+            submit_stream = true;
         } else if (a.rfind("--", 0) == 0) {
             return usage();
         } else {
@@ -222,6 +231,14 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "stream: %s\n", nfd_result_string(r));
             return 1;
         }
+        if (!submit_stream) continue;
+        nfd_mesh_options geometry = mo;
+        geometry.skip_colour = 1;
+        if ((r = nfd_queue_submit_stream(queue, s.stream, &geometry, &jo, &s.job)) != NFD_SUCCESS) {
+            std::fprintf(stderr, "submit: %s\n", nfd_result_string(r));
+            return 1;
+        }
+        s.stream = nullptr;  // the job's now
     }
 
     const auto frame = std::chrono::microseconds(16667);
@@ -237,7 +254,22 @@ int main(int argc, char** argv) {
         const double now = since_start();
         FrameTimer timed;
         for (Source& s : sources) {
-            if (s.stream) {
+            if (s.feeding && submit_stream) {
+                const size_t arrived = std::min(s.bytes.size(), size_t(bandwidth * now));
+                nfd_stream_progress p{};
+                r = timed(kFeed, [&] {
+                    return nfd_job_feed(s.job, s.bytes.data() + s.fed, arrived - s.fed, &p);
+                });
+                s.fed = arrived;
+                if (!s.geometry_s && (p.flags & NFD_STREAM_GEOMETRY_READY)) s.geometry_s = since_start();
+                if (r == NFD_SUCCESS && s.fed == s.bytes.size())
+                    r = timed(kFeed, [&] { return nfd_job_finish_input(s.job); });
+                if (r != NFD_SUCCESS) {
+                    std::fprintf(stderr, "%s: %s\n", s.path.c_str(), nfd_result_string(r));
+                    return 1;
+                }
+                s.feeding = s.fed < s.bytes.size();
+            } else if (s.stream) {
                 const size_t arrived = std::min(s.bytes.size(), size_t(bandwidth * now));
                 nfd_stream_progress p{};
                 r = timed(kFeed, [&] {
@@ -295,7 +327,8 @@ int main(int argc, char** argv) {
             mesh_destroy_max = std::max(
                 mesh_destroy_max, std::chrono::duration<double>(Clock::now() - t0).count());
             if (!final) continue;
-            s.final_s = since_start();
+            if (!s.final_s) s.final_s = since_start();
+            if (s.feeding && submit_stream) continue;  // the job holds the stream: destroy it later
             timed(kPoll, [&] { nfd_job_destroy(s.job); return 0; });
             s.collected = true;
             ++collected;

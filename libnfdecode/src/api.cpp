@@ -7,6 +7,7 @@
 #include <exception>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <new>
 #include <optional>
 #include <stdexcept>
@@ -82,7 +83,23 @@ struct nfd_queue {
 struct nfd_job {
     std::shared_ptr<nfd::Job> job;
     uint32_t levels_total = 0, final_resolution = 0;
-    std::array<double, 3> offset{};
+    std::array<double, 3> offset{};  // set before the job starts: its meshes come after
+    // What the job decodes: the options read once at submission.
+    struct Request {
+        nfd_mesh_options mesh;
+        nfd_job_options job;
+        uint32_t resolution, top, mask;  // mask: grid levels to mesh
+    };
+    // A job of nfd_queue_submit_stream: its stream, fed on the caller's threads under `mutex`,
+    // and what its work is made of once the stream holds the asset.
+    struct Input {
+        std::mutex mutex;
+        std::unique_ptr<nfd_stream> stream;
+        nfd_context* context = nullptr;
+        Request request{};
+        bool started = false;  // the work was made (or the job ended before it was)
+    };
+    std::unique_ptr<Input> input;
 };
 
 // The finest level in the public layout, built once so that nfd_grid_get_voxels hands out stable
@@ -849,41 +866,156 @@ nfd_result nfd_queue_create(nfd_context* context, const nfd_queue_options* optio
 
 void nfd_queue_destroy(nfd_queue* queue) { delete queue; }
 
+namespace {
+
+nfd_result read_job_request(const nfd_mesh_options* mesh_options, const nfd_job_options* job_options,
+                            nfd_job::Request* out) {
+    if (nfd::read_options(mesh_options, kMeshOptions02, &out->mesh) != NFD_SUCCESS ||
+        nfd::read_options(job_options, kJobOptions02, &out->job) != NFD_SUCCESS)
+        return NFD_ERROR_INVALID_ARGUMENT;
+    out->resolution = options_resolution(out->mesh.resolution);
+    if (!out->resolution) return NFD_ERROR_LIMIT_EXCEEDED;
+    out->top = nfd::refinement_levels(out->resolution);
+    if (!valid_ladder_mask(out->job.mesh_levels, out->top)) return NFD_ERROR_INVALID_ARGUMENT;
+    out->mask = out->job.mesh_levels ? grid_level_mask(out->job.mesh_levels, out->top) : 1u;
+    return NFD_SUCCESS;
+}
+
+// The job's work on `file`; also sets the handle's offset, which its meshes carry.
+std::unique_ptr<nfd::ExtractWork> job_work(nfd_context& ctx, const nfd::ParsedFile& file,
+                                           const nfd_job::Request& request, nfd_job& handle) {
+    handle.offset = offset_of(file.geometry);
+    return std::make_unique<nfd::ExtractWork>(
+        file.geometry, nfd::colour_field(file, request.mesh.skip_colour != 0), request.resolution,
+        request.mask, device_of(ctx), ctx.cpu_threads,
+        nfd::MemoryBytes{request.mesh.max_host_bytes, request.mesh.max_device_bytes});
+}
+
+std::unique_ptr<nfd_job> job_handle(const nfd_job::Request& request,
+                                    std::function<void(nfd_job_status)>* callback) {
+    auto handle = std::make_unique<nfd_job>();
+    handle->levels_total = request.top + 1;
+    handle->final_resolution = request.resolution;
+    if (request.job.callback)
+        *callback = [job = handle.get(), fn = request.job.callback, user = request.job.user_data](
+                        nfd_job_status status) { fn(job, status, user); };
+    return handle;
+}
+
+// Whether a stream job's stream holds the asset the job needs (nfd_queue_submit_stream).
+bool input_ready(const nfd_stream& stream, const nfd_job::Request& request) {
+    const nfd::FileParser& parser = stream.reader.parser();
+    return request.mesh.skip_colour ? parser.geometry_read() : parser.complete();
+}
+
+// After the stream job's input changed (under its lock): starts the job once its asset is there,
+// fails it if the stream failed first.
+void advance_input(nfd_job& handle) {
+    nfd_job::Input& in = *handle.input;
+    if (in.started) return;
+    const nfd_result error = in.stream->reader.error();
+    if (error != NFD_SUCCESS || input_ready(*in.stream, in.request)) in.started = true;
+    if (error != NFD_SUCCESS) return handle.job->fail_input(error);
+    if (!in.started) return;
+    const nfd_result r = guarded([&] {
+        handle.job->start(job_work(*in.context, in.stream->reader.parser().file(), in.request, handle));
+        return NFD_SUCCESS;
+    });
+    if (r != NFD_SUCCESS) handle.job->fail_input(r);
+}
+
+// Before a stream job's feed or finish: NFD_SUCCESS to go on, else what to return.
+nfd_result input_open(nfd_job& handle) {
+    nfd_job::Input& in = *handle.input;
+    if (in.started || handle.job->awaiting_input()) return NFD_SUCCESS;
+    const nfd_result error = in.stream->reader.error();
+    return error != NFD_SUCCESS ? error : NFD_ERROR_CANCELLED;  // cancelled before it started
+}
+
+}  // namespace
+
 nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
                             const nfd_mesh_options* mesh_options,
                             const nfd_job_options* job_options, nfd_job** out_job) {
     if (!out_job) return NFD_ERROR_INVALID_ARGUMENT;
     *out_job = nullptr;
     if (!queue || !asset) return NFD_ERROR_INVALID_ARGUMENT;
-    nfd_mesh_options mo;
-    nfd_job_options jo;
-    if (nfd::read_options(mesh_options, kMeshOptions02, &mo) != NFD_SUCCESS ||
-        nfd::read_options(job_options, kJobOptions02, &jo) != NFD_SUCCESS)
-        return NFD_ERROR_INVALID_ARGUMENT;
-    const uint32_t resolution = options_resolution(mo.resolution);
-    if (!resolution) return NFD_ERROR_LIMIT_EXCEEDED;
-    const uint32_t top = nfd::refinement_levels(resolution);
-    if (!valid_ladder_mask(jo.mesh_levels, top)) return NFD_ERROR_INVALID_ARGUMENT;
-    const uint32_t mask = jo.mesh_levels ? grid_level_mask(jo.mesh_levels, top) : 1u;
+    nfd_job::Request request;
+    const nfd_result r = read_job_request(mesh_options, job_options, &request);
+    if (r != NFD_SUCCESS) return r;
     return guarded([&] {
-        nfd_context& ctx = *queue->context;
-        auto work = std::make_unique<nfd::ExtractWork>(
-            asset->file.geometry, nfd::colour_field(asset->file, mo.skip_colour != 0), resolution,
-            mask, device_of(ctx), ctx.cpu_threads,
-            nfd::MemoryBytes{mo.max_host_bytes, mo.max_device_bytes});
-        auto handle = std::make_unique<nfd_job>();
-        handle->levels_total = top + 1;
-        handle->final_resolution = resolution;
-        handle->offset = offset_of(asset->file.geometry);
         std::function<void(nfd_job_status)> callback;
-        if (jo.callback)
-            callback = [job = handle.get(), fn = jo.callback, user = jo.user_data](
-                           nfd_job_status status) { fn(job, status, user); };
-        if (!queue->queue->submit(std::move(work), jo.priority, std::move(callback), &handle->job))
+        std::unique_ptr<nfd_job> handle = job_handle(request, &callback);
+        auto work = job_work(*queue->context, asset->file, request, *handle);
+        if (!queue->queue->submit(std::move(work), request.job.priority, std::move(callback),
+                                  &handle->job))
             return NFD_ERROR_CANCELLED;  // submitted from a callback while the queue is destroyed
         *out_job = handle.release();
         return NFD_SUCCESS;
     });
+}
+
+nfd_result nfd_queue_submit_stream(nfd_queue* queue, nfd_stream* stream,
+                                   const nfd_mesh_options* mesh_options,
+                                   const nfd_job_options* job_options, nfd_job** out_job) {
+    if (!out_job) return NFD_ERROR_INVALID_ARGUMENT;
+    *out_job = nullptr;
+    if (!queue || !stream) return NFD_ERROR_INVALID_ARGUMENT;
+    nfd_job::Request request;
+    nfd_result r = read_job_request(mesh_options, job_options, &request);
+    if (r != NFD_SUCCESS) return r;
+    if ((r = stream->reader.error()) != NFD_SUCCESS) return r;
+    if (stream->complete_asset_taken) return NFD_ERROR_INVALID_ARGUMENT;  // the file went with it
+    // Everything that may fail comes before the job owns the stream: on failure the caller keeps it.
+    return guarded([&] {
+        std::function<void(nfd_job_status)> callback;
+        std::unique_ptr<nfd_job> handle = job_handle(request, &callback);
+        auto input = std::make_unique<nfd_job::Input>();
+        input->context = queue->context;
+        input->request = request;
+        std::unique_ptr<nfd::ExtractWork> work;
+        if (input_ready(*stream, request))
+            work = job_work(*queue->context, stream->reader.parser().file(), request, *handle);
+        input->started = work != nullptr;
+        const bool submitted =
+            work ? queue->queue->submit(std::move(work), request.job.priority, std::move(callback),
+                                        &handle->job)
+                 : queue->queue->submit_awaiting(request.job.priority, std::move(callback),
+                                                 &handle->job);
+        if (!submitted) return NFD_ERROR_CANCELLED;
+        input->stream.reset(stream);
+        handle->input = std::move(input);
+        *out_job = handle.release();
+        return NFD_SUCCESS;
+    });
+}
+
+nfd_result nfd_job_feed(nfd_job* job, const void* bytes, size_t size,
+                        nfd_stream_progress* out_progress) {
+    if (!job || !job->input) return NFD_ERROR_INVALID_ARGUMENT;
+    std::lock_guard<std::mutex> lock(job->input->mutex);
+    const nfd_result open = input_open(*job);
+    if (open != NFD_SUCCESS) {
+        if (out_progress) *out_progress = progress_of(*job->input->stream);
+        return open;
+    }
+    const nfd_result r = nfd_stream_feed(job->input->stream.get(), bytes, size, out_progress);
+    advance_input(*job);
+    return r;
+}
+
+nfd_result nfd_job_finish_input(nfd_job* job) {
+    if (!job || !job->input) return NFD_ERROR_INVALID_ARGUMENT;
+    std::lock_guard<std::mutex> lock(job->input->mutex);
+    const nfd_result open = input_open(*job);
+    if (open != NFD_SUCCESS) return open;
+    const nfd_result r = nfd_stream_finish(job->input->stream.get());
+    advance_input(*job);
+    if (!job->input->started) {  // a file that ended before what the job needs
+        job->input->started = true;
+        job->job->fail_input(r);
+    }
+    return r;
 }
 
 nfd_result nfd_queue_get_stats(const nfd_queue* queue, nfd_queue_stats* out_stats) {

@@ -18,6 +18,7 @@ struct Job::Shared {
     std::mutex mutex;
     std::condition_variable work_changed;  // a job was queued, memory released, stopping
     std::map<std::pair<int64_t, uint64_t>, std::shared_ptr<Job>> pending;  // begin() runs next
+    std::map<std::pair<int64_t, uint64_t>, std::shared_ptr<Job>> awaiting;  // waiting for input
     // The running jobs (a worker runs their steps), and those of them that wait for memory to
     // grow their reservation, by order.
     uint32_t running = 0;
@@ -97,11 +98,35 @@ struct Job::Shared {
         work_changed.notify_all();  // the head may have changed
         finish(job, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
     }
+
+    // Ends a job that has not started (its callback on this thread): a pending one is cancelled,
+    // one waiting for input ends with `status`. A copy of the map's pointer keeps it alive.
+    void end_unstarted(Job& job, nfd_job_status status, nfd_result result,
+                       std::unique_lock<std::mutex>& lock) {
+        if (job.status_ != NFD_JOB_WAITING_FOR_INPUT) {
+            const std::shared_ptr<Job> self = pending.at(job.order_);
+            return cancel_pending(self, lock);
+        }
+        const std::shared_ptr<Job> self = awaiting.at(job.order_);
+        awaiting.erase(job.order_);
+        finish(self, status, result, lock);
+    }
+
+    // Inserts `job` among the pending ones; a job that goes before one waiting for memory takes
+    // its place: that one is queued again.
+    void add_pending(const std::shared_ptr<Job>& job) {
+        const auto at = pending.emplace(job->order_, job).first;
+        const auto behind = std::next(at);
+        if (at == pending.begin() && behind != pending.end()) behind->second->status_ = NFD_JOB_QUEUED;
+    }
 };
 
 namespace {
 
-bool is_pending(nfd_job_status s) { return s == NFD_JOB_QUEUED || s == NFD_JOB_WAITING_FOR_MEMORY; }
+// Not yet running, and ended at once by a cancel.
+bool is_pending(nfd_job_status s) {
+    return s == NFD_JOB_QUEUED || s == NFD_JOB_WAITING_FOR_MEMORY || s == NFD_JOB_WAITING_FOR_INPUT;
+}
 bool is_final(nfd_job_status s) {
     return s == NFD_JOB_DONE || s == NFD_JOB_FAILED || s == NFD_JOB_CANCELLED;
 }
@@ -157,9 +182,7 @@ nfd_job_status Job::wait(uint64_t timeout_ns) {
 void Job::cancel() {
     std::unique_lock<std::mutex> lock(shared_->mutex);
     if (is_pending(status_)) {
-        // The worker's copy of the pointer is the map's: keep the job alive through finish().
-        const std::shared_ptr<Job> self = shared_->pending.at(order_);
-        shared_->cancel_pending(self, lock);
+        shared_->end_unstarted(*this, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
     } else if (status_ == NFD_JOB_RUNNING) {
         cancel_requested_ = true;
         shared_->work_changed.notify_all();  // its worker may be waiting for memory
@@ -182,8 +205,7 @@ void Job::release() {
         callback_ = nullptr;
         released_ = true;
         if (is_pending(status_)) {
-            const std::shared_ptr<Job> self = shared_->pending.at(order_);
-            shared_->cancel_pending(self, lock);
+            shared_->end_unstarted(*this, NFD_JOB_CANCELLED, NFD_ERROR_CANCELLED, lock);
         } else if (status_ == NFD_JOB_RUNNING) {
             cancel_requested_ = true;  // the worker frees the work after the step in progress
             shared_->work_changed.notify_all();  // or at once if it waits for memory
@@ -197,6 +219,29 @@ void Job::release() {
         mesh = std::move(mesh_);
         mesh_.reset();
     }
+}
+
+bool Job::start(std::unique_ptr<JobWork> work) {
+    {
+        std::lock_guard<std::mutex> lock(shared_->mutex);
+        if (status_ != NFD_JOB_WAITING_FOR_INPUT) return false;  // `work` is freed unlocked
+        const auto node = shared_->awaiting.extract(order_);
+        work_ = std::move(work);
+        status_ = NFD_JOB_QUEUED;
+        shared_->add_pending(node.mapped());
+    }
+    shared_->work_changed.notify_all();
+    return true;
+}
+
+bool Job::awaiting_input() const {
+    std::lock_guard<std::mutex> lock(shared_->mutex);
+    return status_ == NFD_JOB_WAITING_FOR_INPUT;
+}
+
+void Job::fail_input(nfd_result result) {
+    std::unique_lock<std::mutex> lock(shared_->mutex);
+    if (status_ == NFD_JOB_WAITING_FOR_INPUT) shared_->end_unstarted(*this, NFD_JOB_FAILED, result, lock);
 }
 
 // ---- Queue --------------------------------------------------------------------------------------
@@ -230,26 +275,40 @@ Queue::~Queue() {
             const std::shared_ptr<Job> job = shared_->pending.begin()->second;
             shared_->cancel_pending(job, lock);
         }
+        while (!shared_->awaiting.empty())
+            shared_->end_unstarted(*shared_->awaiting.begin()->second, NFD_JOB_CANCELLED,
+                                 NFD_ERROR_CANCELLED, lock);
     }
     for (std::thread& t : workers_) t.join();
 }
 
 bool Queue::submit(std::unique_ptr<JobWork> work, int32_t priority,
                    std::function<void(nfd_job_status)> callback, std::shared_ptr<Job>* out) {
-    std::shared_ptr<Job> job(new Job(shared_, std::move(work), priority, std::move(callback)));
+    return enqueue(std::shared_ptr<Job>(new Job(shared_, std::move(work), priority, std::move(callback))),
+                   true, out);
+}
+
+bool Queue::submit_awaiting(int32_t priority, std::function<void(nfd_job_status)> callback,
+                            std::shared_ptr<Job>* out) {
+    return enqueue(std::shared_ptr<Job>(new Job(shared_, nullptr, priority, std::move(callback))),
+                   false, out);
+}
+
+bool Queue::enqueue(std::shared_ptr<Job> job, bool pending, std::shared_ptr<Job>* out) {
     {
         std::lock_guard<std::mutex> lock(shared_->mutex);
         if (shared_->stopping) return false;
         job->order_.second = shared_->submitted++;
-        const auto at = shared_->pending.emplace(job->order_, job).first;
-        // A job that goes before one waiting for memory takes its place: that one is queued again.
-        const auto behind = std::next(at);
-        if (at == shared_->pending.begin() && behind != shared_->pending.end())
-            behind->second->status_ = NFD_JOB_QUEUED;
+        if (pending) {
+            shared_->add_pending(job);
+        } else {
+            job->status_ = NFD_JOB_WAITING_FOR_INPUT;
+            shared_->awaiting.emplace(job->order_, job);
+        }
         *out = std::move(job);
     }
     // All workers: the one woken may be waiting for memory that a higher-priority job may use.
-    shared_->work_changed.notify_all();
+    if (pending) shared_->work_changed.notify_all();
     return true;
 }
 

@@ -45,9 +45,8 @@ struct StepResult {
 // at a time; no two calls on one JobWork overlap.
 //
 // The implementation (ExtractWork, extract_work.h) has one step per grid level and delivers a mesh
-// per level asked for. A job fed by a stream would have steps that parse what has arrived; one
-// with nothing to parse must leave its worker (back to pending, woken by the feed) rather than
-// wait on it.
+// per level asked for. A job whose file is still arriving has no work yet (Queue::submit_awaiting):
+// parsing stays on the feeding thread, and the job joins the pending ones once its asset is there.
 class JobWork {
 public:
     virtual ~JobWork() = default;
@@ -81,6 +80,13 @@ public:
     // The handle lets go: no callback starts afterwards (waits for one running on another thread),
     // the job is cancelled if not final, the untaken mesh is freed.
     void release();
+    // A job waiting for input (NFD_JOB_WAITING_FOR_INPUT) gets its work and joins the pending jobs
+    // at its submission place; false (and `work` is dropped) if it is no longer waiting (cancelled).
+    bool start(std::unique_ptr<JobWork> work);
+    bool awaiting_input() const;
+    // A job waiting for input fails with `result` (its input is unusable); its callback runs on
+    // this thread. No effect on a job that started or is final.
+    void fail_input(nfd_result result);
 
 private:
     friend class Queue;
@@ -120,10 +126,15 @@ public:
     // per final status and, with RUNNING, after each step that delivered a mesh but not the last.
     bool submit(std::unique_ptr<JobWork> work, int32_t priority,
                 std::function<void(nfd_job_status)> callback, std::shared_ptr<Job>* out);
+    // As submit, for a job whose work comes later (Job::start): it waits for input, holding no
+    // memory and no place among the pending jobs, but its order is fixed now.
+    bool submit_awaiting(int32_t priority, std::function<void(nfd_job_status)> callback,
+                         std::shared_ptr<Job>* out);
     nfd_queue_stats stats() const;
 
 private:
     void run_worker();
+    bool enqueue(std::shared_ptr<Job> job, bool pending, std::shared_ptr<Job>* out);
     std::shared_ptr<Job> next_job(std::unique_lock<std::mutex>& lock);
     void run_steps(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock);
     void restart(const std::shared_ptr<Job>& job, std::unique_lock<std::mutex>& lock);

@@ -54,7 +54,7 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 5
+#define NFD_VERSION_MINOR 6
 #define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
@@ -760,9 +760,9 @@ NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, co
  * Streaming: an engine feeds each arriving file to its own nfd_stream on its own thread (the cost
  * of nfd_stream_feed follows the bytes fed; the feed that completes the GEOM chunk decodes it),
  * takes the asset with nfd_stream_take_asset once NFD_STREAM_GEOMETRY_READY is set, submits it,
- * and may destroy the asset at once. A submit that takes a stream (a job that starts before its
- * file is complete) is not provided in this version. bench/queue_frame.cpp does this in a frame
- * loop and measures the frame thread's time in these calls.
+ * and may destroy the asset at once; bench/queue_frame.cpp does this in a frame loop and measures
+ * the frame thread's time in these calls. Or (0.6) it submits the stream itself, before any byte
+ * has arrived, and feeds the job: see nfd_queue_submit_stream.
  *
  * Threads: every queue and job function may be called from any thread, concurrently, except
  * that a destroy must not race with other calls on the same handle (nfd_queue_destroy with the
@@ -782,7 +782,9 @@ typedef enum nfd_job_status {
                                        a coarser level's mesh may be ready (nfd_job_take_mesh) */
     NFD_JOB_DONE = 3,               /* final: the final level's mesh is ready (nfd_job_take_mesh) */
     NFD_JOB_FAILED = 4,             /* final: nfd_job_take_mesh gives the error */
-    NFD_JOB_CANCELLED = 5           /* final: cancelled before it finished */
+    NFD_JOB_CANCELLED = 5,          /* final: cancelled before it finished */
+    NFD_JOB_WAITING_FOR_INPUT = 6   /* (0.6) a job of nfd_queue_submit_stream whose asset has not
+                                       arrived yet; QUEUED once it has */
 } nfd_job_status;
 
 /* Zero-initialise and set struct_size (see "Option structs"), then set what you need. */
@@ -802,7 +804,8 @@ typedef struct nfd_queue_options {
  * replaced it; the final level's delivery is the DONE call alone). Calls for one job never
  * overlap, come in the order of the levels, and the final one is the last. It runs on a worker
  * thread, or for a job cancelled before it started on the thread that cancelled it (nfd_job_cancel,
- * nfd_queue_destroy). It may call nfd_job_poll, nfd_job_get_progress,
+ * nfd_queue_destroy), or for a stream job whose input failed before it started on the thread
+ * that fed it (nfd_job_feed, nfd_job_finish_input, nfd_queue_submit_stream). It may call nfd_job_poll, nfd_job_get_progress,
  * nfd_job_take_mesh, nfd_job_cancel, nfd_job_destroy (this job's included), nfd_queue_submit,
  * nfd_queue_get_stats, and any function outside the queue that is safe on that thread (not the
  * queue's context: the workers use it). It must not call nfd_job_wait or nfd_queue_destroy (a
@@ -866,6 +869,48 @@ NFD_API void nfd_queue_destroy(nfd_queue* queue);
 NFD_API nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
                                     const nfd_mesh_options* mesh_options,
                                     const nfd_job_options* job_options, nfd_job** out_job);
+
+/* (0.6) Queues the extraction of the file that `stream` is receiving, before it has arrived: the
+ * job takes the stream over, the caller feeds it with nfd_job_feed and ends it with
+ * nfd_job_finish_input, and the job starts as soon as the asset its mesh options need is there:
+ *   - mesh_options->skip_colour set: once the geometry is ready (NFD_STREAM_GEOMETRY_READY, what
+ *     nfd_stream_take_asset gives); the meshes have no colour;
+ *   - otherwise: once the whole file is verified (NFD_STREAM_COMPLETE, nfd_stream_take_complete_
+ *     asset's asset), so that its meshes are those of nfd_queue_submit on the complete asset,
+ *     colours included. A file without colour is complete when its geometry is (GEOM is its
+ *     last chunk).
+ * Until then the job is NFD_JOB_WAITING_FOR_INPUT: it reserves no memory (the stream's buffer,
+ * at most one chunk, is not counted in the budget) and holds no place among the pending jobs,
+ * but its priority and submission order are fixed now. Then it is QUEUED and runs as any job; its
+ * meshes are byte-identical to nfd_queue_submit's on the same asset. The stream may have been
+ * fed already (not its asset taken: the job then fails with NFD_ERROR_INVALID_ARGUMENT); if what
+ * it holds already suffices, the job is QUEUED at once.
+ * Outcomes: as nfd_queue_submit (stream NULL: NFD_ERROR_INVALID_ARGUMENT). On NFD_SUCCESS the job
+ * owns the stream (do not use or destroy it; nfd_job_destroy does); on failure the caller keeps
+ * it. A stream that has failed gives a job that fails at once with the stream's error (its
+ * callback runs on this thread before this returns). */
+NFD_API nfd_result nfd_queue_submit_stream(nfd_queue* queue, nfd_stream* stream,
+                                           const nfd_mesh_options* mesh_options,
+                                           const nfd_job_options* job_options, nfd_job** out_job);
+
+/* (0.6) Feeds the next bytes of a stream job's file: nfd_stream_feed on the job's stream, on the
+ * calling thread (the feed that completes what the job waits for also makes it QUEUED: a copy of
+ * the network's weights, no waiting). Calls on one job's input (this and nfd_job_finish_input)
+ * are serialised by a lock of the job's own; bytes must come in file order.
+ * Outcomes: as nfd_stream_feed, and out_progress likewise. A failure before the job started also
+ * fails the job with that error (its callback on this thread); after it started, the job goes on
+ * (its asset was complete and verified) and the failure is the caller's to act on: a file whose
+ * later bytes are damaged. NFD_ERROR_CANCELLED, nothing fed, if the job was cancelled before it
+ * started; NFD_ERROR_INVALID_ARGUMENT (NULL job, a job not made by nfd_queue_submit_stream,
+ * bytes NULL with a size). */
+NFD_API nfd_result nfd_job_feed(nfd_job* job, const void* bytes, size_t size,
+                                nfd_stream_progress* out_progress);
+
+/* (0.6) Says that no more bytes will come: nfd_stream_finish on the job's stream. A job still
+ * waiting for input then fails with the result (NFD_ERROR_TRUNCATED for a file that ended early).
+ * Outcomes: as nfd_stream_finish; NFD_ERROR_CANCELLED if the job was cancelled before it started;
+ * NFD_ERROR_INVALID_ARGUMENT (NULL job, a job not made by nfd_queue_submit_stream). */
+NFD_API nfd_result nfd_job_finish_input(nfd_job* job);
 
 /* A snapshot of the counters. NFD_ERROR_INVALID_ARGUMENT for NULL arguments. */
 NFD_API nfd_result nfd_queue_get_stats(const nfd_queue* queue, nfd_queue_stats* out_stats);
