@@ -65,13 +65,15 @@ class Row:
     seconds: float = float("nan")  # colour fit (nfc)
 
 
-def geometry_file(gt: Shape, shape: str, width: int) -> Path:
+def geometry_file(gt: Shape, shape: str, width: int, frequencies: int) -> Path:
     """The shape's kept geometry-only .nfc (UDF, fast preset, seed 0), encoded when missing."""
-    path = OUT / "color" / f"{shape}_udf_w{width}.nfc"
+    suffix = "" if frequencies == 16 else f"_L{frequencies}"  # the files of format 1.0's L = 16 keep their names
+    path = OUT / "color" / f"{shape}_udf_w{width}{suffix}.nfc"
     if not path.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
         t0 = time.perf_counter()
-        result = compress(gt, EncodeConfig(field="udf", width=width, seed=SEED, color="off", quiet=True))
+        result = compress(gt, EncodeConfig(field="udf", width=width, frequencies=frequencies, seed=SEED, color="off",
+                                           quiet=True))
         path.write_bytes(result.data)
         print(f"{path.name}: geometry encoded, {len(result.data)} bytes, {time.perf_counter() - t0:.1f} s", flush=True)
     return path
@@ -101,14 +103,17 @@ def measure(gt: Shape, path: Path, setting: str, seconds: float, decoder: str) -
     return Row("nfc", setting, path.stat().st_size, cd, psnr, seconds)
 
 
-def run_color(gt: Shape, shape: str, geometry: Path, width: int, bits: int, decoder: str) -> Row:
-    path = OUT / "color" / f"{geometry.stem}_c{width}_b{bits}.nfc"
+def run_color(gt: Shape, shape: str, geometry: Path, width: int, bits: int, frequencies: int, decoder: str) -> Row:
+    suffix = "" if frequencies == 8 else f"_L{frequencies}"
+    path = OUT / "color" / f"{geometry.stem}_c{width}_b{bits}{suffix}.nfc"
     t0 = time.perf_counter()
-    result = compress(gt, EncodeConfig(color="on", color_width=width, color_bits=bits, seed=SEED, quiet=True),
+    result = compress(gt, EncodeConfig(color="on", color_width=width, color_bits=bits, color_frequencies=frequencies,
+                                       seed=SEED, quiet=True),
                       geometry=geometry.read_bytes())
     seconds = time.perf_counter() - t0
     path.write_bytes(result.data)
-    row = measure(gt, path, f"{geometry.stem.split('_')[-1]} + c{width} b{bits}", seconds, decoder)
+    row = measure(gt, path, f"{geometry.stem.split('_udf_')[-1].replace('_', ' ')} + c{width} b{bits}{suffix.replace('_', ' ')}",
+                  seconds, decoder)
     print(f"{path.name}: {row.bytes} bytes, PSNR {row.psnr:.2f} dB, CD {row.cd:.4g}, colour fit {seconds:.0f} s",
           flush=True)
     return row
@@ -189,6 +194,8 @@ def main() -> None:
     parser.add_argument("--geometry-width", type=int, default=16)
     parser.add_argument("--color-widths", nargs="+", type=int, default=[16, 32, 48])
     parser.add_argument("--color-bits", type=int, default=8)
+    parser.add_argument("--geometry-frequencies", type=int, default=16, help="L of the geometry network")
+    parser.add_argument("--color-frequencies", type=int, default=8, help="L of the colour network")
     parser.add_argument("--decoder", choices=("reference", "libnfdecode"), default="reference",
                         help="numpy reference (default) or build/samples/nfc-decode --points N")
     parser.add_argument("--append", action="store_true", help="add to the rows of bench/out/color_<shape>.csv")
@@ -200,8 +207,9 @@ def main() -> None:
         ours = load_rows(csv_path) if (args.append or args.from_csv) and csv_path.exists() else []
         if not args.from_csv:
             gt = load_shape(SHARED / "data" / rel, colors="on")
-            geometry = geometry_file(gt, shape, args.geometry_width)
-            ours += [run_color(gt, shape, geometry, w, args.color_bits, args.decoder) for w in args.color_widths]
+            geometry = geometry_file(gt, shape, args.geometry_width, args.geometry_frequencies)
+            ours += [run_color(gt, shape, geometry, w, args.color_bits, args.color_frequencies, args.decoder)
+                     for w in args.color_widths]
             with open(csv_path, "w", newline="") as f:
                 out = csv.writer(f)
                 out.writerow(["codec", "setting", "bytes", "cd", "psnr", "seconds"])

@@ -54,6 +54,7 @@ ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
     "field": (str,),
     "width": (int,),
     "bits": (int,),
+    "frequencies": (int,),
     "preset": (str,),
     "epochs": (int, type(None)),
     "seed": (int,),
@@ -61,7 +62,7 @@ ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
 }
 """Per-asset options a manifest row may set (with their JSON types), defaulting to the command line's."""
 
-HASHED_OPTIONS = ("field", "width", "bits", "preset", "epochs", "seed")
+HASHED_OPTIONS = ("field", "width", "bits", "frequencies", "preset", "epochs", "seed")
 """The options that determine a file's contents (device and threads change only float rounding)."""
 
 

@@ -24,6 +24,7 @@ from .bitstream import (
     FIELD_NAMES,
     FIELD_UDF,
     MAX_BITS,
+    MAX_FREQUENCIES,
     MAX_WIDTH,
     MIN_BITS,
     OUTPUT_NAMES,
@@ -33,7 +34,15 @@ from .bitstream import (
     NfcFile,
     read_nfc,
 )
-from .config import COLOR_RESOLUTION, COLOR_WIDTH, DEFAULT_BITS, DEFAULT_WIDTH, MAX_TORCH_THREADS
+from .config import (
+    COLOR_NUM_FREQUENCIES,
+    COLOR_RESOLUTION,
+    COLOR_WIDTH,
+    DEFAULT_BITS,
+    DEFAULT_WIDTH,
+    MAX_TORCH_THREADS,
+    NUM_FREQUENCIES,
+)
 from .devices import DEVICE_CHOICES
 from .errors import InputError, NfcError
 from .io import Shape, load_shape, save_mesh, save_points
@@ -94,6 +103,7 @@ def cmd_encode(args: argparse.Namespace) -> int:
     _positive("--color-width", args.color_width, 1, MAX_WIDTH)
     _positive("--color-bits", args.color_bits, MIN_BITS, MAX_BITS)
     _positive("--color-resolution", args.color_resolution, 8, 1024)
+    _positive("--color-frequencies", args.color_frequencies, 0, MAX_FREQUENCIES)
     _positive("--color-epochs", args.color_epochs)
     geometry = None if args.geometry is None else _read_nfc_file(args.geometry)[0]
     shape = load_shape(args.input, colors=args.color, warn=_warn)
@@ -105,7 +115,8 @@ def cmd_encode(args: argparse.Namespace) -> int:
     device = resolve_device(args.device)
     config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads, color=args.color,
                                   color_width=args.color_width, color_bits=args.color_bits,
-                                  color_resolution=args.color_resolution, color_epochs=args.color_epochs)
+                                  color_resolution=args.color_resolution,
+                                  color_frequencies=args.color_frequencies, color_epochs=args.color_epochs)
     choice = None
     if args.target_bytes is not None:
         result, choice = _encode_to_target(shape, config, args, geometry is not None)
@@ -154,7 +165,7 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, reuses_geomet
         results[(width, bits)] = encoder.compress(shape, dataclasses.replace(cfg, width=width, bits=bits))
         return results[(width, bits)].data
 
-    _, choice = rate.choose(args.target_bytes, cfg.bits, encode)
+    _, choice = rate.choose(args.target_bytes, cfg.bits, encode, cfg.frequencies)
     return results[(choice.width, choice.bits)], choice
 
 
@@ -168,6 +179,7 @@ def _encode_report(args: argparse.Namespace, output: Path, result, choice, secon
         "field": result.field,
         "width": net.out_features[0],
         "bits": net.bits,
+        "frequencies": net.num_frequencies,
         "preset": args.preset,
         "color": f.color is not None,
         "frame64": f.geometry.frame64 is not None,
@@ -181,13 +193,14 @@ def _encode_report(args: argparse.Namespace, output: Path, result, choice, secon
 def _encode_options(args: argparse.Namespace) -> dict:
     """The EncodeConfig fields that `encode` and `encode-batch` share (batch.ENCODE_OPTIONS)."""
     width = args.width if args.width is not None else DEFAULT_WIDTH
-    return {"field": args.field, "width": width, "bits": args.bits, "preset": args.preset,
-            "epochs": args.epochs, "seed": args.seed, "device": args.device}
+    return {"field": args.field, "width": width, "bits": args.bits, "frequencies": args.frequencies,
+            "preset": args.preset, "epochs": args.epochs, "seed": args.seed, "device": args.device}
 
 
 def _check_encode_args(args: argparse.Namespace) -> None:
     _positive("--width", args.width, 1, MAX_WIDTH)
     _positive("--bits", args.bits, MIN_BITS, MAX_BITS)
+    _positive("--frequencies", args.frequencies, 0, MAX_FREQUENCIES)
     _positive("--epochs", args.epochs)
     _positive("--threads", args.threads)
 
@@ -438,6 +451,8 @@ def _add_encode_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--width", type=int, default=None,
                    help=f"hidden layer width: sets the rate (default {DEFAULT_WIDTH})")
     p.add_argument("--bits", type=int, default=8, help="quantization bit width (default 8)")
+    p.add_argument("--frequencies", type=int, default=NUM_FREQUENCIES, metavar="L",
+                   help=f"positional-encoding frequencies of the geometry network (default {NUM_FREQUENCIES})")
     p.add_argument("--preset", choices=("fast", "paper"), default="fast", help="training schedule")
     p.add_argument("--epochs", type=int, default=None, help="override the preset's epoch count")
     p.add_argument("--seed", type=int, default=0, help="random seed (same bytes for the same seed on a given device)")
@@ -460,6 +475,8 @@ def _add_color_options(p: argparse.ArgumentParser) -> None:
                    help=f"quantization bit width of the colour network (default {DEFAULT_BITS})")
     p.add_argument("--color-resolution", type=int, default=COLOR_RESOLUTION,
                    help=f"grid resolution of the decoded surface the colour is fitted on (default {COLOR_RESOLUTION})")
+    p.add_argument("--color-frequencies", type=int, default=COLOR_NUM_FREQUENCIES, metavar="L",
+                   help=f"positional-encoding frequencies of the colour network (default {COLOR_NUM_FREQUENCIES})")
     p.add_argument("--color-epochs", type=int, default=None, help="override the colour schedule's epoch count")
     p.add_argument("--geometry", metavar="FILE.nfc", default=None,
                    help="reuse the geometry of this .nfc file (of the same input) and fit only the colour")

@@ -18,7 +18,7 @@ import torch
 from scipy.spatial import cKDTree
 
 from . import config
-from .bitstream import COLOR_SPACE_RGB, MAX_BITS, MAX_WIDTH, MIN_BITS, OUTPUT_SIGMOID, ColorChunk, NfcFile
+from .bitstream import COLOR_SPACE_RGB, MAX_BITS, MAX_FREQUENCIES, MAX_WIDTH, MIN_BITS, OUTPUT_SIGMOID, ColorChunk, NfcFile
 from .errors import InputError
 from .io import Shape
 from .model import Siren
@@ -35,6 +35,7 @@ class ColorOptions:
     width: int = config.COLOR_WIDTH
     bits: int = config.DEFAULT_BITS
     resolution: int = config.COLOR_RESOLUTION
+    frequencies: int = config.COLOR_NUM_FREQUENCIES  # L of the colour network's encoding
     epochs: int | None = None  # overrides the schedule's epoch count (QAT unchanged)
     seed: int = 0
     quiet: bool = False
@@ -55,6 +56,8 @@ def check_color_options(options: ColorOptions) -> None:
         raise InputError(f"colour bit width {options.bits} outside {MIN_BITS}..{MAX_BITS}")
     if not MIN_RESOLUTION <= options.resolution <= MAX_RESOLUTION:
         raise InputError(f"colour resolution {options.resolution} outside {MIN_RESOLUTION}..{MAX_RESOLUTION}")
+    if not 0 <= options.frequencies <= MAX_FREQUENCIES:
+        raise InputError(f"{options.frequencies} colour frequencies outside 0..{MAX_FREQUENCIES}")
     if options.epochs is not None and options.epochs < 0:
         raise InputError(f"colour epochs must be non-negative, got {options.epochs}")
 
@@ -102,7 +105,7 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
     epochs = schedule.epochs if options.epochs is None else options.epochs
     rng = np.random.default_rng(options.seed)
     generator = torch.Generator().manual_seed(options.seed)
-    model = Siren(options.width, "sigmoid", outputs=3, num_frequencies=config.COLOR_NUM_FREQUENCIES,
+    model = Siren(options.width, "sigmoid", outputs=3, num_frequencies=options.frequencies,
                   frequency_base=config.COLOR_FREQUENCY_BASE, generator=generator)
     model = model.to(device)
     surface = _SurfaceColors(mesh, shape, geometry, rng, device)
@@ -123,7 +126,7 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
         qat_loss = _validation_loss(model, validation, options.bits)
         if qat_loss < best_loss:
             best_loss, best_layers = qat_loss, model.layers
-    network = quantized_network(best_layers.cpu(), options.bits, num_frequencies=config.COLOR_NUM_FREQUENCIES,
+    network = quantized_network(best_layers.cpu(), options.bits, num_frequencies=options.frequencies,
                                 frequency_base=config.COLOR_FREQUENCY_BASE, omega0=config.OMEGA0,
                                 output=OUTPUT_SIGMOID)
     return ColorFit(ColorChunk(COLOR_SPACE_RGB, network), best_loss, len(mesh.vertices), time.perf_counter() - start)

@@ -24,6 +24,7 @@ from .bitstream import (
     FIELD_UDF,
     MAX_BITS,
     MAX_FRAME_EXTENT,
+    MAX_FREQUENCIES,
     MAX_WIDTH,
     MIN_BITS,
     OUTPUT_ABS,
@@ -52,6 +53,7 @@ class EncodeConfig:
     field: str = "auto"  # "auto", "sdf" or "udf"
     width: int = config.DEFAULT_WIDTH
     bits: int = config.DEFAULT_BITS
+    frequencies: int = config.NUM_FREQUENCIES  # L of the positional encoding
     preset: str = config.DEFAULT_PRESET
     epochs: int | None = None
     seed: int = 0
@@ -62,6 +64,7 @@ class EncodeConfig:
     color_width: int = config.COLOR_WIDTH
     color_bits: int = config.DEFAULT_BITS
     color_resolution: int = config.COLOR_RESOLUTION
+    color_frequencies: int = config.COLOR_NUM_FREQUENCIES
     color_epochs: int | None = None  # overrides the colour schedule's epoch count
 
 
@@ -82,6 +85,8 @@ def check_config(cfg: EncodeConfig) -> config.Preset:
         raise InputError(f"unknown preset {cfg.preset!r} (choose from {', '.join(config.PRESETS)})")
     if not 1 <= cfg.width <= MAX_WIDTH:
         raise InputError(f"width {cfg.width} outside 1..{MAX_WIDTH}")
+    if not 0 <= cfg.frequencies <= MAX_FREQUENCIES:
+        raise InputError(f"{cfg.frequencies} frequencies outside 0..{MAX_FREQUENCIES}")
     if not MIN_BITS <= cfg.bits <= MAX_BITS:
         raise InputError(f"bit width {cfg.bits} outside {MIN_BITS}..{MAX_BITS}")
     if cfg.epochs is not None and cfg.epochs < 0:
@@ -96,7 +101,7 @@ def check_config(cfg: EncodeConfig) -> config.Preset:
 
 def color_options(cfg: EncodeConfig) -> ColorOptions:
     return ColorOptions(width=cfg.color_width, bits=cfg.color_bits, resolution=cfg.color_resolution,
-                        epochs=cfg.color_epochs, seed=cfg.seed, quiet=cfg.quiet)
+                        frequencies=cfg.color_frequencies, epochs=cfg.color_epochs, seed=cfg.seed, quiet=cfg.quiet)
 
 
 def wants_color(shape: Shape, cfg: EncodeConfig) -> bool:
@@ -158,7 +163,8 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
     sampler = SurfaceSampler(to_unit(shape.vertices, train_center, train_scale), shape.faces)
     field, field_reason = resolve_field(sampler, cfg.field, rng)
     pool = build_pool(sampler, field, rng)
-    model = Siren(cfg.width, "identity" if field == "sdf" else "abs", generator=generator)
+    model = Siren(cfg.width, "identity" if field == "sdf" else "abs", num_frequencies=cfg.frequencies,
+                  generator=generator)
     data = prepare_data(model, pool)
     if device.type != "cpu":
         data = TrainingData(*(t.to(device) for t in (data.encoded, data.distances, data.validation_encoded,
@@ -168,8 +174,9 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
 
 def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_loss: float, start: float) -> EncodeResult:
     """Quantize the chosen layers and write the `.nfc` bytes."""
-    network = quantized_network(best_layers.cpu(), bits, num_frequencies=config.NUM_FREQUENCIES,
-                                frequency_base=config.FREQUENCY_BASE, omega0=config.OMEGA0,
+    encoding = prep.model.encoding
+    network = quantized_network(best_layers.cpu(), bits, num_frequencies=encoding.num_frequencies,
+                                frequency_base=encoding.base, omega0=config.OMEGA0,
                                 output=OUTPUT_IDENTITY if prep.field == "sdf" else OUTPUT_ABS)
     c = prep.center32
     geometry = GeometryChunk(

@@ -43,28 +43,30 @@ class RateChoice:
     attempts: list[Attempt]
 
 
-def parameters(width: int) -> int:
-    return parameter_count(config.NUM_FREQUENCIES, [width, width, 1])
+def parameters(width: int, frequencies: int = config.NUM_FREQUENCIES) -> int:
+    return parameter_count(frequencies, [width, width, 1])
 
 
-def width_for(budget: int, bytes_per_parameter: float) -> int:
+def width_for(budget: int, bytes_per_parameter: float, frequencies: int = config.NUM_FREQUENCIES) -> int:
     """The largest width whose predicted file fits in `budget` bytes (0 if none)."""
     usable = (budget - FIXED_BYTES) / bytes_per_parameter
-    inputs = 3 + 6 * config.NUM_FREQUENCIES
+    inputs = 3 + 6 * frequencies
     # W^2 + (inputs + 3) W + 1 <= usable
     b = inputs + 3
     disc = b * b - 4 * (1 - usable)
     return max(0, int((-b + math.sqrt(disc)) / 2)) if disc >= 0 else 0
 
 
-def choose(budget: int, bits: int, encode: Callable[[int, int], bytes]) -> tuple[bytes, RateChoice]:
-    """The widest file of at most `budget` bytes that `encode(width, bits)` writes, with what was
-    tried. InputError when none of the encodes fits (even width MIN_WIDTH at LOWEST_BITS)."""
+def choose(budget: int, bits: int, encode: Callable[[int, int], bytes],
+           frequencies: int = config.NUM_FREQUENCIES) -> tuple[bytes, RateChoice]:
+    """The widest file of at most `budget` bytes that `encode(width, bits)` writes (networks of
+    `frequencies` encoding frequencies), with what was tried. InputError when none of the encodes
+    fits (even width MIN_WIDTH at LOWEST_BITS)."""
     attempts: list[Attempt] = []
     best: tuple[bytes, Attempt] | None = None
     too_large = MAX_WIDTH + 1  # the smallest width found too large at the current bits
     rate = PRIOR_BYTES_PER_PARAMETER_8_BITS * bits / 8
-    width = min(width_for(budget, rate), MAX_WIDTH)
+    width = min(width_for(budget, rate, frequencies), MAX_WIDTH)
     while len(attempts) < MAX_ENCODES:
         if width < MIN_WIDTH:
             if best is not None or bits <= max(LOWEST_BITS, MIN_BITS):
@@ -72,20 +74,20 @@ def choose(budget: int, bits: int, encode: Callable[[int, int], bytes]) -> tuple
             rate *= (bits - 1) / bits  # nothing fits at this bit width: one bit less
             bits -= 1
             too_large = MAX_WIDTH + 1
-            width = max(MIN_WIDTH, min(width_for(budget, rate), MAX_WIDTH))
+            width = max(MIN_WIDTH, min(width_for(budget, rate, frequencies), MAX_WIDTH))
         data = encode(width, bits)
         attempts.append(Attempt(width, bits, len(data)))
-        rate = max((len(data) - FIXED_BYTES) / parameters(width), 1e-3)  # this shape's own
+        rate = max((len(data) - FIXED_BYTES) / parameters(width, frequencies), 1e-3)  # this shape's own
         if len(data) <= budget:
             if best is None or width > best[1].width:
                 best = (data, attempts[-1])
-            wider = min(width_for(budget, rate), too_large - 1, MAX_WIDTH)
+            wider = min(width_for(budget, rate, frequencies), too_large - 1, MAX_WIDTH)
             if wider <= width:
                 break  # no room for a wider network at the measured rate
             width = wider
         else:
             too_large = min(too_large, width)
-            width = min(width_for(budget, rate * SAFETY), width - 1)
+            width = min(width_for(budget, rate * SAFETY, frequencies), width - 1)
             if best is not None and width <= best[1].width:
                 break  # the best fitting width is the widest below a too-large one
     if best is None:

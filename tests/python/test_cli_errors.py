@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import gzip
 import io
+import json
 import os
 import subprocess
 import sys
@@ -14,7 +15,8 @@ from pathlib import Path
 import pytest
 from conftest import cos_blob_file, random_file
 
-from nfencode.bitstream import write_nfc
+from nfencode import config
+from nfencode.bitstream import read_nfc, write_nfc
 from nfencode.cli import main
 
 
@@ -184,3 +186,18 @@ def test_input_beyond_the_size_limit_is_refused_while_decompressing(tmp_path: Pa
     (tmp_path / "big.obj").write_text(body)
     assert_one_line_error(nfc("encode", "big.obj", "-o", "out.nfc", cwd=tmp_path), contains="input limit")
     assert not (tmp_path / "out.nfc").exists()
+
+
+def test_frequency_options(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 5_000)  # plumbing, not quality
+    (tmp_path / "ok.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    for flag in ("--frequencies", "--color-frequencies"):
+        for value in ("25", "-1"):
+            assert_one_line_error(nfc("encode", "ok.obj", "-o", "out.nfc", flag, value, cwd=tmp_path), contains=flag)
+    assert not (tmp_path / "out.nfc").exists()
+    result = nfc("encode", "ok.obj", "-o", "f.nfc", "--frequencies", "4", "--width", "4", "--epochs", "1", "--quiet",
+                 "--json", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout.splitlines()[-1])["frequencies"] == 4
+    network = read_nfc((tmp_path / "f.nfc").read_bytes()).geometry.network
+    assert network.num_frequencies == 4 and network.in_features[0] == 3 + 6 * 4
