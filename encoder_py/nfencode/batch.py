@@ -59,10 +59,17 @@ ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
     "epochs": (int, type(None)),
     "seed": (int,),
     "device": (str,),
+    "color": (str,),
+    "color_width": (int,),
+    "color_bits": (int,),
+    "color_frequencies": (int,),
+    "color_resolution": (int,),
+    "color_epochs": (int, type(None)),
 }
 """Per-asset options a manifest row may set (with their JSON types), defaulting to the command line's."""
 
-HASHED_OPTIONS = ("field", "width", "bits", "frequencies", "preset", "epochs", "seed")
+HASHED_OPTIONS = ("field", "width", "bits", "frequencies", "preset", "epochs", "seed", "color", "color_width",
+                  "color_bits", "color_frequencies", "color_resolution", "color_epochs")
 """The options that determine a file's contents (device and threads change only float rounding)."""
 
 
@@ -241,7 +248,7 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
         from .encoder import EncodeConfig, compress
         from .io import load_shape
 
-        shape = load_shape(input)
+        shape = load_shape(input, colors=options.get("color", "auto"))
         cfg = EncodeConfig(**{k: options[k] for k in ENCODE_OPTIONS if k in options}, quiet=True, threads=threads)
         result = compress(shape, cfg)
         return {"status": "ok", "data": result.data, "field": result.field,
@@ -276,7 +283,7 @@ def encode_group(inputs: list[str], options: dict[str, Any], threads: int | None
         shapes = []
         for i, path in enumerate(inputs):
             try:
-                shapes.append((i, load_shape(path)))
+                shapes.append((i, load_shape(path, colors=options.get("color", "auto"))))
             except NfcError as e:
                 results[i] = {"status": "error", "data": None, "field": None, "seconds": 0.0,
                               "error": e.message if e.message.startswith(path) else f"{path}: {e.message}",

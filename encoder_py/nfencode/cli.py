@@ -100,11 +100,6 @@ def cmd_encode(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     output = _output_path(args.output, (".nfc",))
     _check_encode_args(args)
-    _positive("--color-width", args.color_width, 1, MAX_WIDTH)
-    _positive("--color-bits", args.color_bits, MIN_BITS, MAX_BITS)
-    _positive("--color-resolution", args.color_resolution, 8, 1024)
-    _positive("--color-frequencies", args.color_frequencies, 0, MAX_FREQUENCIES)
-    _positive("--color-epochs", args.color_epochs)
     geometry = None if args.geometry is None else _read_nfc_file(args.geometry)[0]
     shape = load_shape(args.input, colors=args.color, warn=_warn)
     from . import encoder  # imports torch: only this command needs it
@@ -113,10 +108,7 @@ def cmd_encode(args: argparse.Namespace) -> int:
     from .devices import resolve_device
 
     device = resolve_device(args.device)
-    config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads, color=args.color,
-                                  color_width=args.color_width, color_bits=args.color_bits,
-                                  color_resolution=args.color_resolution,
-                                  color_frequencies=args.color_frequencies, color_epochs=args.color_epochs)
+    config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads)
     choice = None
     if args.target_bytes is not None:
         result, choice = _encode_to_target(shape, config, args, geometry is not None)
@@ -194,7 +186,10 @@ def _encode_options(args: argparse.Namespace) -> dict:
     """The EncodeConfig fields that `encode` and `encode-batch` share (batch.ENCODE_OPTIONS)."""
     width = args.width if args.width is not None else DEFAULT_WIDTH
     return {"field": args.field, "width": width, "bits": args.bits, "frequencies": args.frequencies,
-            "preset": args.preset, "epochs": args.epochs, "seed": args.seed, "device": args.device}
+            "preset": args.preset, "epochs": args.epochs, "seed": args.seed, "device": args.device,
+            "color": args.color, "color_width": args.color_width, "color_bits": args.color_bits,
+            "color_frequencies": args.color_frequencies, "color_resolution": args.color_resolution,
+            "color_epochs": args.color_epochs}
 
 
 def _check_encode_args(args: argparse.Namespace) -> None:
@@ -203,6 +198,11 @@ def _check_encode_args(args: argparse.Namespace) -> None:
     _positive("--frequencies", args.frequencies, 0, MAX_FREQUENCIES)
     _positive("--epochs", args.epochs)
     _positive("--threads", args.threads)
+    _positive("--color-width", args.color_width, 1, MAX_WIDTH)
+    _positive("--color-bits", args.color_bits, MIN_BITS, MAX_BITS)
+    _positive("--color-resolution", args.color_resolution, 8, 1024)
+    _positive("--color-frequencies", args.color_frequencies, 0, MAX_FREQUENCIES)
+    _positive("--color-epochs", args.color_epochs)
 
 
 def cmd_encode_batch(args: argparse.Namespace) -> int:
@@ -401,6 +401,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "bits below width 4; geometry only)")
     p.add_argument("--json", action="store_true", help="print what was written as one JSON object")
     _add_color_options(p)
+    p.add_argument("--geometry", metavar="FILE.nfc", default=None,
+                   help="reuse the geometry of this .nfc file (of the same input) and fit only the colour")
     p.set_defaults(run=cmd_encode)
 
     p = sub.add_parser("encode-batch", help="encode a directory of shapes or a JSON-lines manifest (Ray)")
@@ -419,6 +421,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="train up to K assets with the same options per task as one batched model "
                         "(many tiny networks per kernel launch; for GPUs, e.g. 16; default 1)")
     _add_encode_options(p)
+    _add_color_options(p)
     p.set_defaults(run=cmd_encode_batch)
 
     p = sub.add_parser("info", help="describe an .nfc file")
@@ -478,8 +481,6 @@ def _add_color_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--color-frequencies", type=int, default=COLOR_NUM_FREQUENCIES, metavar="L",
                    help=f"positional-encoding frequencies of the colour network (default {COLOR_NUM_FREQUENCIES})")
     p.add_argument("--color-epochs", type=int, default=None, help="override the colour schedule's epoch count")
-    p.add_argument("--geometry", metavar="FILE.nfc", default=None,
-                   help="reuse the geometry of this .nfc file (of the same input) and fit only the colour")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

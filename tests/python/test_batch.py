@@ -4,6 +4,7 @@ options hash, isolation of bad assets and manifest lines, atomic outputs, exit s
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import io
 import json
 import os
@@ -247,3 +248,31 @@ def test_group_trains_assets_together_and_isolates_a_rejected_one(tmp_path: Path
     table = rows(out)
     assert code == 1 and "2 encoded, 0 skipped (up to date), 2 failed of 4" in stdout
     assert "no inside" in table["cloud.ply"]["error"] and table["box.ply"]["status"] == "ok"
+
+
+MILK = Path(__file__).resolve().parents[3] / "shared" / "data" / "colored" / "pcl_milk_color.ply.gz"
+
+
+@pytest.mark.skipif(not MILK.exists(), reason="shared data not available")
+def test_colour_options_reach_the_encoder_and_the_cache_key(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(config, "COLOR_SCHEDULE", dataclasses.replace(
+        config.COLOR_SCHEDULE, points=5_000, validation_points=2_000, qat_epochs=1))
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "milk.ply.gz").write_bytes(MILK.read_bytes())
+    out = tmp_path / "out"
+    common = ["encode-batch", lib, "-o", out, "--workers", "1", "--width", "16", "--epochs", "3", "--quiet",
+              "--color-epochs", "1", "--color-resolution", "32"]
+
+    def colour_width() -> int | None:
+        f = read_nfc((out / "milk.nfc").read_bytes())
+        return None if f.color is None else f.color.network.out_features[0]
+
+    code, stdout, stderr = run(*common, "--color-width", "4")
+    assert code == 0 and "1 encoded" in stdout, stderr
+    assert colour_width() == 4
+    assert "0 encoded, 1 skipped" in run(*common, "--color-width", "4")[1]
+    assert "1 encoded" in run(*common, "--color-width", "6")[1]  # a colour option changes the key
+    assert colour_width() == 6
+    assert "1 encoded" in run(*common, "--color-width", "6", "--no-color")[1]
+    assert colour_width() is None
