@@ -42,7 +42,8 @@ def test_encoding_matches_reference_layout_and_frequencies() -> None:
 def test_siren_initialisation_bounds() -> None:
     model = Siren(48, "identity", generator=torch.Generator().manual_seed(3)).requires_grad_(False)
     first, *others = model.layers
-    assert first.in_features == 99 and float(first.weight.abs().max()) <= 1 / 99
+    inputs = 3 + 6 * config.NUM_FREQUENCIES
+    assert first.in_features == inputs and float(first.weight.abs().max()) <= 1 / inputs
     for layer in others:
         bound = np.sqrt(6 / layer.in_features) / config.OMEGA0
         assert float(layer.weight.abs().max()) <= bound
