@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from nfencode.bitstream import read_nfc
+from nfencode.config import NUM_FREQUENCIES
 from nfencode.encoder import EncodeConfig, compress
 from nfencode.io import Shape, load_shape, save_mesh, save_points
 from nfencode.metrics import chamfer_distance, sampling_floor
@@ -87,18 +88,24 @@ def surface_report(mesh: Shape) -> str:
             f"{len(shares)} comp., largest floating {100 * floating:.2f}%")
 
 
-def run_nfc(gt: Shape, field: str, width: int, preset: str, resolution: int,
+def setting_name(preset: str, width: int, frequencies: int) -> str:
+    """`fast w32` for format 1.0's 16 frequencies (the earlier rows), `fast L8 w32` otherwise."""
+    return f"{preset} w{width}" if frequencies == 16 else f"{preset} L{frequencies} w{width}"
+
+
+def run_nfc(gt: Shape, field: str, width: int, preset: str, frequencies: int, resolution: int,
             keep: Path) -> Point:
-    """Encodes, keeps the file as keep/<shape>_<preset>_w<width>.nfc (bench/decode.py input),
-    decodes it with libnfdecode (nfc-decode, CPU path: the same mesh as Vulkan) and measures CD."""
-    config = EncodeConfig(field=field, width=width, preset=preset, seed=SEED, quiet=True)
+    """Encodes, keeps the file as keep/<shape>_<setting>.nfc (bench/decode.py input), decodes it
+    with libnfdecode (nfc-decode, CPU path: the same mesh as Vulkan) and measures CD."""
+    config = EncodeConfig(field=field, width=width, frequencies=frequencies, preset=preset, seed=SEED, quiet=True)
     t0 = time.perf_counter()
     result = compress(gt, config)
     seconds = time.perf_counter() - t0
     keep.mkdir(parents=True, exist_ok=True)
-    path = keep / f"{gt.name}_{preset}_w{width}.nfc"
+    setting = setting_name(preset, width, frequencies)
+    path = keep / f"{gt.name}_{setting.replace(' ', '_')}.nfc"
     path.write_bytes(result.data)
-    return measure_nfc(gt, path, f"{preset} w{width}", resolution, seconds)
+    return measure_nfc(gt, path, setting, resolution, seconds)
 
 
 def measure_nfc(gt: Shape, path: Path, setting: str, resolution: int, seconds: float) -> Point:
@@ -219,11 +226,14 @@ def plot(shape: str, floor: float, ours: list[Point], draco: list[Point], gpcc: 
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    for preset, marker in (("fast", "o-"), ("paper", "s--")):
-        pts = sorted((p for p in ours if p.setting.startswith(preset) and not np.isnan(p.cd)),
-                     key=lambda p: p.bytes)
-        if pts:
-            ax.plot([p.bytes for p in pts], [p.cd for p in pts], marker, label=f"nfc ({preset})")
+    curves: dict[str, list[Point]] = {}  # a curve per setting without its width: "fast", "fast L8", ...
+    for p in ours:
+        if not np.isnan(p.cd):
+            curves.setdefault(p.setting.rsplit(" w", 1)[0], []).append(p)
+    for name, pts in sorted(curves.items()):
+        pts.sort(key=lambda p: p.bytes)
+        marker = "s--" if name.startswith("paper") else "o-"
+        ax.plot([p.bytes for p in pts], [p.cd for p in pts], marker, label=f"nfc ({name})")
     for name, pts in (("Draco envelope", lower_envelope(draco)),
                       ("G-PCC envelope", lower_envelope(gpcc))):
         if pts:
@@ -250,6 +260,8 @@ def main() -> None:
     parser.add_argument("--widths", nargs="+", type=int, default=[16, 24, 32, 48, 64, 96])
     parser.add_argument("--presets", nargs="+", default=["fast", "paper"],
                         choices=["fast", "paper"])
+    parser.add_argument("--frequencies", type=int, default=NUM_FREQUENCIES,
+                        help=f"L of the geometry encoding (default {NUM_FREQUENCIES}; format 1.0 files: 16)")
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--no-draco", action="store_true", help="skip the Draco runs")
     parser.add_argument("--append", action="store_true",
@@ -273,12 +285,12 @@ def main() -> None:
         ours, draco = load_csv(csv_path) if reuse else ([], [])
         if args.decode_only:
             encode_seconds = {p.setting: p.seconds for p in ours}
-            ours = [measure_nfc(gt, out_dir / "nfc" / f"{shape}_{p}_w{w}.nfc", f"{p} w{w}",
-                                args.resolution, encode_seconds.get(f"{p} w{w}", float("nan")))
-                    for p in args.presets for w in args.widths
-                    if (out_dir / "nfc" / f"{shape}_{p}_w{w}.nfc").exists()]
+            names = [setting_name(p, w, args.frequencies) for p in args.presets for w in args.widths]
+            ours = [measure_nfc(gt, out_dir / "nfc" / f"{shape}_{n.replace(' ', '_')}.nfc", n,
+                                args.resolution, encode_seconds.get(n, float("nan")))
+                    for n in names if (out_dir / "nfc" / f"{shape}_{n.replace(' ', '_')}.nfc").exists()]
         elif not args.from_csv:
-            ours += [run_nfc(gt, field, w, p, args.resolution, out_dir / "nfc")
+            ours += [run_nfc(gt, field, w, p, args.frequencies, args.resolution, out_dir / "nfc")
                      for p in args.presets for w in args.widths]
         if not args.from_csv and not args.no_draco and not draco:
             draco = run_draco(gt) if gt.faces is not None else run_draco_cloud(gt)

@@ -1,0 +1,151 @@
+#!/usr/bin/env python3
+"""Where the parameters go (issue 10, item 2): the positional encoding's frequency count L, and
+the bit width.
+
+At widths 16-32 the first layer (3 + 6L inputs) holds most of the network. For each shape, width,
+L and bit width this encodes with the `fast` preset (seed 0), decodes with nfc-decode (CPU path) at
+256 and measures CD (metrics.md, bench/rd.py's measure_nfc), then prints bytes / CD per setting and
+the BD-rate of each (L, bits) against the anchor (L = 16 at 8 bits, format 1.0's choice) per shape.
+Points are cached in bench/out/frequencies.csv, so a rerun only encodes what is missing.
+
+    .venv/bin/python bench/frequencies.py --shapes bunny armadillo dragon spot happy \
+        --widths 16 24 32 48 --frequencies 8 12 16 [--bits 8 7]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+
+from nfencode.encoder import EncodeConfig, compress
+from nfencode.io import load_shape
+from rd import SEED, SHAPES, SHARED, measure_nfc
+
+OUT = Path(__file__).resolve().parent / "out"
+CSV = OUT / "frequencies.csv"
+FIELDS = ("shape", "width", "frequencies", "bits", "bytes", "cd", "seconds")
+Key = tuple[str, int, int, int]  # shape, width, frequencies, bits
+
+
+def bd_rate(anchor: list[tuple[int, float]], test: list[tuple[int, float]]) -> float | None:
+    """Bjøntegaard delta rate of `test` against `anchor` ((bytes, CD) points): the mean difference
+    of log(bytes) at equal log(CD) over the CD range both curves cover, as a fraction (-0.25: 25%
+    fewer bytes). Piecewise-cubic Hermite interpolation of log(bytes) over log(CD) (the pchip form of
+    the metric), each curve reduced to its lower envelope first. None when the ranges do not
+    overlap or a curve has fewer than two points."""
+    curves = []
+    for points in (anchor, test):
+        front: list[tuple[int, float]] = []
+        for b, cd in sorted(points):
+            if not front or cd < front[-1][1]:
+                front.append((b, cd))
+        if len(front) < 2:
+            return None
+        d = np.log([cd for _, cd in front])[::-1]  # increasing log CD
+        r = np.log([b for b, _ in front])[::-1]
+        curves.append((d, PchipInterpolator(d, r)))
+    low = max(curves[0][0][0], curves[1][0][0])
+    high = min(curves[0][0][-1], curves[1][0][-1])
+    if high <= low:
+        return None
+    mean = [float(f.integrate(low, high)) / (high - low) for _, f in curves]
+    return float(np.exp(mean[1] - mean[0]) - 1.0)
+
+
+def load_points() -> dict[Key, dict[str, str]]:
+    if not CSV.exists():
+        return {}
+    with CSV.open() as f:
+        rows = [{**r, "bits": r.get("bits") or "8"} for r in csv.DictReader(f)]  # early rows: 8 bits
+    return {(r["shape"], int(r["width"]), int(r["frequencies"]), int(r["bits"])): r for r in rows}
+
+
+def save_points(points: dict[Key, dict[str, str]]) -> None:
+    """Writes `points` merged with what the file holds now (another run may have added rows)."""
+    points.update({k: r for k, r in load_points().items() if k not in points})
+    partial = CSV.with_suffix(".csv.partial")
+    with partial.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=FIELDS)
+        writer.writeheader()
+        writer.writerows(points[k] for k in sorted(points))
+    partial.replace(CSV)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--shapes", nargs="+", default=["bunny", "armadillo", "dragon", "spot", "happy"],
+                        choices=list(SHAPES))
+    parser.add_argument("--widths", nargs="+", type=int, default=[16, 24, 32, 48, 64])
+    parser.add_argument("--frequencies", nargs="+", type=int, default=[8, 12, 16])
+    parser.add_argument("--bits", nargs="+", type=int, default=[8])
+    parser.add_argument("--anchor", type=int, nargs=2, default=[16, 8], metavar=("L", "BITS"),
+                        help="the setting the BD-rates are measured against")
+    parser.add_argument("--resolution", type=int, default=256)
+    parser.add_argument("--threads", type=int, default=None, help="torch threads per encode")
+    args = parser.parse_args()
+
+    done = load_points()
+    OUT.mkdir(parents=True, exist_ok=True)
+    keep = OUT / "freq"
+    keep.mkdir(exist_ok=True)
+    settings = [(L, b) for b in args.bits for L in args.frequencies]
+    for shape in args.shapes:
+        rel, field, _ = SHAPES[shape]
+        gt = None
+        for width in args.widths:
+            for frequencies, bits in settings:
+                if (shape, width, frequencies, bits) in done:
+                    continue
+                if gt is None:
+                    gt = load_shape(SHARED / "data" / rel)
+                cfg = EncodeConfig(field=field, width=width, frequencies=frequencies, bits=bits, seed=SEED,
+                                   quiet=True, threads=args.threads)
+                t0 = time.perf_counter()
+                data = compress(gt, cfg).data
+                seconds = time.perf_counter() - t0
+                suffix = "" if bits == 8 else f"_b{bits}"
+                path = keep / f"{shape}_w{width}_L{frequencies}{suffix}.nfc"
+                path.write_bytes(data)
+                point = measure_nfc(gt, path, path.stem, args.resolution, seconds)
+                done[(shape, width, frequencies, bits)] = {
+                    "shape": shape, "width": str(width), "frequencies": str(frequencies), "bits": str(bits),
+                    "bytes": str(point.bytes), "cd": f"{point.cd:.6g}", "seconds": f"{seconds:.1f}"}
+                save_points(done)
+                print(f"{shape} w{width} L{frequencies} b{bits}: {point.bytes} B, CD {point.cd:.6g}, {seconds:.0f} s",
+                      flush=True)
+
+    names = [f"L={L} b{b}" for L, b in settings]
+    print("\n| shape | width | " + " | ".join(f"{n} bytes / CD" for n in names) + " |")
+    print("|---|---:|" + "---:|" * len(settings))
+    for shape in args.shapes:
+        for width in args.widths:
+            cells = []
+            for L, b in settings:
+                r = done.get((shape, width, L, b))
+                cells.append(f"{r['bytes']} / {float(r['cd']):.5f}" if r else "—")
+            print(f"| {shape} | {width} | " + " | ".join(cells) + " |")
+
+    anchor = (args.anchor[0], args.anchor[1])
+    others = [s for s in settings if s != anchor]
+    print(f"\nBD-rate against L = {anchor[0]} at {anchor[1]} bits over widths {', '.join(map(str, args.widths))} "
+          "(log bytes at equal log CD, pchip; negative: fewer bytes)\n")
+    print("| shape | " + " | ".join(f"L={L} b{b}" for L, b in others) + " |")
+    print("|---|" + "---:|" * len(others))
+    for shape in args.shapes:
+        def curve(setting: tuple[int, int]) -> list[tuple[int, float]]:
+            return [(int(r["bytes"]), float(r["cd"])) for k, r in done.items()
+                    if k[0] == shape and (k[2], k[3]) == setting and k[1] in args.widths]
+        cells = []
+        for setting in others:
+            rate = bd_rate(curve(anchor), curve(setting))
+            cells.append("—" if rate is None else f"{100 * rate:+.1f}%")
+        print(f"| {shape} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()
