@@ -18,7 +18,16 @@ import torch
 from scipy.spatial import cKDTree
 
 from . import config
-from .bitstream import COLOR_SPACE_RGB, MAX_BITS, MAX_FREQUENCIES, MAX_WIDTH, MIN_BITS, OUTPUT_SIGMOID, ColorChunk, NfcFile
+from .bitstream import (
+    COLOR_SPACE_RGB,
+    MAX_BITS,
+    MAX_FREQUENCIES,
+    MAX_WIDTH,
+    MIN_BITS,
+    OUTPUT_SIGMOID,
+    ColorChunk,
+    NfcFile,
+)
 from .errors import InputError
 from .io import Shape
 from .model import Siren

@@ -131,6 +131,7 @@ TEST_F(QueueStream, GeometryJobsStartBeforeTheColour) {
     EXPECT_TRUE(takes_mesh_like(full, with_colour));
     const float* colours = nullptr;
     EXPECT_EQ(nfd_mesh_get_colours(with_colour, &colours), NFD_SUCCESS);
+    EXPECT_NE(colours, nullptr);  // so takes_mesh_like compared colours too
     nfd_mesh_destroy(plain);
     nfd_mesh_destroy(with_colour);
     nfd_job_destroy(early);
