@@ -15,13 +15,19 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
 from . import config
 from .bitstream import CHUNK_OVERHEAD, HEADER_SIZE, MAX_WIDTH, MIN_BITS, parameter_count
 from .errors import InputError
 
 MIN_WIDTH = 4
 MAX_ENCODES = 5  # each is a full encode: the search stops there with the best that fits
-PRIOR_BYTES_PER_PARAMETER_8_BITS = 0.72  # measured: bunny and armadillo, widths 16-96 (RESULTS.md)
+# Bytes per parameter of 8-bit files by frequency count L (interpolated between, held beyond):
+# L = 16 bunny and armadillo at widths 16-96 (RESULTS.md "Rate control"); L = 8 the median of the
+# five shapes at widths 16-48 (0.87-0.93; "Where the parameters go"): the weights of the top
+# octaves that L = 8 drops were the cheapest.
+PRIOR_BYTES_PER_PARAMETER_8_BITS = {8: 0.90, 16: 0.72}
 FIXED_BYTES = HEADER_SIZE + CHUNK_OVERHEAD + 48  # header, GEOM framing, frame and network fields
 LOWEST_BITS = 6  # the bit widths tried below MIN_WIDTH: the requested one down to this
 SAFETY = 1.03  # after a file too large: aim 3% under the measured rate's prediction
@@ -41,6 +47,11 @@ class RateChoice:
     width: int
     bits: int
     attempts: list[Attempt]
+
+
+def prior_bytes_per_parameter(frequencies: int) -> float:
+    points = sorted(PRIOR_BYTES_PER_PARAMETER_8_BITS.items())
+    return float(np.interp(frequencies, [L for L, _ in points], [r for _, r in points]))
 
 
 def parameters(width: int, frequencies: int = config.NUM_FREQUENCIES) -> int:
@@ -65,7 +76,7 @@ def choose(budget: int, bits: int, encode: Callable[[int, int], bytes],
     attempts: list[Attempt] = []
     best: tuple[bytes, Attempt] | None = None
     too_large = MAX_WIDTH + 1  # the smallest width found too large at the current bits
-    rate = PRIOR_BYTES_PER_PARAMETER_8_BITS * bits / 8
+    rate = prior_bytes_per_parameter(frequencies) * bits / 8
     width = min(width_for(budget, rate, frequencies), MAX_WIDTH)
     while len(attempts) < MAX_ENCODES:
         if width < MIN_WIDTH:
