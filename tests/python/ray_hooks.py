@@ -18,9 +18,9 @@ def setup() -> None:
     config.SURFACE_POINTS_PER_EPOCH = 5_000
     real_load = io.load_shape
 
-    def load_shape(path):  # type: ignore[no-untyped-def]
+    def load_shape(path, *args, **kwargs):  # type: ignore[no-untyped-def]
         if Path(path).name.startswith("crash_"):
             os._exit(1)
-        return real_load(path)
+        return real_load(path, *args, **kwargs)
 
     io.load_shape = load_shape
