@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <nfdecode/nfdecode.h>
 
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <string>
@@ -173,6 +174,50 @@ TEST_F(QueueStream, TruncatedOrCorruptInputFailsTheJob) {
     nfd_queue_stats st;
     ASSERT_EQ(nfd_queue_get_stats(q, &st), NFD_SUCCESS);
     EXPECT_EQ(st.jobs_failed, 2u);
+}
+
+// Hostile values that pass the CRC: a file the parser refuses fails the job with the one-shot
+// parser's code; files it accepts (damaged steps, levels, frame) end DONE with a finite mesh or
+// with an error code, as nfd_queue_submit would.
+TEST_F(QueueStream, HostileValuesBehindValidCrcs) {
+    const nfd_mesh_options mo = mesh_options(16);
+    GeomSpec spec = closed_blob();
+    spec.num_frequencies = 30;  // over MAX_FREQUENCIES; the file's CRCs are right
+    const Bytes refused = geom_file(spec);
+    nfd_asset* a = nullptr;
+    const nfd_result one_shot = nfd_asset_create(refused.data(), refused.size(), &a);
+    ASSERT_NE(one_shot, NFD_SUCCESS);
+    nfd_job* job = submit(mo);
+    EXPECT_EQ(nfd_job_feed(job, refused.data(), refused.size(), nullptr), one_shot);
+    EXPECT_EQ(nfd_job_wait(job, UINT64_MAX), NFD_JOB_FAILED);
+    nfd_mesh* m = nullptr;
+    EXPECT_EQ(nfd_job_take_mesh(job, &m), one_shot);
+    nfd_job_destroy(job);
+
+    size_t accepted = 0;
+    for_each_accepted_damaged_file(geom_payload(closed_blob()), 7, {0x01, 0x80},
+                                   [&](size_t i, const Bytes& bytes, const Geometry&) {
+        SCOPED_TRACE(i);
+        ++accepted;
+        nfd_job* j = submit(mo);
+        EXPECT_EQ(nfd_job_feed(j, bytes.data(), bytes.size(), nullptr), NFD_SUCCESS);
+        EXPECT_EQ(nfd_job_finish_input(j), NFD_SUCCESS);
+        const nfd_job_status st = nfd_job_wait(j, UINT64_MAX);
+        nfd_mesh* mesh = nullptr;
+        const nfd_result r = nfd_job_take_mesh(j, &mesh);
+        if (st == NFD_JOB_DONE) {
+            ASSERT_EQ(r, NFD_SUCCESS);
+            nfd_mesh_data d{};
+            ASSERT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
+            for (size_t k = 0; k < 3 * d.vertex_count; ++k) ASSERT_TRUE(std::isfinite(d.positions[k]));
+        } else {
+            EXPECT_EQ(st, NFD_JOB_FAILED);
+            EXPECT_NE(r, NFD_SUCCESS);
+        }
+        nfd_mesh_destroy(mesh);
+        nfd_job_destroy(j);
+    });
+    EXPECT_GT(accepted, 10u);
 }
 
 // Damage after the geometry a started job needed: the feed reports it, the job still finishes.

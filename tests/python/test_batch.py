@@ -276,3 +276,17 @@ def test_colour_options_reach_the_encoder_and_the_cache_key(tmp_path: Path, monk
     assert colour_width() == 6
     assert "1 encoded" in run(*common, "--color-width", "6", "--no-color")[1]
     assert colour_width() is None
+
+
+def test_manifest_rows_with_bad_frequency_and_colour_options(tmp_path: Path) -> None:
+    lib = write_library(tmp_path)
+    manifest = tmp_path / "assets.jsonl"
+    manifest.write_text("\n".join([
+        json.dumps({"path": str(lib / "box.ply"), "frequencies": 99}),
+        json.dumps({"path": str(lib / "box.ply"), "name": "b2", "color_width": "wide"}),
+        json.dumps({"path": str(lib / "box.ply"), "name": "b3", "color": "maybe"}),
+    ]) + "\n")
+    code, stdout, stderr = run("encode-batch", manifest, "-o", tmp_path / "out", "--workers", "1", *ENCODE)
+    assert code == 1 and "0 encoded, 0 skipped (up to date), 3 failed of 3" in stdout
+    for expected in ("99 frequencies outside", "color_width must be int", "colour mode 'maybe'"):
+        assert expected in stderr, (expected, stderr)
