@@ -76,6 +76,12 @@
 #define NFD_B_GRADIENTS 26         // (value, gradient) per listed point, field_eval's output
 #define NFD_B_COUNTERS 27          // the job's counters (counters.glsl)
 #define NFD_B_DENSE_VALUES 28      // dense_corners: the top level's values, side^3 vertices
+// Progressive UDF levels: a level's gradient list carried to the next finer level, whose parents
+// are the level's kept cells and whose even child-grid points are those cells' corners.
+#define NFD_B_CORNER_GRADIENTS 29  // per parent, 8 indices into the level above's list
+#define NFD_B_ABOVE_GRADIENTS 30   // that list's (value, gradient) per point
+#define NFD_B_FRESH_GRADIENTS 31   // (value, gradient) of the points the list above lacks
+#define NFD_NOT_LISTED 0xffffffffu // a corner gradient the level above did not evaluate
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel
 #define NFD_LEVEL_PUSH_BYTES 56    // extract.glsl's LevelPush

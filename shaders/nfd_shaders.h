@@ -30,6 +30,8 @@ extern const Spirv mc_emit;             // per finest-level parent: vertex edges
 extern const Spirv mc_vertices;         // SDF, per vertex: position (edge crossing), normal
 extern const Spirv udf_near;            // UDF, per finest-level parent: near children
 extern const Spirv udf_gradient_count;  // UDF: which points each parent evaluates a gradient at
+extern const Spirv udf_gradient_merge;  // UDF levels: fresh and carried gradients into one list
+extern const Spirv udf_corner_gradients;  // UDF levels: the next level's corners in this list
 extern const Spirv udf_classify;        // UDF, per finest-level parent: pseudo-signed cases
 extern const Spirv udf_vertices;        // UDF, per vertex: position (|f| minimum), normal
 

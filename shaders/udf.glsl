@@ -15,7 +15,9 @@ layout(std430, binding = NFD_B_GRADIENT_OWNED) buffer GradientOwned { uint gradi
 layout(std430, binding = NFD_B_GRADIENT_OFFSETS) readonly buffer GradientOffsets {
     uint gradient_offsets[];
 };
+#ifndef UDF_GRADIENTS_WRITTEN
 layout(std430, binding = NFD_B_GRADIENTS) readonly buffer Gradients { vec4 gradients[]; };
+#endif
 
 // Whether finest cell c (which may lie outside the grid) is a near child of a kept parent.
 bool is_near_cell(ivec3 c, uint r) {
@@ -27,13 +29,18 @@ bool is_near_cell(ivec3 c, uint r) {
     return (near_masks[kept_rank(parent)] & (1u << (d.x | d.y << 1 | d.z << 2))) != 0u;
 }
 
-// (value, gradient) at child-grid point w, a corner of a near cell (so its owner listed it).
-vec4 field_at(uvec3 w, uint r) {
-    uvec3 o = owner_cell(w, 2u, r);
+// The index in the gradient list of child-grid point w, or NFD_NOT_LISTED.
+uint gradient_index(uvec3 w, uint r) {
+    uvec3 o;
+    if (!find_owner(w, 2u, r, o)) return NFD_NOT_LISTED;
     uint ko = kept_rank(cell_index(o, r));
-    uint below = (1u << local_index(w - 2u * o)) - 1u;
-    return gradients[gradient_offsets[ko] + bitCount(gradient_owned[ko] & below)];
+    uint bit = 1u << local_index(w - 2u * o);
+    if ((gradient_owned[ko] & bit) == 0u) return NFD_NOT_LISTED;
+    return gradient_offsets[ko] + bitCount(gradient_owned[ko] & (bit - 1u));
 }
+
+// (value, gradient) at child-grid point w, a corner of a near cell (so its owner listed it).
+vec4 field_at(uvec3 w, uint r) { return gradients[gradient_index(w, r)]; }
 
 // As mesh_udf_cpu.cpp: left to right, no fused multiply-add, so that equal gradients give equal
 // pseudo-signs on both paths.

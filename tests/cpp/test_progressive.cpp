@@ -252,41 +252,57 @@ TEST_P(Progressive, RejectsInvalidOptions) {
     nfd_extraction_destroy(nullptr);
 }
 
-// On the CPU a UDF level copies the gradients its even corners had on the level above (same f32
-// points) instead of evaluating them again: fewer gradient evaluations than the one-shot decodes
-// of its levels together, and the final level fewer than its one-shot, whose mesh it still equals
-// (EveryLevelEqualsTheOneShotDecode).
-TEST(ProgressiveCpu, UdfLevelsReuseTheGradientsAbove) {
-    const Bytes bytes = read_bytes(golden_path("tshirt_udf_w16", ".nfc"));
-    const Geometry g = parse_or_throw(bytes);
-    uint64_t one_shots = 0, final_one_shot = 0;
-    for (uint32_t r : {32u, 64u, 128u}) {
-        MeshData mesh;
-        ExtractStats stats;
-        ASSERT_EQ(extract_mesh_cpu(g, r, &mesh, &stats), NFD_SUCCESS);
-        one_shots += stats.gradients_evaluated;
-        final_one_shot = stats.gradients_evaluated;
-    }
-    Context ctx(NFD_DEVICE_CPU);
-    Asset asset(bytes);
+// Gradient evaluations per level of a progressive extraction, every level meshed.
+std::vector<uint64_t> progressive_gradients(nfd_context* ctx, const nfd_asset* asset,
+                                            uint32_t resolution) {
     nfd_extraction_options eo{};
     eo.struct_size = sizeof eo;
-    eo.resolution = 128;
+    eo.resolution = resolution;
     nfd_extraction* ex = nullptr;
-    ASSERT_EQ(nfd_extraction_create(ctx.handle, asset.handle, &eo, &ex), NFD_SUCCESS);
-    uint64_t progressive = 0;
+    EXPECT_EQ(nfd_extraction_create(ctx, asset, &eo, &ex), NFD_SUCCESS);
+    std::vector<uint64_t> per_level;
     nfd_extraction_level info{};
     do {
         info.struct_size = sizeof info;
         nfd_mesh* mesh = nullptr;
-        ASSERT_EQ(nfd_extraction_step(ex, &mesh, &info), NFD_SUCCESS);
+        if (nfd_extraction_step(ex, &mesh, &info) != NFD_SUCCESS) {
+            ADD_FAILURE() << "step";
+            break;
+        }
         nfd_mesh_destroy(mesh);
-        progressive += info.gradients_evaluated;
+        per_level.push_back(info.gradients_evaluated);
     } while (!info.done);
     nfd_extraction_destroy(ex);
-    EXPECT_LT(progressive, one_shots);
-    EXPECT_LT(info.gradients_evaluated, final_one_shot);
-    EXPECT_GT(info.gradients_evaluated, final_one_shot / 2);
+    return per_level;
+}
+
+// A UDF level copies the gradients its even corners had on the level above (same f32 points)
+// instead of evaluating them again, on the CPU (grid.cpp) and on the Vulkan path (udf_gradient_
+// merge.comp): fewer gradient evaluations than the one-shot decodes of its levels together, the
+// final level fewer than its one-shot, whose mesh it still equals (EveryLevelEqualsTheOneShot-
+// Decode), and the same count per level on every device.
+TEST_P(Progressive, UdfLevelsReuseTheGradientsAbove) {
+    Context cpu(NFD_DEVICE_CPU);
+    for (const char* name : {"tshirt_udf_w16", "bunny_scans_udf_w16"}) {
+        SCOPED_TRACE(name);
+        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
+        const Geometry g = parse_or_throw(bytes);
+        uint64_t one_shots = 0, final_one_shot = 0;
+        for (uint32_t r : {32u, 64u, 128u}) {
+            MeshData mesh;
+            ExtractStats stats;
+            ASSERT_EQ(extract_mesh_cpu(g, r, &mesh, &stats), NFD_SUCCESS);
+            one_shots += stats.gradients_evaluated;
+            final_one_shot = stats.gradients_evaluated;
+        }
+        Asset asset(bytes);
+        const std::vector<uint64_t> here = progressive_gradients(ctx(), asset.handle, 128);
+        ASSERT_EQ(here.size(), 3u);
+        EXPECT_LT(here[0] + here[1] + here[2], one_shots);
+        EXPECT_LT(here[2], final_one_shot);
+        EXPECT_GT(here[2], final_one_shot / 2);
+        EXPECT_EQ(here, progressive_gradients(cpu.handle, asset.handle, 128));
+    }
 }
 
 // The Vulkan path's top step evaluates only the vertices of the coarsest level, as the CPU does,

@@ -552,8 +552,9 @@ NFD_API nfd_result nfd_points_write_placed_ply(const float* points, const float*
  * where r / 2^k is rounded up (130's 33 and 65) is no decode's own: it is marching cubes on that
  * level's cells as sampled for r, with cells 2^k * 2 / r wide, its last cells reaching up to one
  * cell past the unit cube. SDF and UDF alike; a UDF level's mesh needs the field's gradients at
- * the corners of its near cells, evaluated for that level (gradients_evaluated; on the CPU those at
- * corners it shares with the level above are copied from there), while the values of every level
+ * the corners of its near cells, evaluated for that level (gradients_evaluated; those at corners
+ * it shares with the level above, when that level was meshed, are copied from there, the same
+ * count on every device kind), while the values of every level
  * are evaluated once: the points_evaluated of all steps add up to the one-shot decode's at r.
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_extraction nfd_extraction;

@@ -34,6 +34,9 @@ constexpr uint32_t kLevel =
 constexpr uint32_t kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
 constexpr uint32_t kGradients =
     B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_GRADIENTS);
+// The UDF gradient list's masks; NFD_B_OWNED and NFD_B_CORNER_GRADIENTS serve the carried variant.
+constexpr uint32_t kGradientCount = kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADIENT_OWNED) |
+                                    B(NFD_B_OWNED) | B(NFD_B_CORNER_GRADIENTS);
 constexpr uint32_t kFieldLayers = ((1u << NFD_GPU_MAX_LAYERS) - 1) << NFD_B_FIELD_LAYER0;
 constexpr uint32_t kField =
     B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES) | B(NFD_B_FIELD_COUNTERS);
@@ -128,9 +131,19 @@ constexpr KernelDesc kKernels[] = {
     // UDF (udf.glsl).
     {Kernel::UdfNear, shaders::udf_near, kChildGrid | B(NFD_B_VALUES) | B(NFD_B_NEAR_MASKS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfGradientCount, shaders::udf_gradient_count,
-     kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADIENT_OWNED) | B(NFD_B_COUNTS), 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfGradientCount, shaders::udf_gradient_count, kGradientCount, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE, 0},
+    // Progressive levels: the corners a level's gradient list has for the next (udf.glsl).
+    {Kernel::UdfGradientCountCarried, shaders::udf_gradient_count, kGradientCount, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE, 1},
+    {Kernel::UdfGradientMerge, shaders::udf_gradient_merge,
+     B(NFD_B_COUNTERS) | kGradients | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) |
+         B(NFD_B_CORNER_GRADIENTS) | B(NFD_B_ABOVE_GRADIENTS) | B(NFD_B_FRESH_GRADIENTS),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfCornerGradients, shaders::udf_corner_gradients,
+     kLevel | B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_CHILD_CELLS) |
+         B(NFD_B_CORNER_GRADIENTS),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfClassify, shaders::udf_classify,
      kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS) | B(NFD_B_CASES) |
          B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),

@@ -35,7 +35,8 @@ enum class Kernel : uint32_t {
     CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseCorners,
     RefineCount, RefinePoints, RefineCells, GatherCorners,
     McClassify, McEmit, McVertices,
-    UdfNear, UdfGradientCount, UdfClassify, UdfVertices,
+    UdfNear, UdfGradientCount, UdfGradientCountCarried, UdfGradientMerge, UdfCornerGradients,
+    UdfClassify, UdfVertices,
     Count
 };
 constexpr size_t kKernelCount = size_t(Kernel::Count);

@@ -7,7 +7,8 @@
 namespace nfd::gpu {
 
 nfd_result mesh_level(Job& job, DeviceNetwork& net, FieldType field, FinestLevel& level,
-                      const Plan* plan, MeshTarget target, ExtractStats* stats) {
+                      const Plan* plan, MeshTarget target, ExtractStats* stats,
+                      GradientCarry carried) {
     const uint32_t parents = level.parents.capacity;
     if (parents >= 1u << 26) return NFD_ERROR_LIMIT_EXCEEDED;  // mc_emit's k << 6 | edge records
     MeshData out;
@@ -15,7 +16,7 @@ nfd_result mesh_level(Job& job, DeviceNetwork& net, FieldType field, FinestLevel
     if (target.host) to.host = &out;
     if (parents > 0) {
         const auto t_mesh = Clock::now();
-        NFD_TRY(field == FieldType::Udf ? mesh_udf(job, net, level, plan, to, stats)
+        NFD_TRY(field == FieldType::Udf ? mesh_udf(job, net, level, plan, to, stats, carried)
                                         : mesh_sdf(job, level, to, stats));
         stats->seconds_mesh = seconds_since(t_mesh);
     }

@@ -167,8 +167,9 @@ nfd_result LevelBuilder::evaluate_dense_top(Buffers& scratch) {
 
 // The previous level's kept list and corners (from its child grids), which become the parents of
 // the next; the previous parents and child grids go. Own jobs know the kept count by now and
-// size the list exactly; recorded ones take the plan's capacity.
-nfd_result LevelBuilder::gather_kept() {
+// size the list exactly; recorded ones take the plan's capacity. With `carried` (the previous
+// level's UDF gradient list), also where each corner of the kept cells is in that list.
+nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
     Level& child = kept_;
     child.capacity = plan_ ? plan_->level_cells(current_, child.cells) : child.kept;
     NFD_TRY(child.buffers.make(VkDeviceSize(child.capacity) * 4, &child.list));
@@ -187,6 +188,16 @@ nfd_result LevelBuilder::gather_kept() {
                                    {{NFD_B_CHILD_CELLS, *child.list},
                                     {NFD_B_CHILD_CORNERS, *child.corners}}),
                               &gather, child.count()));
+        if (carried && carried->gradients) {
+            NFD_TRY(carried->buffers.make(VkDeviceSize(child.capacity) * 32, &carried->corners));
+            NFD_TRY(job_.dispatch(Kernel::UdfCornerGradients,
+                                  with(level_bindings(level_.parents),
+                                       {{NFD_B_GRADIENT_OWNED, *carried->owned},
+                                        {NFD_B_GRADIENT_OFFSETS, *carried->offsets},
+                                        {NFD_B_CHILD_CELLS, *child.list},
+                                        {NFD_B_CORNER_GRADIENTS, *carried->corners}}),
+                                  &gather, child.count()));
+        }
         NFD_TRY(job_.submit());
     }
     level_.buffers.release();
@@ -196,10 +207,10 @@ nfd_result LevelBuilder::gather_kept() {
     return NFD_SUCCESS;
 }
 
-nfd_result LevelBuilder::step() {
+nfd_result LevelBuilder::step(CarriedGradients* carried) {
     Buffers scratch(*job_.device.vk);
     if (stepped_) {
-        NFD_TRY(gather_kept());
+        NFD_TRY(gather_kept(carried));
         --current_;
         NFD_TRY(job_.begin());
     } else {
@@ -269,7 +280,7 @@ uint64_t LevelBuilder::next_step_host_bytes(bool mesh) const {
     return (kMostVerticesPerParent * 24 + most_triangles_per_parent() * 12) * kept_.kept;
 }
 
-uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf) const {
+uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf, bool carried) const {
     if (done()) return 0;
     // Per kept cell K of this level: its list entry and corners (36), its child grid's masks,
     // offsets and counts (12) and at most 19 new values (76); the points buffer of a chunk; the
@@ -291,6 +302,9 @@ uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf) const {
         // UDF: near masks, gradient masks, counts, offsets; value + gradient of at most 27
         // points per parent; a points chunk.
         if (udf) bytes += 16 * k + 16 * 27 * k + 12 * std::min(27 * k, chunk) + scan(k);
+        // Carried: the corners' indices in the list above, the fresh points' masks, offsets and
+        // values, the second scan.
+        if (udf && carried) bytes += 32 * k + 8 * k + 16 * 27 * k + scan(k);
     }
     return bytes;
 }

@@ -75,6 +75,19 @@ struct FinestLevel {
     bool keep = false;
 };
 
+// A UDF level's gradient list carried to the next finer level of a progressive extraction, as
+// grid.cpp's evaluate_udf_gradients does on the CPU: that level's parents are this level's kept
+// cells, and its even child-grid points their corners, whose (value, gradient) this list may
+// hold. mesh_udf fills the list; the next step's gather (LevelBuilder::step) finds, for each
+// corner of each newly kept cell, its index in the list (`corners`, NFD_NOT_LISTED if absent),
+// and the next mesh_udf copies those instead of evaluating them again.
+struct CarriedGradients {
+    explicit CarriedGradients(Context& vk) : buffers(vk) {}
+    Buffers buffers;
+    Buffer *owned = nullptr, *offsets = nullptr, *gradients = nullptr;  // the list
+    Buffer* corners = nullptr;  // 8 uints per parent of the next level
+};
+
 // Coarse-to-fine evaluation one level per step(), the GPU twin of grid.h's GridBuilder:
 // extract_mesh (gpu_decode.cpp) steps it to the finest level, a progressive extraction
 // (progressive.cpp) meshes the levels between, a recording (recording.cpp) records every step
@@ -88,22 +101,24 @@ public:
     LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry, uint32_t resolution,
                  const Plan* plan = nullptr);
     // Evaluates the next level (its kept list and corners first from the level before), then,
-    // unless it is the finest, the keep rule on its cells.
-    nfd_result step();
+    // unless it is the finest, the keep rule on its cells. `carried`: the previous level's
+    // gradient list, whose corners of the newly kept cells the step finds.
+    nfd_result step(CarriedGradients* carried = nullptr);
     bool done() const { return stepped_ && current_ == 0; }
     uint32_t current() const { return current_; }
     FinestLevel& level() { return level_; }  // the current level, `keep` set unless the finest
     // The counters of each level's new points, and of each kept level's cells (level, slot).
     const std::vector<uint32_t>& point_slots() const { return point_slots_; }
     const std::vector<std::pair<uint32_t, uint32_t>>& kept_slots() const { return kept_slots_; }
-    // An upper bound of the device bytes the next step() and, with `mesh`, its mesher allocate.
-    uint64_t next_step_device_bytes(bool mesh, bool udf) const;
+    // An upper bound of the device bytes the next step() and, with `mesh`, its mesher allocate;
+    // `carried`: the UDF mesher copies gradients from the level before (CarriedGradients).
+    uint64_t next_step_device_bytes(bool mesh, bool udf, bool carried = false) const;
     uint64_t next_step_host_bytes(bool mesh) const;  // the mesh read back
 
 private:
     LevelPush refine_push(uint32_t child_level, uint32_t parent_cells, Count parents) const;
     nfd_result evaluate_dense_top(Buffers& scratch);
-    nfd_result gather_kept();
+    nfd_result gather_kept(CarriedGradients* carried);
 
     Job& job_;
     DeviceNetwork& net_;
@@ -156,14 +171,21 @@ struct MeshTarget {
 // Marching cubes of an SDF (mesh_sdf.cpp) and the UDF mesher (mesh_udf.cpp): original-frame mesh.
 // Both release the level's storage before the mesh is read back (peak memory) unless it `keep`s.
 nfd_result mesh_sdf(Job& job, FinestLevel& finest, MeshTarget target, ExtractStats* stats);
+// mesh_udf's gradient list: with `above` (own jobs), the corners it lists are copied; with
+// `carry`, the list is kept there for the next level.
+struct GradientCarry {
+    const CarriedGradients* above = nullptr;
+    CarriedGradients* carry = nullptr;
+};
 nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Plan* plan,
-                    MeshTarget target, ExtractStats* stats);
+                    MeshTarget target, ExtractStats* stats, GradientCarry carried = {});
 
 // The mesher of the field type on `level`, positions in the original frame; `stats` gets the
 // mesher's time, active cells and (UDF) gradients added (own jobs). NFD_ERROR_LIMIT_EXCEEDED past
 // what mc_emit's records address.
 nfd_result mesh_level(Job& job, DeviceNetwork& net, FieldType field, FinestLevel& level,
-                      const Plan* plan, MeshTarget target, ExtractStats* stats);
+                      const Plan* plan, MeshTarget target, ExtractStats* stats,
+                      GradientCarry carried = {});
 
 // What a classify kernel (mc_classify.comp, udf_classify.comp) writes per level-1 parent, and
 // the prefix sums of its counts: the input of emit_mesh. Sized for the parents' capacity and

@@ -1,6 +1,7 @@
 // The UDF mesher on the device, the GPU side of mesh_udf_cpu.cpp (extract.h, steps 1-7; udf.glsl):
 // near children (udf_near), the gradient list (udf_gradient_count, refine_points, the field's
-// gradient kernel), pseudo-signed marching cubes with the edge filter (udf_classify), then the
+// gradient kernel; for progressive levels udf_gradient_merge with the level above's list),
+// pseudo-signed marching cubes with the edge filter (udf_classify), then the
 // shared emit_mesh with udf_vertices.comp. Own jobs read the gradient count between batches and
 // size the list exactly; a mesh left on the device takes the plan's capacity.
 #include "levels.h"
@@ -8,51 +9,72 @@
 namespace nfd::gpu {
 
 nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Plan* plan,
-                    MeshTarget target, ExtractStats* stats) {
+                    MeshTarget target, ExtractStats* stats, GradientCarry carried) {
     Context& vk = *job.device.vk;
     const uint32_t k = finest.parents.capacity;
     const Level& parents = finest.parents;
     LevelPush push = finest.push;
     push.threshold = udf_near_threshold(push.step);
     push.edge_limit = kUdfEdgeFactor * push.step;
+    const CarriedGradients* above =
+        carried.above && carried.above->corners ? carried.above : nullptr;
+    if (above && !job.own) return NFD_ERROR_INTERNAL;  // no such caller: recordings are one-shot
 
-    // Near children and the points that need a gradient.
+    // Near children and the points that need a gradient; with `above`, those it lacks (`fresh`).
     Buffers list(vk);
-    Buffer *near, *owned, *counts, *offsets;
+    Buffers& kept = carried.carry ? carried.carry->buffers : list;
+    Buffer *near, *owned, *offsets, *fresh_owned = nullptr, *fresh_offsets = nullptr;
     NFD_TRY(list.make(VkDeviceSize(k) * 4, &near));
-    NFD_TRY(list.make(VkDeviceSize(k) * 4, &owned));
-    NFD_TRY(list.make(VkDeviceSize(k) * 4, &counts));
-    NFD_TRY(list.make(VkDeviceSize(k) * 4, &offsets));
+    NFD_TRY(kept.make(VkDeviceSize(k) * 4, &owned));
+    NFD_TRY(kept.make(VkDeviceSize(k) * 4, &offsets));
+    if (above) {
+        NFD_TRY(list.make(VkDeviceSize(k) * 4, &fresh_owned));
+        NFD_TRY(list.make(VkDeviceSize(k) * 4, &fresh_offsets));
+    }
     std::vector<Bind> near_bindings = child_grid_bindings(parents, finest.grid);
     near_bindings.push_back({NFD_B_NEAR_MASKS, *near});
     std::vector<Bind> count_bindings = level_bindings(parents);
-    count_bindings.insert(count_bindings.end(), {{NFD_B_NEAR_MASKS, *near},
-                                                 {NFD_B_GRADIENT_OWNED, *owned},
-                                                 {NFD_B_COUNTS, *counts}});
-    PointList gradient_list;
+    // Without `above` the carried variant's two roles are bound to the list's masks, unused.
+    count_bindings.insert(count_bindings.end(),
+                          {{NFD_B_NEAR_MASKS, *near},
+                           {NFD_B_GRADIENT_OWNED, *owned},
+                           {NFD_B_OWNED, above ? *fresh_owned : *owned},
+                           {NFD_B_CORNER_GRADIENTS, above ? *above->corners : *owned}});
+    PointList gradient_list, fresh_list;
     gradient_list.owned = owned;
     gradient_list.offsets = offsets;
+    fresh_list.owned = fresh_owned;
+    fresh_list.offsets = fresh_offsets;
     if (target.device) {
         gradient_list.slot = target.device->gradient_slot;
         gradient_list.capacity = plan->gradient_points;
     } else {
         NFD_TRY(job.new_slot(&gradient_list.slot));
         gradient_list.capacity = UINT32_MAX;  // sized below, once counted
+        if (above) NFD_TRY(job.new_slot(&fresh_list.slot));
+        fresh_list.capacity = UINT32_MAX;
     }
     {
         Buffers scratch(vk);
         NFD_TRY(job.begin());
-        job.fill(*counts, 0);
+        job.fill(*owned, 0);  // the scans and totals run on the capacity
+        if (above) job.fill(*fresh_owned, 0);
         NFD_TRY(job.dispatch(Kernel::UdfNear, near_bindings, &push, parents.count()));
-        NFD_TRY(job.dispatch(Kernel::UdfGradientCount, count_bindings, &push, parents.count()));
-        NFD_TRY(record_scan(job, scratch, *counts, *offsets, k, false));
-        NFD_TRY(job.total(*counts, *offsets, k, false, gradient_list.slot,
-                          gradient_list.capacity));
+        NFD_TRY(job.dispatch(above ? Kernel::UdfGradientCountCarried : Kernel::UdfGradientCount,
+                             count_bindings, &push, parents.count()));
+        NFD_TRY(record_scan(job, scratch, *owned, *offsets, k, true));
+        NFD_TRY(job.total(*owned, *offsets, k, true, gradient_list.slot, gradient_list.capacity));
+        if (above) {
+            NFD_TRY(record_scan(job, scratch, *fresh_owned, *fresh_offsets, k, true));
+            NFD_TRY(job.total(*fresh_owned, *fresh_offsets, k, true, fresh_list.slot,
+                              fresh_list.capacity));
+        }
         NFD_TRY(job.submit());
     }
     if (!target.device) gradient_list.capacity = job.counter(gradient_list.slot);
-    if (job.own) stats->gradients_evaluated += job.counter(gradient_list.slot);
-    vk.destroy(*counts);
+    if (above) fresh_list.capacity = job.counter(fresh_list.slot);
+    if (job.own)
+        stats->gradients_evaluated += above ? fresh_list.capacity : gradient_list.capacity;
     // From here on the list holds every value the mesher reads (udf.glsl): the child grids' sparse
     // storage goes (at resolution 1024, ~200 MB for ~2M parents).
     if (!finest.keep) {
@@ -60,14 +82,37 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         vk.destroy(*finest.parents.corners);
     }
 
-    // Values and gradients at the list's points (child level 0).
+    // Values and gradients at the list's points (child level 0): evaluated, or with `above`
+    // evaluated where it lacks them and copied where it has them.
     Buffer* gradients;
-    NFD_TRY(list.make(VkDeviceSize(gradient_list.capacity) * 16, &gradients));
+    NFD_TRY(kept.make(VkDeviceSize(gradient_list.capacity) * 16, &gradients));
     {
         Buffers scratch(vk);
         NFD_TRY(job.begin());
-        NFD_TRY(record_list(job, net, parents, gradient_list, *gradients, true, push, scratch));
+        if (above) {
+            Buffer* fresh;
+            NFD_TRY(scratch.make(VkDeviceSize(fresh_list.capacity) * 16, &fresh));
+            NFD_TRY(record_list(job, net, parents, fresh_list, *fresh, true, push, scratch));
+            NFD_TRY(job.dispatch(Kernel::UdfGradientMerge,
+                                 {{NFD_B_GRADIENT_OWNED, *owned},
+                                  {NFD_B_GRADIENT_OFFSETS, *offsets},
+                                  {NFD_B_GRADIENTS, *gradients},
+                                  {NFD_B_OWNED, *fresh_owned},
+                                  {NFD_B_OFFSETS, *fresh_offsets},
+                                  {NFD_B_FRESH_GRADIENTS, *fresh},
+                                  {NFD_B_CORNER_GRADIENTS, *above->corners},
+                                  {NFD_B_ABOVE_GRADIENTS, *above->gradients}},
+                                 &push, parents.count()));
+        } else {
+            NFD_TRY(record_list(job, net, parents, gradient_list, *gradients, true, push, scratch));
+        }
         NFD_TRY(job.submit());
+    }
+    if (carried.carry) {
+        CarriedGradients& c = *carried.carry;
+        c.owned = owned;
+        c.offsets = offsets;
+        c.gradients = gradients;
     }
 
     // Pseudo-signed cases, the edge filter, the vertex edges.

@@ -1,5 +1,7 @@
 // The GPU path of a progressive extraction (progressive.h): LevelBuilder one level per step, and
-// mesh_level on the levels asked for, which keep their storage for the next step.
+// mesh_level on the levels asked for, which keep their storage for the next step. A meshed UDF
+// level's gradients serve the next level's corners when that level is meshed too
+// (CarriedGradients), as on the CPU (progressive_cpu.cpp).
 #include <new>
 
 #include "gpu_decode.h"
@@ -28,7 +30,7 @@ public:
         if (levels_->done()) return NFD_ERROR_INTERNAL;
         const auto t_field = Clock::now();
         const uint64_t points_before = levels_->level().points_evaluated;
-        NFD_TRY(levels_->step());
+        NFD_TRY(levels_->step(carried_.get()));
         seconds_field_ += seconds_since(t_field);
         const uint32_t l = levels_->current();
         LevelReport r;
@@ -41,8 +43,15 @@ public:
             ExtractStats st;
             st.points_evaluated = levels_->level().points_evaluated;
             st.seconds_field = seconds_field_;
+            // The list this level makes is carried when the next level is meshed too.
+            std::unique_ptr<CarriedGradients> carry;
+            if (udf() && !levels_->done() && meshes(l - 1)) {
+                carry.reset(new (std::nothrow) CarriedGradients(*device_.vk));
+                if (!carry) return NFD_ERROR_OUT_OF_MEMORY;
+            }
             NFD_TRY(mesh_level(job_, *net_, geometry_.field, levels_->level(), nullptr,
-                               {mesh, nullptr}, &st));
+                               {mesh, nullptr}, &st, {carried_.get(), carry.get()}));
+            carried_ = std::move(carry);
             r.gradients_evaluated = st.gradients_evaluated;
             *stats = st;
         }
@@ -50,7 +59,7 @@ public:
             const bool mesh_next = meshes(l - 1);
             r.next_host_bytes = levels_->next_step_host_bytes(mesh_next);
             r.next_device_bytes =
-                levels_->next_step_device_bytes(mesh_next, geometry_.field == FieldType::Udf);
+                levels_->next_step_device_bytes(mesh_next, udf(), carried_ != nullptr);
         }
         *report = r;
         return NFD_SUCCESS;
@@ -58,12 +67,14 @@ public:
 
 private:
     bool meshes(uint32_t level) const { return mesh_mask_ >> level & 1; }
+    bool udf() const { return geometry_.field == FieldType::Udf; }
     Device& device_;
     const Geometry& geometry_;
     const uint32_t resolution_;
     std::shared_ptr<DeviceNetwork> net_;
     Job job_;
     std::unique_ptr<LevelBuilder> levels_;
+    std::unique_ptr<CarriedGradients> carried_;  // the last meshed UDF level's, for the next
     const uint32_t mesh_mask_;
     double seconds_field_ = 0;
 };

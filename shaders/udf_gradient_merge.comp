@@ -1,0 +1,37 @@
+// Progressive UDF levels: the gradient list of a level whose parents' corners the level above
+// listed (udf_gradient_count.comp with CARRIED). Per parent, in list order, each point's (value,
+// gradient) from the fresh evaluations (NFD_B_OWNED, NFD_B_OFFSETS: their mask and offsets) or,
+// for a corner the level above listed, from that list: the same f32 point (child-grid point v of
+// this level is fine vertex v << l, the level above's 2v' << (l - 1)), so the same bits.
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+#include "extract.glsl"
+// Written here: declared before udf.glsl, whose declaration is read-only.
+#define UDF_GRADIENTS_WRITTEN
+layout(std430, binding = NFD_B_GRADIENTS) buffer Gradients { vec4 gradients[]; };
+#include "udf.glsl"
+layout(std430, binding = NFD_B_CORNER_GRADIENTS) readonly buffer CornerGradients {
+    uint corner_gradients[];
+};
+layout(std430, binding = NFD_B_ABOVE_GRADIENTS) readonly buffer AboveGradients {
+    vec4 above_gradients[];
+};
+layout(std430, binding = NFD_B_FRESH_GRADIENTS) readonly buffer FreshGradients {
+    vec4 fresh_gradients[];
+};
+
+void main() {
+    uint k = global_invocation_index(gl_WorkGroupSize.x);
+    if (k >= item_count()) return;
+    uint mask = gradient_owned[k], fresh = owned[k];
+    uint to = gradient_offsets[k], from = offsets[k];
+    for (uint l = 0u; l < 27u; ++l) {
+        uint bit = 1u << l;
+        if ((mask & bit) == 0u) continue;
+        uvec3 local = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
+        gradients[to++] = (fresh & bit) != 0u
+                              ? fresh_gradients[from++]
+                              : above_gradients[corner_gradients[8u * k + corner_index(local)]];
+    }
+}
