@@ -20,6 +20,7 @@
 #include "export.h"
 #include "extract.h"
 #include "grid.h"
+#include "host_memory.h"
 #include "mesh.h"
 #include "network.h"
 #include "nfdecode/nfdecode.h"
@@ -33,7 +34,7 @@
 #include "gpu/gpu_decode.h"
 #endif
 
-struct nfd_context {
+struct nfd_context : nfd::HostAllocated {
     nfd_device_kind kind = NFD_DEVICE_CPU;
     std::string name = "cpu";
     std::string reason;  // nfd_context_device_reason
@@ -43,23 +44,23 @@ struct nfd_context {
 #endif
 };
 
-struct nfd_asset {
+struct nfd_asset : nfd::HostAllocated {
     nfd::ParsedFile file;
 };
 
-struct nfd_stream {
+struct nfd_stream : nfd::HostAllocated {
     nfd::StreamReader reader;
     bool asset_taken = false, complete_asset_taken = false;
 };
 
-struct nfd_mesh {
+struct nfd_mesh : nfd::HostAllocated {
     nfd::MeshData data;
     nfd::ExtractStats stats;
 };
 
 // The ladder (nfdecode.h) is the grid's levels coarsest first: ladder index i is grid level
 // `top - i`. A failed step leaves the implementation mid-level: only destroy is allowed after it.
-struct nfd_extraction {
+struct nfd_extraction : nfd::HostAllocated {
     std::unique_ptr<nfd::Extraction> impl;
     nfd_context* context = nullptr;
     std::array<double, 3> offset{};  // the asset's, for each mesh (Geometry::offset)
@@ -68,19 +69,19 @@ struct nfd_extraction {
     bool done = false, failed = false;
 };
 
-struct nfd_recording {
+struct nfd_recording : nfd::HostAllocated {
 #if NFD_WITH_VULKAN
     std::unique_ptr<nfd::gpu::Recording> impl;
 #endif
     std::array<double, 3> offset{};
 };
 
-struct nfd_queue {
+struct nfd_queue : nfd::HostAllocated {
     nfd_context* context;
     std::unique_ptr<nfd::Queue> queue;
 };
 
-struct nfd_job {
+struct nfd_job : nfd::HostAllocated {
     std::shared_ptr<nfd::Job> job;
     uint32_t levels_total = 0, final_resolution = 0;
     std::array<double, 3> offset{};  // set before the job starts: its meshes come after
@@ -104,10 +105,10 @@ struct nfd_job {
 
 // The finest level in the public layout, built once so that nfd_grid_get_voxels hands out stable
 // pointers, and what the VDB metadata needs of the asset, which the grid may outlive.
-struct nfd_grid {
-    std::vector<int32_t> ijk;
-    std::vector<float> values;   // original units
-    std::vector<float> colours;  // rgb per voxel, or empty
+struct nfd_grid : nfd::HostAllocated {
+    nfd::vector<int32_t> ijk;
+    nfd::vector<float> values;   // original units
+    nfd::vector<float> colours;  // rgb per voxel, or empty
     nfd_grid_voxels voxels{};   // points into ijk and values
     std::array<double, 3> offset{};  // original = offset + voxel position
     uint32_t format_major = 0, format_minor = 0;
@@ -158,7 +159,7 @@ nfd_result colour_voxels(const nfd::ColourField& colour, float step, nfd_context
                          nfd_grid* grid) {
     constexpr size_t kBlock = size_t(1) << 20;
     const size_t count = grid->values.size();
-    std::vector<float> rgb(3 * count), unit(3 * std::min(count, kBlock));
+    nfd::vector<float> rgb(3 * count), unit(3 * std::min(count, kBlock));
     for (size_t begin = 0; begin < count; begin += kBlock) {
         const size_t n = std::min(kBlock, count - begin);
         for (size_t i = 0; i < 3 * n; ++i) unit[i] = -1.0f + float(grid->ijk[3 * begin + i]) * step;
@@ -180,7 +181,7 @@ std::unique_ptr<nfd_grid> finest_voxels(nfd::SparseGrid&& sparse, const nfd::Par
     const uint32_t resolution = sparse.resolution;
     nfd::GridLevel finest = std::move(sparse.levels.front());
     sparse = nfd::SparseGrid();
-    finest.cells = std::vector<uint32_t>();
+    finest.cells = nfd::vector<uint32_t>();
 
     auto grid = std::make_unique<nfd_grid>();
     grid->ijk.resize(3 * size_t(finest.vertices.size()));
@@ -334,6 +335,10 @@ static_assert(NFD_VERSION == NFD_MAKE_VERSION(NFD_PACKAGE_VERSION_MAJOR, NFD_PAC
                                               NFD_PACKAGE_VERSION_PATCH),
               "nfdecode.h vs CMakeLists.txt");
 uint32_t nfd_version(void) { return NFD_VERSION; }
+
+nfd_result nfd_set_allocator(const nfd_allocator* allocator) {
+    return nfd::set_host_allocator(allocator);
+}
 
 nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context) {
     if (!out_context) return NFD_ERROR_INVALID_ARGUMENT;
@@ -856,7 +861,7 @@ nfd_result nfd_queue_create(nfd_context* context, const nfd_queue_options* optio
         const nfd::MemoryBytes budget{opts.host_budget_bytes, opts.device_budget_bytes};
         try {
             *out_queue = new nfd_queue{
-                context, std::make_unique<nfd::Queue>(opts.worker_threads, budget)};
+                {}, context, std::make_unique<nfd::Queue>(opts.worker_threads, budget)};
         } catch (const std::system_error&) {  // a thread could not be started
             return NFD_ERROR_OUT_OF_MEMORY;
         }

@@ -78,18 +78,23 @@ uint32_t tag_index(uint32_t tag) {
     for (int k = 3; k >= 0; --k) i = i * 52 + letter_index((tag >> (8 * k)) & 0xFF);
     return i;
 }
-void set_bit(std::vector<uint64_t>& bitmap, uint32_t i) { bitmap[i / 64] |= uint64_t(1) << (i % 64); }
+void set_bit(nfd::vector<uint64_t>& bitmap, uint32_t i) { bitmap[i / 64] |= uint64_t(1) << (i % 64); }
 
 // Decompresses into exactly `out_size` bytes: the stream must produce exactly that much output,
 // end there, and use all of `in`. Anything else (invalid, shorter, longer, trailing input) is
 // corrupt. The output buffer is never grown: at most one probe byte past its end is requested.
+// The brotli decoder's state through the host's hooks (nfd_set_allocator); NULL tells brotli that
+// the allocation failed.
+void* brotli_allocate(void*, size_t bytes) { return host_allocate_or_null(bytes); }
+void brotli_free(void*, void* address) { host_deallocate(address); }
+
 nfd_result brotli_decompress_exact(const uint8_t* in, size_t in_size, uint8_t* out,
                                    size_t out_size) {
     struct Free {
         void operator()(BrotliDecoderState* s) const { BrotliDecoderDestroyInstance(s); }
     };
     std::unique_ptr<BrotliDecoderState, Free> state(
-        BrotliDecoderCreateInstance(nullptr, nullptr, nullptr));
+        BrotliDecoderCreateInstance(brotli_allocate, brotli_free, nullptr));
     if (!state) return NFD_ERROR_OUT_OF_MEMORY;
 
     size_t avail_in = in_size, avail_out = out_size;
@@ -172,13 +177,13 @@ nfd_result read_network(Reader& r, OutputActivation required_output, uint32_t ou
     // The caps now bound every size: allocate and decompress.
     if (r.remaining() < 1) return NFD_ERROR_TRUNCATED;
     const size_t bytes_per_level = bits <= 8 ? 1 : 2;
-    std::vector<uint8_t> levels(size_t(parameters) * bytes_per_level);
+    nfd::vector<uint8_t> levels(size_t(parameters) * bytes_per_level);
     NFD_TRY(brotli_decompress_exact(r.position(), r.remaining(), levels.data(), levels.size()));
 
     const int32_t max_level = (int32_t(1) << (bits - 1)) - 1;
     size_t next = 0;
     bool levels_ok = true;
-    auto dequantize = [&](std::vector<float>& dst, size_t count, float step) {
+    auto dequantize = [&](nfd::vector<float>& dst, size_t count, float step) {
         dst.resize(count);
         for (size_t k = 0; k < count; ++k, ++next) {
             const int32_t q = bytes_per_level == 1

@@ -9,6 +9,8 @@
 #include "network.h"
 #include "nfdecode/nfdecode.h"
 
+#include "host_memory.h"
+
 namespace nfd {
 
 constexpr size_t kHeaderSize = 16;
@@ -51,7 +53,7 @@ public:
 private:
     std::array<uint32_t, 8> inline_{};
     size_t count_ = 0;
-    std::vector<uint64_t> bitmap_;
+    nfd::vector<uint64_t> bitmap_;
 };
 
 // FORMAT.md's reader, one piece of the file at a time, in file order: the header, then for each

@@ -47,7 +47,7 @@ nfd_result evaluate_colour(const ColourField& colour, const float* points, size_
 
 nfd_result colour_mesh(const ColourField& colour, gpu::Device* device, unsigned threads,
                        MeshData* mesh) {
-    std::vector<float> rgb(mesh->positions.size());
+    nfd::vector<float> rgb(mesh->positions.size());
     const nfd_result r = evaluate_colour(colour, mesh->positions.data(), mesh->vertex_count(),
                                          device, threads, rgb.data());
     if (r == NFD_SUCCESS) mesh->colours = std::move(rgb);

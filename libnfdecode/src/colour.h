@@ -9,6 +9,8 @@
 #include "mesh.h"
 #include "nfdecode/nfdecode.h"
 
+#include "host_memory.h"
+
 namespace nfd {
 namespace gpu {
 class Device;
@@ -32,7 +34,7 @@ template <class Fn>
 nfd_result for_each_unit_block(const float center[3], float scale, const float* points,
                                size_t count, Fn&& fn) {
     constexpr size_t kBlock = size_t(1) << 20;
-    std::vector<float> unit(3 * (count < kBlock ? count : kBlock));
+    nfd::vector<float> unit(3 * (count < kBlock ? count : kBlock));
     for (size_t begin = 0; begin < count; begin += kBlock) {
         const size_t n = count - begin < kBlock ? count - begin : kBlock;
         for (size_t i = 0; i < 3 * n; ++i)

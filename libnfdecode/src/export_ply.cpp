@@ -52,7 +52,7 @@ private:
         buffer_.clear();
     }
     std::FILE* f_;
-    std::vector<uint8_t> buffer_;
+    nfd::vector<uint8_t> buffer_;
     bool ok_ = true;
 };
 

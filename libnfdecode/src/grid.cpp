@@ -58,8 +58,8 @@ private:
     const bool gradients_;
     const unsigned threads_;
     Store store_;
-    std::vector<uint32_t> slots_;
-    std::vector<float> xyz_, values_, grad_;
+    nfd::vector<uint32_t> slots_;
+    nfd::vector<float> xyz_, values_, grad_;
     uint64_t total_ = 0;
 };
 
@@ -101,11 +101,11 @@ void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel*
 // The keep rule's verdict on each cell of `level`, and the size of the level its kept cells'
 // children form: their count, and the vertex blocks their corners (a 3^3 grid per kept cell)
 // touch, marked in a bitmap of the child level's block table.
-std::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, LevelSize* next) {
+nfd::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, LevelSize* next) {
     const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
     const uint32_t blocks_per_axis = (child_cells + 1 + 7) / 8;
-    std::vector<uint64_t> touched((uint64_t(blocks_per_axis) * blocks_per_axis * blocks_per_axis + 63) / 64);
-    std::vector<uint8_t> kept(level.cells.size());
+    nfd::vector<uint64_t> touched((uint64_t(blocks_per_axis) * blocks_per_axis * blocks_per_axis + 63) / 64);
+    nfd::vector<uint8_t> kept(level.cells.size());
     uint64_t count = 0, parents = 0;
     for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];
@@ -141,10 +141,10 @@ std::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, 
 
 // The children of the kept cells of `level`, in order: allocated once at their count, since the
 // finest level's list is the grid's largest array and growing it by doubling would double the peak.
-std::vector<uint32_t> children_of(const SparseGrid& grid, const GridLevel& level,
-                                  const std::vector<uint8_t>& kept, size_t count) {
+nfd::vector<uint32_t> children_of(const SparseGrid& grid, const GridLevel& level,
+                                  const nfd::vector<uint8_t>& kept, size_t count) {
     const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
-    std::vector<uint32_t> children;
+    nfd::vector<uint32_t> children;
     children.reserve(count);
     for (size_t i = 0; i < level.cells.size(); ++i) {
         if (!kept[i]) continue;
@@ -286,7 +286,7 @@ void GridBuilder::step() {
     const GridLevel* parent = stepped_ ? &grid_.levels[l + 1] : nullptr;
     if (parent) {
         level.cells = children_of(grid_, *parent, kept_, next_.cells);
-        kept_ = std::vector<uint8_t>();
+        kept_ = nfd::vector<uint8_t>();
     } else {
         const uint32_t n = level.cells_per_axis;
         level.cells.reserve(size_t(n) * n * n);
@@ -321,7 +321,7 @@ void GridBuilder::evaluate_udf_gradients() {
         for (const auto& o : mc::kCornerOffset) wanted.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
     }
     wanted.finish();
-    std::vector<float>& gradients = level.gradients;
+    nfd::vector<float>& gradients = level.gradients;
     gradients.assign(size_t(3) * wanted.size(), 0.0f);
     auto evaluator = make_evaluator(network_, true, threads_, [&gradients](uint32_t r, float, const float* g) {
         std::copy(g, g + 3, &gradients[size_t(3) * r]);
@@ -339,7 +339,7 @@ void GridBuilder::evaluate_udf_gradients() {
     grid_.stats.gradients_evaluated += evaluator.finish();
     for (uint32_t l = current_ + 1; l < grid_.levels.size(); ++l) {
         grid_.levels[l].gradient_vertices = VertexSet();
-        grid_.levels[l].gradients = std::vector<float>();
+        grid_.levels[l].gradients = nfd::vector<float>();
     }
     grid_.stats.seconds +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -8,6 +8,8 @@
 #include "network.h"
 #include "nfdecode/nfdecode.h"
 
+#include "host_memory.h"
+
 namespace nfd {
 
 // Grid of `resolution` cells per axis over the unit frame [-1, 1]^3: vertex i sits at
@@ -92,8 +94,8 @@ private:
         return ((z >> 3) * blocks_per_axis_ + (y >> 3)) * blocks_per_axis_ + (x >> 3);
     }
     uint32_t side_ = 0, blocks_per_axis_ = 0, size_ = 0;
-    std::vector<uint32_t> table_;  // block index -> slot in blocks_, or kNoBlock
-    std::vector<Block> blocks_;
+    nfd::vector<uint32_t> table_;  // block index -> slot in blocks_, or kNoBlock
+    nfd::vector<Block> blocks_;
 };
 
 // One level of the grid: the cells visited at that level (the coarse level: all of them; finer
@@ -103,13 +105,13 @@ struct GridLevel {
     uint32_t level = 0;           // l: 0 = finest; vertex v of this level is fine vertex v << l
     uint32_t cells_per_axis = 0;  // cells_at_level(resolution, l)
     float cell_size = 0;          // h in the unit frame: step * 2^l; vertex v at -1 + v * h
-    std::vector<uint32_t> cells;  // packed cell coordinates (their minimum corner)
+    nfd::vector<uint32_t> cells;  // packed cell coordinates (their minimum corner)
     VertexSet vertices;           // the corners of `cells`
-    std::vector<float> values;    // field at each vertex, by rank
+    nfd::vector<float> values;    // field at each vertex, by rank
     // For the UDF mesher of this level (GridBuilder::evaluate_udf_gradients): the corners of its
     // near cells and the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
     VertexSet gradient_vertices;
-    std::vector<float> gradients;
+    nfd::vector<float> gradients;
     float corner(const uint32_t cell[3], int corner_index) const;  // mc::kCornerOffset numbering
     // -1 + v * h equals the fine grid's -1 + (v << l) * step in f32: both products are the same
     // real number times a power of two, rounded once.
@@ -144,7 +146,7 @@ struct SparseGrid {
     uint32_t resolution = 0;
     float step = 0;                 // fine cell edge in the unit frame, 2.0f / resolution
     FieldType field = FieldType::Sdf;
-    std::vector<GridLevel> levels;  // levels[l] is level l: levels[0] is the finest
+    nfd::vector<GridLevel> levels;  // levels[l] is level l: levels[0] is the finest
     GridStats stats;
 
     const GridLevel& finest() const { return levels.front(); }
@@ -182,7 +184,7 @@ private:
     SparseGrid grid_;
     uint32_t current_ = 0;
     bool stepped_ = false;
-    std::vector<uint8_t> kept_;  // of the current level's cells, the keep rule's verdicts
+    nfd::vector<uint8_t> kept_;  // of the current level's cells, the keep rule's verdicts
     LevelSize next_;             // of the next level, from the verdicts
 };
 

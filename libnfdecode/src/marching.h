@@ -9,6 +9,8 @@
 #include "mc_tables.h"
 #include "mesh.h"
 
+#include "host_memory.h"
+
 namespace nfd {
 
 // A crossed grid edge: from vertex v (coordinates of the level meshed) along `axis`, with the corner
@@ -31,8 +33,8 @@ uint64_t march_cells(const GridLevel& level, Classify&& classify, EdgeValid&& ed
     const mc::Tables& t = mc::tables();
     // Pass 1: the cells with triangles and their cases. Welding then needs a slot per grid edge of
     // these cells only (a few percent of the band's vertices), not of the whole finest level.
-    std::vector<uint32_t> active;
-    std::vector<uint8_t> cases;
+    nfd::vector<uint32_t> active;
+    nfd::vector<uint8_t> cases;
     for (uint32_t packed : level.cells) {
         uint32_t c[3];
         unpack_coords(packed, c);
@@ -56,7 +58,7 @@ uint64_t march_cells(const GridLevel& level, Classify&& classify, EdgeValid&& ed
 
     // Pass 2: triangles in cell order, one vertex per grid edge (corner rank * 3 + axis).
     constexpr uint32_t kNone = ~0u;
-    std::vector<uint32_t> edge_vertex(size_t(corners.size()) * 3, kNone);
+    nfd::vector<uint32_t> edge_vertex(size_t(corners.size()) * 3, kNone);
     uint64_t emitting = 0;
     for (size_t i = 0; i < active.size(); ++i) {
         uint32_t c[3];

@@ -20,7 +20,7 @@ constexpr size_t kBlock = 64;  // points per block: acc[] stays in registers/L1
 // and, for the gradient path (C = 4), its derivatives along x, y, z. Component c of feature i for
 // point p is h[(i * C + c) * kBlock + p]: every component row runs over points and vectorises.
 struct Scratch {
-    std::vector<float> a, b;  // ping-pong activations, max_width x C x kBlock
+    nfd::vector<float> a, b;  // ping-pong activations, max_width x C x kBlock
 };
 
 // The axis whose coordinate encoded input i depends on (FORMAT.md order: u, then per frequency
@@ -237,7 +237,7 @@ void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float*
     const size_t width = widest(net);
     // Below ~4k points a thread costs more than it saves.
     parallel_for(n, 4096, threads, [&](size_t begin, size_t end) {
-        Scratch s{std::vector<float>(width * C * kBlock), std::vector<float>(width * C * kBlock)};
+        Scratch s{nfd::vector<float>(width * C * kBlock), nfd::vector<float>(width * C * kBlock)};
         if (C == 1)
             value_range(net, unit_xyz, begin, end, out, s);
         else

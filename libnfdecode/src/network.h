@@ -5,6 +5,8 @@
 #include <optional>
 #include <vector>
 
+#include "host_memory.h"
+
 namespace nfd {
 
 enum class FieldType : uint8_t { Sdf = 0, Udf = 1 };
@@ -12,16 +14,16 @@ enum class OutputActivation : uint8_t { Identity = 0, Abs = 1, Sigmoid = 2 };
 
 struct Layer {
     uint32_t in = 0, out = 0;
-    std::vector<float> weights;  // out x in, row-major: weights[o * in + i]
-    std::vector<float> bias;     // out
+    nfd::vector<float> weights;  // out x in, row-major: weights[o * in + i]
+    nfd::vector<float> bias;     // out
 };
 
 struct Network {
-    std::vector<float> frequencies;  // f[k] of FORMAT.md, already rounded to f32
+    nfd::vector<float> frequencies;  // f[k] of FORMAT.md, already rounded to f32
     float omega0 = 30.0f;
     OutputActivation output = OutputActivation::Identity;
     uint32_t bits = 8;
-    std::vector<Layer> layers;       // hidden sine layers then one linear output layer
+    nfd::vector<Layer> layers;       // hidden sine layers then one linear output layer
 
     uint32_t input_width() const { return 3u + 6u * uint32_t(frequencies.size()); }
     uint32_t output_width() const { return layers.empty() ? 0u : layers.back().out; }

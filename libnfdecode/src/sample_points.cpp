@@ -42,7 +42,7 @@ void sample_points(const MeshData& mesh, size_t count, uint64_t seed, float* poi
                    float* normals) {
     const size_t triangles = mesh.triangle_count();
     // Cumulative areas in f64: a million small triangles summed in f32 would skew the choice.
-    std::vector<double> cumulative(triangles);
+    nfd::vector<double> cumulative(triangles);
     double total = 0;
     for (size_t t = 0; t < triangles; ++t) {
         double n[3];

@@ -25,7 +25,7 @@ nfd_result StreamReader::feed(const uint8_t* bytes, size_t size) {
             piece = pending_.data();
         }
         error_ = parser_.read_piece(piece);
-        std::vector<uint8_t>().swap(pending_);  // hold no chunk past its end
+        nfd::vector<uint8_t>().swap(pending_);  // hold no chunk past its end
     }
     return error_;
 }

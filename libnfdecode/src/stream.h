@@ -7,6 +7,8 @@
 
 #include "bitstream.h"
 
+#include "host_memory.h"
+
 namespace nfd {
 
 class StreamReader {
@@ -37,7 +39,7 @@ public:
 
 private:
     FileParser parser_;
-    std::vector<uint8_t> pending_;  // the start of a piece split across feed calls
+    nfd::vector<uint8_t> pending_;  // the start of a piece split across feed calls
     uint64_t consumed_ = 0;
     nfd_result error_ = NFD_SUCCESS;
 };

@@ -137,7 +137,8 @@ inline ColourSamples read_colour_samples(const std::string& path) {
     return s;
 }
 
-inline double max_difference(const std::vector<float>& a, const std::vector<float>& b) {
+template <class A, class B>  // float vectors of any allocator
+double max_difference(const A& a, const B& b) {
     if (a.size() != b.size()) return INFINITY;
     double d = 0;
     for (size_t i = 0; i < a.size(); ++i) d = std::max(d, std::fabs(double(a[i]) - double(b[i])));

@@ -450,7 +450,7 @@ TEST_F(Api, WritesPly) {
     for (const float* normals : {static_cast<const float*>(nullptr), static_cast<const float*>(nrm.data())}) {
         ASSERT_EQ(nfd_points_write_ply(pts.data(), normals, 100, path.c_str()), NFD_SUCCESS);
         const MeshData cloud = read_ply(path);
-        EXPECT_EQ(cloud.positions, pts);
+        EXPECT_EQ(std_vector(cloud.positions), pts);
         EXPECT_EQ(cloud.triangle_count(), 0u);
     }
     std::remove(path.c_str());

@@ -75,7 +75,7 @@ TEST_F(ColourGpu, GoldenVectorsMatchTheReference) {
         const MeshData reference = read_ply(golden_path(name, ".mesh64.ply"));
         MeshData decoded;
         const MeshArrays m = arrays_of(extract(gpu_.get(), asset.get(), 64).get());
-        decoded.positions = m.positions;
+        decoded.positions.assign(m.positions.begin(), m.positions.end());
         ASSERT_EQ(m.colours.size(), m.positions.size()) << name;
         // GPU vertices come in another order: match them to the reference's (1e-4 of the scale).
         const std::vector<int64_t> match =

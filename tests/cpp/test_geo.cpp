@@ -181,7 +181,7 @@ TEST(Geo, PlyHasTheExactPositions) {
     ASSERT_EQ(nfd_mesh_write_ply(mesh.get(), ply.c_str()), NFD_SUCCESS);
     std::vector<double> written;
     const MeshData read = read_ply(ply, &written);
-    EXPECT_EQ(read.indices, arrays_of(twin_mesh.get()).indices);
+    EXPECT_EQ(std_vector(read.indices), arrays_of(twin_mesh.get()).indices);
     EXPECT_LE(frame_error(written, f.center, arrays_of(twin_mesh.get()).positions), kFrameTolerance);
     const Bytes ply_bytes = read_bytes(ply);
     const std::string header(ply_bytes.begin(), ply_bytes.begin() + 200);

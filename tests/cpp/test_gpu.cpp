@@ -45,7 +45,7 @@ std::vector<float> random_points(size_t n, uint32_t seed) {
 // y = sum of the selected encoded inputs: with one linear layer the field is the encoding itself.
 Network encoding_probe(std::vector<float> frequencies, uint32_t column) {
     Network net;
-    net.frequencies = std::move(frequencies);
+    net.frequencies.assign(frequencies.begin(), frequencies.end());
     Layer out;
     out.in = net.input_width();
     out.out = 1;

@@ -84,7 +84,9 @@ MeshArrays mesh_of(const nfd_asset* asset) {
     struct ContextFree {
         void operator()(nfd_context* c) const { nfd_context_destroy(c); }
     };
-    static const std::unique_ptr<nfd_context, ContextFree> ctx = [] {
+    // A CPU context per call (cheap): none outlives the test (HostMemory.* replace the allocator
+    // only while nothing is alive, in the single-process sanitizer runs too).
+    const std::unique_ptr<nfd_context, ContextFree> ctx = [] {
         nfd_context_options co{};
         co.struct_size = sizeof co;
         co.device = NFD_DEVICE_CPU;

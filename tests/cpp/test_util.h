@@ -31,6 +31,12 @@
 
 namespace nfd::test {
 
+// A library vector (nfd::vector, the host's allocator) as a std::vector, to compare with one.
+template <class T, class Allocator>
+std::vector<T> std_vector(const std::vector<T, Allocator>& v) {
+    return std::vector<T>(v.begin(), v.end());
+}
+
 using Bytes = std::vector<uint8_t>;
 
 // ---- writer -------------------------------------------------------------------------------------
@@ -476,8 +482,9 @@ inline double signed_volume(const MeshData& m) {
 
 // Symmetric Chamfer distance (metrics.md: sum of the two one-sided mean Euclidean distances)
 // between point sets, with a uniform grid for the nearest-neighbour queries.
-inline double chamfer(const std::vector<float>& a, const std::vector<float>& b) {
-    auto one_sided = [](const std::vector<float>& from, const std::vector<float>& to) {
+template <class A, class B>  // float vectors of any allocator
+double chamfer(const A& a, const B& b) {
+    auto one_sided = [](const auto& from, const auto& to) {
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         for (size_t i = 0; i < to.size(); ++i) {
             lo[i % 3] = std::min(lo[i % 3], to[i]);

@@ -54,7 +54,7 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 6
+#define NFD_VERSION_MINOR 7
 #define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
@@ -130,6 +130,41 @@ NFD_API uint32_t nfd_version(void);
  * larger one than this library knows (a newer header's struct) is accepted when the fields it does
  * not know are all zero, their defaults, and is NFD_ERROR_INVALID_ARGUMENT otherwise.
  * ------------------------------------------------------------------------------------------- */
+
+/* ---------------------------------------------------------------------------------------------
+ * Host memory (0.7)
+ *
+ * By default the library allocates host memory with the C++ runtime (operator new). A host that
+ * manages its own (an engine's arenas, a budgeted or tracking heap) installs its functions, as
+ * with brotli's alloc_func / free_func or meshopt_setAllocator. They serve every allocation whose
+ * size follows from the input: the objects' handles, parsed networks, sparse grids and voxels,
+ * meshes, stream buffers, the CPU evaluator's batches, marching-cubes bookkeeping, the brotli
+ * decoder's state, the bytes of written .ply files. Not through them: fixed bookkeeping of a few
+ * hundred bytes per object (a queue's job lists, thread objects, callbacks), threads' stacks, the
+ * Vulkan driver's memory, glTF and OpenVDB writing (tinygltf's and OpenVDB's own containers), and
+ * tables built once per process. bench/RESULTS.md ("Host memory hooks") measures the share.
+ *
+ * allocate(user, size) returns `size` bytes (never asked for 0) aligned to at least 16 bytes, or
+ * NULL when it cannot: the call in progress then fails with NFD_ERROR_OUT_OF_MEMORY, leaving
+ * nothing allocated behind (objects that existed before stay valid). deallocate(user, address)
+ * frees an address allocate returned. Both are called from the caller's thread and from the
+ * library's threads (queue workers, the CPU path's threads), at the same time: they must be
+ * thread-safe.
+ * ------------------------------------------------------------------------------------------- */
+typedef struct nfd_allocator {
+    uint32_t struct_size; /* 0.7: sizeof(nfd_allocator), or 0 */
+    void* (*allocate)(void* user, size_t size);
+    void (*deallocate)(void* user, void* address);
+    void* user;           /* passed to both */
+} nfd_allocator;
+
+/* Installs `allocator` (copied) for the whole process; NULL goes back to the C++ runtime. Only
+ * while nothing the current functions allocated is alive: before the first object is created, or
+ * after the last is destroyed (every handle, including meshes and grids a caller still holds).
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT when something is alive (nothing changes), for
+ * a NULL function or a struct_size the library cannot read. Not thread-safe: no other nfd_* call may
+ * run at the same time. */
+NFD_API nfd_result nfd_set_allocator(const nfd_allocator* allocator);
 
 /* ---------------------------------------------------------------------------------------------
  * Context
