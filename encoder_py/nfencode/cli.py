@@ -110,8 +110,12 @@ def cmd_encode(args: argparse.Namespace) -> int:
     device = resolve_device(args.device)
     config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads)
     choice = None
+    if args.target_bytes is not None and args.target_cd is not None:
+        raise InputError("--target-bytes and --target-cd: give one target, not both")
     if args.target_bytes is not None:
         result, choice = _encode_to_target(shape, config, args, geometry is not None)
+    elif args.target_cd is not None:
+        result, choice = _encode_to_distortion(shape, config, args, geometry is not None)
     else:
         result = encoder.compress(shape, config, None if geometry is None else write_nfc(geometry))
     from .batch import write_atomic
@@ -130,7 +134,11 @@ def cmd_encode(args: argparse.Namespace) -> int:
     width, bits = (choice.width, choice.bits) if choice is not None else (config.width, config.bits)
     geometry_what = (f"geometry of {args.geometry}" if geometry is not None else
                      f"width {width}, {bits} bits, preset {args.preset}")
-    if choice is not None:
+    if choice is not None and args.target_cd is not None:
+        tried = ", ".join(f"w{a.width} {a.bytes} B CD {a.cd:.5g}" for a in choice.attempts)
+        print(f"target CD {args.target_cd:g}: chose width {width}, {bits} bits, estimated CD {choice.cd:.5g} "
+              f"(encodes: {tried})")
+    elif choice is not None:
         tried = ", ".join(f"w{a.width}/{a.bits}b {a.bytes} B" for a in choice.attempts)
         print(f"target {args.target_bytes} bytes: chose width {width}, {bits} bits (encodes: {tried})")
     print(
@@ -142,15 +150,21 @@ def cmd_encode(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_target(option: str, shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool) -> None:  # type: ignore[no-untyped-def]
+    from . import encoder
+
+    if args.width is not None:
+        raise InputError(f"{option} chooses the width: give one or the other, not --width too")
+    if reuses_geometry or encoder.wants_color(shape, cfg):
+        raise InputError(f"{option} encodes geometry only: pass --no-color (and no --geometry)")
+
+
 def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool):  # type: ignore[no-untyped-def]
     """--target-bytes: the widest file of at most that many bytes (nfencode.rate), and the choice."""
     from . import encoder, rate
 
     _positive("--target-bytes", args.target_bytes)
-    if args.width is not None:
-        raise InputError("--target-bytes chooses the width: give one or the other, not --width too")
-    if reuses_geometry or encoder.wants_color(shape, cfg):
-        raise InputError("--target-bytes encodes geometry only: pass --no-color (and no --geometry)")
+    _check_target("--target-bytes", shape, cfg, args, reuses_geometry)
     results: dict[tuple[int, int], encoder.EncodeResult] = {}
 
     def encode(width: int, bits: int) -> bytes:
@@ -159,6 +173,28 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, reuses_geomet
 
     _, choice = rate.choose(args.target_bytes, cfg.bits, encode, cfg.frequencies)
     return results[(choice.width, choice.bits)], choice
+
+
+def _encode_to_distortion(shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool):  # type: ignore[no-untyped-def]
+    """--target-cd: the smallest file whose CD, estimated on the reference decoder's mesh at
+    TARGET_CD_RESOLUTION (metrics.md, seed --seed), is at most the target (nfencode.rate)."""
+    from . import config, encoder, rate
+    from .metrics import file_chamfer_distance
+
+    if not (args.target_cd > 0.0 and args.target_cd < float("inf")):
+        raise InputError(f"--target-cd must be a positive number, not {args.target_cd}")
+    _check_target("--target-cd", shape, cfg, args, reuses_geometry)
+    results: dict[int, encoder.EncodeResult] = {}
+
+    def encode(width: int, bits: int) -> bytes:
+        results[width] = encoder.compress(shape, dataclasses.replace(cfg, width=width, bits=bits))
+        return results[width].data
+
+    def estimate(data: bytes) -> float:
+        return file_chamfer_distance(shape, data, config.TARGET_CD_RESOLUTION, seed=cfg.seed)
+
+    _, choice = rate.choose_for_distortion(args.target_cd, cfg.bits, encode, estimate)
+    return results[choice.width], choice
 
 
 def _encode_report(args: argparse.Namespace, output: Path, result, choice, seconds: float) -> dict:  # type: ignore[no-untyped-def]
@@ -177,8 +213,9 @@ def _encode_report(args: argparse.Namespace, output: Path, result, choice, secon
         "frame64": f.geometry.frame64 is not None,
         "seconds": round(seconds, 3),
         "target_bytes": args.target_bytes,
-        "attempts": None if choice is None else [{"width": a.width, "bits": a.bits, "bytes": a.bytes}
-                                                 for a in choice.attempts],
+        "target_cd": args.target_cd,
+        "estimated_cd": choice.cd if args.target_cd is not None else None,
+        "attempts": None if choice is None else [dataclasses.asdict(a) for a in choice.attempts],
     }
 
 
@@ -399,6 +436,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--target-bytes", type=int, default=None, metavar="B",
                    help="write the widest network whose file is at most B bytes (chooses --width, and fewer "
                         "bits below width 4; geometry only)")
+    p.add_argument("--target-cd", type=float, default=None, metavar="C",
+                   help="write the smallest file (choosing --width) whose Chamfer distance to the input, "
+                        "estimated by decoding each candidate with the reference decoder at 256 (metrics.md, "
+                        "seed --seed), is at most C; geometry only")
     p.add_argument("--json", action="store_true", help="print what was written as one JSON object")
     _add_color_options(p)
     p.add_argument("--geometry", metavar="FILE.nfc", default=None,

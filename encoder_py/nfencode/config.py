@@ -77,7 +77,7 @@ L1_WEIGHT = 1e-8
 """λ of the λ·Σ|θ| term (paper)."""
 
 DEFAULT_BITS = 8
-DEFAULT_WIDTH = 32  # hidden layer width of `nfc encode` without --width or --target-bytes
+DEFAULT_WIDTH = 32  # hidden layer width of `nfc encode` without --width or a target; --target-cd's start
 """Bit width b of the symmetric uniform quantization grid (paper)."""
 
 
@@ -125,6 +125,14 @@ COLOR_FREQUENCY_BASE = 1.4
 
 COLOR_WIDTH = 32
 """Default width W_c of the colour network's two sine layers (`--color-width`)."""
+
+TARGET_CD_RESOLUTION = 256
+"""Grid resolution at which `nfc encode --target-cd` decodes each candidate (the reference decoder)
+to estimate its Chamfer distance: the decoder's default, where `nfc decode` puts the surface."""
+
+TARGET_CD_MAX_WIDTH = 128
+"""The widest network `--target-cd` tries: past it each encode costs minutes and the curve has
+flattened onto the fit's limit (bench/RESULTS.md, the `fast` rows at w96)."""
 
 COLOR_RESOLUTION = 256
 """Grid resolution of the decoded surface the colour is fitted on (`--color-resolution`): the

@@ -12,9 +12,10 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .bitstream import read_nfc
 from .io import Shape
 from .normalize import to_unit, unit_ball_frame
-from .reference import sample_points
+from .reference import extract_mesh, frame_offset, sample_points
 
 DEFAULT_SAMPLES = 100_000
 
@@ -79,3 +80,15 @@ def shape_color_psnr(gt: Shape, rec: Shape) -> float | None:
         return None
     center, scale = unit_ball_frame(gt.vertices)
     return color_psnr(to_unit(gt.vertices, center, scale), gt.colors, to_unit(rec.vertices, center, scale), rec.colors)
+
+
+def file_chamfer_distance(gt: Shape, data: bytes, resolution: int, n_samples: int = DEFAULT_SAMPLES,
+                          seed: int = 0) -> float:
+    """CD(gt, the surface the reference decoder extracts from the .nfc bytes at `resolution`): what
+    `nfc encode --target-cd` estimates a candidate by. Infinite when the field has no surface."""
+    f = read_nfc(data)
+    mesh = extract_mesh(f, resolution, color=False)
+    if len(mesh.faces) == 0:
+        return math.inf
+    decoded = Shape(mesh.vertices + frame_offset(f), mesh.faces, None, "decoded")
+    return chamfer_distance(gt, decoded, n_samples, seed)

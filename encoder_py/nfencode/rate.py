@@ -1,4 +1,5 @@
-"""Rate control (`nfc encode --target-bytes B`): the widest network whose file fits in B bytes.
+"""Rate control: `nfc encode --target-bytes B`, the widest network whose file fits in B bytes, and
+`--target-cd C`, the narrowest whose file's estimated Chamfer distance is at most C.
 
 The width sets the rate (FORMAT.md: P = W^2 + (3 + 6L + 3) W + 1 parameters for two hidden layers),
 and a file costs about `rate` bytes per parameter at a given bit width, plus framing. The rate is
@@ -7,6 +8,13 @@ encode uses a prior, every encode after it the rate of the previous file. Encode
 smaller width while the file is too large and tried once at a larger width when the best fitting one
 leaves room; the result is the widest file found that is at most B bytes, never a larger one. Below
 width MIN_WIDTH at the requested bit width, the bit width comes down (7, then 6) before giving up.
+
+The distortion target searches the width alone (at the requested bits): the CD falls as the width
+grows (bench/RESULTS.md), so the narrowest width whose estimate meets C is bracketed by doubling or
+halving from a start width, then narrowed by bisection in log width until the bracket is within
+about 12% (a step of the bits a file saves there). Training noise makes the CD only nearly
+monotonic in the width; the file written is the smallest of those tried whose estimate is at most
+C, so the bound holds on the estimate by construction.
 """
 
 from __future__ import annotations
@@ -105,3 +113,64 @@ def choose(budget: int, bits: int, encode: Callable[[int, int], bytes],
         tried = ", ".join(f"w{a.width} {a.bits} bits: {a.bytes} B" for a in attempts)
         raise InputError(f"no file fits in {budget} bytes (tried {tried})")
     return best[0], RateChoice(best[1].width, best[1].bits, attempts)
+
+
+MAX_DISTORTION_ENCODES = 7  # each is an encode and a reference decode
+BRACKET_RATIO = 1.125       # bisection stops when the passing width is within this of the failing
+
+
+@dataclass
+class DistortionAttempt:
+    width: int
+    bits: int
+    bytes: int
+    cd: float
+
+
+@dataclass
+class DistortionChoice:
+    """What --target-cd chose: the written file's width, bits and estimated CD, and every try."""
+
+    width: int
+    bits: int
+    cd: float
+    attempts: list[DistortionAttempt]
+
+
+def choose_for_distortion(target: float, bits: int, encode: Callable[[int, int], bytes],
+                          estimate: Callable[[bytes], float], start: int = config.DEFAULT_WIDTH,
+                          max_width: int = config.TARGET_CD_MAX_WIDTH) -> tuple[bytes, DistortionChoice]:
+    """The smallest file of those tried whose `estimate(data)` is at most `target`, networks of
+    widths MIN_WIDTH..max_width at `bits` (module docstring), with what was tried. InputError when
+    none meets it (the widest's estimate is in the message)."""
+    attempts: list[DistortionAttempt] = []
+    best: tuple[bytes, DistortionAttempt] | None = None
+    failing, passing = MIN_WIDTH - 1, max_width + 1  # widest known above C, narrowest known at/below
+    width = max(MIN_WIDTH, min(start, max_width))
+    while len(attempts) < MAX_DISTORTION_ENCODES:
+        data = encode(width, bits)
+        attempt = DistortionAttempt(width, bits, len(data), float(estimate(data)))
+        attempts.append(attempt)
+        if attempt.cd <= target:
+            passing = min(passing, width)
+            if best is None or attempt.bytes < best[1].bytes:
+                best = (data, attempt)
+        else:
+            failing = max(failing, width)
+        if passing > max_width:  # nothing meets the target yet: wider
+            if width >= max_width:
+                break
+            width = min(2 * width, max_width)
+        elif failing < MIN_WIDTH:  # everything tried meets it: narrower
+            if width <= MIN_WIDTH:
+                break
+            width = max(width // 2, MIN_WIDTH)
+        elif passing <= max(failing + 1, int(failing * BRACKET_RATIO)):
+            break
+        else:
+            width = min(max(round(math.sqrt(failing * passing)), failing + 1), passing - 1)
+    if best is None:
+        tried = ", ".join(f"w{a.width}: CD {a.cd:.5g}" for a in attempts)
+        raise InputError(f"no file reaches CD {target:g} up to width {max_width} at {bits} bits "
+                         f"(tried {tried})")
+    return best[0], DistortionChoice(best[1].width, best[1].bits, best[1].cd, attempts)

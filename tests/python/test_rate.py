@@ -76,3 +76,57 @@ def test_target_bytes_refuses_width_and_colour(tmp_path: Path, capsys: pytest.Ca
         assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", bad]) == 1
         assert "--target-bytes must be >= 1" in capsys.readouterr().err
     assert not (tmp_path / "x.nfc").exists()
+
+
+def synthetic_distortion(floor: float = 0.007, gain: float = 0.3):
+    """An encoder whose CD falls with the width as the measured curves do: floor + gain / width."""
+    calls: list[int] = []
+
+    def encode(width: int, bits: int) -> bytes:
+        calls.append(width)
+        return width.to_bytes(2, "little") + bytes(int(90 + 0.9 * bits / 8 * rate.parameters(width)))
+
+    def estimate(data: bytes) -> float:
+        return floor + gain / int.from_bytes(data[:2], "little")
+
+    return encode, estimate, calls
+
+
+@pytest.mark.parametrize("target", [0.0095, 0.012, 0.02, 0.05, 0.1])
+def test_target_cd_is_met_by_the_narrowest_width_within_the_bracket(target: float) -> None:
+    encode, estimate, calls = synthetic_distortion()
+    data, choice = rate.choose_for_distortion(target, 8, encode, estimate)
+    assert estimate(data) <= target and choice.cd == estimate(data)
+    assert len(calls) <= rate.MAX_DISTORTION_ENCODES and [a.width for a in choice.attempts] == calls
+    exact = next(w for w in range(rate.MIN_WIDTH, config.TARGET_CD_MAX_WIDTH + 1) if estimate(encode(w, 8)) <= target)
+    assert exact <= choice.width <= max(exact, int(exact * rate.BRACKET_RATIO) + 1)
+
+
+def test_target_cd_writes_the_smallest_passing_file_despite_noise_and_errors_when_unreachable() -> None:
+    encode, estimate, _ = synthetic_distortion()
+    noisy = {32: 0.0119, 16: 0.02, 23: 0.0115, 21: 0.013}  # not monotonic in the width; others fail
+    data, choice = rate.choose_for_distortion(0.012, 8, encode, lambda d: noisy.get(int.from_bytes(d[:2], "little"), 1.0))
+    assert choice.cd <= 0.012 and len(data) == min(a.bytes for a in choice.attempts if a.cd <= 0.012)
+    assert [a.width for a in choice.attempts] == [32, 16, 23, 19, 21] and choice.width == 23
+    with pytest.raises(InputError, match="no file reaches CD 0.005 up to width 128"):
+        rate.choose_for_distortion(0.005, 8, encode, estimate)
+
+
+@pytest.mark.skipif(not BUNNY.exists(), reason="shared data not available")
+def test_nfc_encode_target_cd_on_a_real_scan(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 10_000)
+    monkeypatch.setattr(config, "TARGET_CD_RESOLUTION", 64)
+    out = tmp_path / "b.nfc"
+    code = main(["encode", str(BUNNY), "-o", str(out), "--target-cd", "0.25", "--epochs", "3", "--quiet", "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert report["target_cd"] == 0.25 and report["estimated_cd"] <= 0.25
+    assert report["bytes"] == out.stat().st_size
+    assert report["width"] == read_nfc(out.read_bytes()).geometry.network.out_features[0]
+    assert any(a["width"] == report["width"] and a["cd"] == report["estimated_cd"] for a in report["attempts"])
+    for argv, message in [(["--target-cd", "0.01", "--target-bytes", "900"], "give one target"),
+                          (["--target-cd", "0.01", "--width", "16"], "not --width too"),
+                          (["--target-cd", "-1"], "positive number"), (["--target-cd", "nan"], "positive number")]:
+        assert main(["encode", str(BUNNY), "-o", str(tmp_path / "x.nfc"), *argv, "--quiet"]) != 0
+        assert message in capsys.readouterr().err
