@@ -42,6 +42,19 @@ def decoded_cd(shape: Path, nfc: Path) -> float:
     return float(json.loads(run.stdout)["chamfer_distance"])
 
 
+def encode_to(name: str, out: Path, target: list[str]) -> tuple[dict | str, float]:
+    """`nfc encode` of shape `name` into `out` with a target option (fast preset, seed 0, geometry
+    only): its --json report, or its error message, and the seconds it took."""
+    start = time.perf_counter()
+    run = subprocess.run([sys.executable, "-m", "nfencode.cli", "encode", str(DATA / SHAPES[name]), "-o",
+                          str(out), *target, "--quiet", "--json", "--no-color"],
+                         capture_output=True, text=True, check=False)
+    seconds = time.perf_counter() - start
+    if run.returncode != 0:
+        return run.stderr.strip(), seconds
+    return json.loads(run.stdout.strip().splitlines()[-1]), seconds
+
+
 def distortion_targets(shapes: list[str], targets: list[float]) -> None:
     print("| shape | target CD | estimated CD | nfc-decode CD | bytes | width | encodes | s |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
@@ -50,15 +63,10 @@ def distortion_targets(shapes: list[str], targets: list[float]) -> None:
         for name in shapes:
             for target in targets:
                 out = Path(tmp) / f"{name}_{target}.nfc"
-                start = time.perf_counter()
-                run = subprocess.run([sys.executable, "-m", "nfencode.cli", "encode", str(DATA / SHAPES[name]),
-                                      "-o", str(out), "--target-cd", str(target), "--quiet", "--json",
-                                      "--no-color"], capture_output=True, text=True, check=False)
-                seconds = time.perf_counter() - start
-                if run.returncode != 0:
-                    print(f"| {name} | {target} | error: {run.stderr.strip()} | | | | | |", flush=True)
+                r, seconds = encode_to(name, out, ["--target-cd", str(target)])
+                if isinstance(r, str):
+                    print(f"| {name} | {target} | error: {r} | | | | | |", flush=True)
                     continue
-                r = json.loads(run.stdout.strip().splitlines()[-1])
                 measured = decoded_cd(DATA / SHAPES[name], out)
                 worst = max(worst, measured / target)
                 tried = ", ".join(f"w{a['width']} {a['cd']:.5f}" for a in r["attempts"])
@@ -84,15 +92,10 @@ def main() -> None:
         for name in args.shapes:
             for budget in args.budgets:
                 out = Path(tmp) / f"{name}_{budget}.nfc"
-                start = time.perf_counter()
-                run = subprocess.run([sys.executable, "-m", "nfencode.cli", "encode", str(DATA / SHAPES[name]),
-                                      "-o", str(out), "--target-bytes", str(budget), "--quiet", "--json",
-                                      "--no-color"], capture_output=True, text=True, check=False)
-                seconds = time.perf_counter() - start
-                if run.returncode != 0:
-                    print(f"| {name} | {budget} | error: {run.stderr.strip()} | | | | | |", flush=True)
+                r, seconds = encode_to(name, out, ["--target-bytes", str(budget)])
+                if isinstance(r, str):
+                    print(f"| {name} | {budget} | error: {r} | | | | | |", flush=True)
                     continue
-                r = json.loads(run.stdout.strip().splitlines()[-1])
                 assert r["bytes"] == out.stat().st_size
                 worst = max(worst, r["bytes"] / budget)
                 print(f"| {name} | {budget} | {r['bytes']} | {100 * r['bytes'] / budget:.1f}% | {r['width']} | "

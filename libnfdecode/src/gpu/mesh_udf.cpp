@@ -51,8 +51,10 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     } else {
         NFD_TRY(job.new_slot(&gradient_list.slot));
         gradient_list.capacity = UINT32_MAX;  // sized below, once counted
-        if (above) NFD_TRY(job.new_slot(&fresh_list.slot));
-        fresh_list.capacity = UINT32_MAX;
+        if (above) {
+            NFD_TRY(job.new_slot(&fresh_list.slot));
+            fresh_list.capacity = UINT32_MAX;
+        }
     }
     {
         Buffers scratch(vk);
