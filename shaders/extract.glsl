@@ -112,7 +112,7 @@ float child_grid_value(uvec3 p, uint k, uvec3 l, uint r) {
     return values[offsets[ko] + bitCount(owned[ko] & below)];
 }
 
-// The activity test of extract.h (cell_may_contain_surface), on a child's 8 corner values; NaN
+// The keep rule of grid.h (cell_may_contain_surface), on a child's 8 corner values; NaN
 // corners fail every comparison, so such cells are dropped as on the CPU.
 bool may_contain_surface(float v[8], float threshold) {
     bool inside = false, outside = false;

@@ -4,7 +4,8 @@ Grid of `resolution` cells per axis over the unit frame [-1, 1]^3; vertex i sits
 -1 + 2 i / resolution, computed in f32 as libnfdecode does. Level l (0 = finest) has
 ceil(resolution / 2^l) cells per axis; the coarsest level, refinement_levels() up, is visited
 whole in raster order (x fastest). A cell is kept when its corner values change sign or
-min |f| <= LIPSCHITZ_MARGIN * h * sqrt(3)/2 (f32 arithmetic); the kept cells pass their children,
+min |f| <= keep_threshold(udf, h) = margin * h * sqrt(3)/2 (f32 arithmetic; the margin is
+SDF_KEEP_MARGIN or UDF_KEEP_MARGIN, chosen in grid.h); the kept cells pass their children,
 in parent order and mc_tables.CORNER_OFFSET order within a parent, to the next level, dropping
 children that start at or past the last cell. Vertices with all-even indices are copied from the
 parent level, the others evaluated. Values are stored in f32, as the C++ grid stores them, so that
@@ -29,7 +30,8 @@ GradientFn = Callable[[np.ndarray], np.ndarray]
 MIN_RESOLUTION = 8  # NFD_MIN_RESOLUTION (include/nfdecode/nfdecode.h)
 MAX_RESOLUTION = 1024  # NFD_MAX_RESOLUTION
 MIN_COARSE = 32  # refinement stops before a level coarser than this (grid.h, refinement_levels)
-LIPSCHITZ_MARGIN = np.float32(2.0)
+SDF_KEEP_MARGIN = np.float32(1.0)  # kSdfKeepMargin
+UDF_KEEP_MARGIN = np.float32(2.0)  # kUdfKeepMargin
 HALF_DIAGONAL = np.float32(0.8660254)  # sqrt(3) / 2 as the f32 constant of grid.h
 UDF_NEAR_FACTOR = np.float32(1.0)
 
@@ -61,13 +63,18 @@ def grid_coordinates(fine_indices: np.ndarray, resolution: int) -> np.ndarray:
     return np.float32(-1.0) + np.asarray(fine_indices).astype(np.float32) * grid_step(resolution)
 
 
-def cell_may_contain_surface(corner_values: np.ndarray, h: np.float32) -> np.ndarray:
+def keep_threshold(udf: bool, h: np.float32) -> np.float32:
+    """grid.h's keep_threshold for a cell of edge h: margin * h * sqrt(3)/2 in f32."""
+    return (UDF_KEEP_MARGIN if udf else SDF_KEEP_MARGIN) * h * HALF_DIAGONAL
+
+
+def cell_may_contain_surface(corner_values: np.ndarray, threshold: np.float32) -> np.ndarray:
     """grid.h's keep rule over (N, 8) f32 corner values. As in C++ (std::min), NaN corners are left
     out of min |f| and count as neither sign."""
     negative = (corner_values < 0).any(axis=1)
     positive = (corner_values >= 0).any(axis=1)
     min_abs = np.fmin.reduce(np.abs(corner_values), axis=1, initial=np.float32(np.inf))
-    return (negative & positive) | (min_abs <= LIPSCHITZ_MARGIN * h * HALF_DIAGONAL)
+    return (negative & positive) | (min_abs <= threshold)
 
 
 def udf_near_threshold(h: np.float32) -> np.float32:
@@ -156,11 +163,11 @@ def _evaluate_level(
     return grid_level, int(todo.sum())
 
 
-def _children(level: GridLevel, step: np.float32, child_cells: int) -> np.ndarray:
+def _children(level: GridLevel, step: np.float32, child_cells: int, udf: bool) -> np.ndarray:
     """The children of the cells that may contain the surface, in parent order, each parent's in
     CORNER_OFFSET order, dropping those that start at or past the last cell."""
-    h = step * np.float32(1 << level.level)
-    kept = level.cells[cell_may_contain_surface(level.corner_values(), h)]
+    threshold = keep_threshold(udf, step * np.float32(1 << level.level))
+    kept = level.cells[cell_may_contain_surface(level.corner_values(), threshold)]
     children = (2 * kept[:, None, :] + CORNER_OFFSET[None, :, :]).reshape(-1, 3)
     return children[(children < child_cells).all(axis=1)]
 
@@ -178,7 +185,8 @@ def _udf_gradients(gradient_fn: GradientFn, grid: SparseGrid) -> tuple[np.ndarra
 
 def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | None = None) -> SparseGrid:
     """The sparse grid of `field_fn` at `resolution` (MIN_RESOLUTION..MAX_RESOLUTION); with
-    `udf_gradient`, also the gradients at the corners of the finest near cells (a UDF)."""
+    `udf_gradient` the field is a UDF (its keep margin) and the gradients at the corners of the
+    finest near cells are evaluated too."""
     if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
         raise InputError(f"resolution {resolution} outside {MIN_RESOLUTION}..{MAX_RESOLUTION}")
     top = refinement_levels(resolution)
@@ -189,7 +197,8 @@ def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | No
     level, evaluated = _evaluate_level(field_fn, resolution, top, cells, None)
     levels = [level]
     for lower in range(top - 1, -1, -1):
-        cells = _children(levels[0], grid_step(resolution), cells_at_level(resolution, lower))
+        cells = _children(levels[0], grid_step(resolution), cells_at_level(resolution, lower),
+                          udf_gradient is not None)
         level, new = _evaluate_level(field_fn, resolution, lower, cells, levels[0])
         levels.insert(0, level)
         evaluated += new

@@ -112,7 +112,7 @@ nfd::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, 
         unpack_coords(level.cells[i], c);
         float f[8];
         for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
-        kept[i] = cell_may_contain_surface(f, level.cell_size);
+        kept[i] = cell_may_contain_surface(f, keep_threshold(grid.field, level.cell_size));
         if (!kept[i]) continue;
         ++parents;
         for (const auto& o : mc::kCornerOffset)
@@ -238,7 +238,7 @@ uint32_t coarse_resolution(uint32_t resolution) {
     return cells_at_level(resolution, refinement_levels(resolution));
 }
 
-bool cell_may_contain_surface(const float corner_values[8], float h) {
+bool cell_may_contain_surface(const float corner_values[8], float threshold) {
     bool negative = false, positive = false;
     float min_abs = INFINITY;
     for (int k = 0; k < 8; ++k) {
@@ -247,7 +247,7 @@ bool cell_may_contain_surface(const float corner_values[8], float h) {
         positive |= f >= 0.0f;
         min_abs = std::min(min_abs, std::fabs(f));
     }
-    return (negative && positive) || min_abs <= kLipschitzMargin * h * kHalfDiagonal;
+    return (negative && positive) || min_abs <= threshold;
 }
 
 bool udf_cell_is_near(const float corner_values[8], float h) {

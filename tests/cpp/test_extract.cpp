@@ -98,23 +98,25 @@ TEST(Extract, CoarseToFineSchedule) {
 }
 
 TEST(Extract, CellKeepTest) {
-    const float h = 0.01f, keep = kLipschitzMargin * h * std::sqrt(3.0f) / 2;
+    const float h = 0.01f, keep = keep_threshold(FieldType::Sdf, h);
+    EXPECT_EQ(keep, h * kHalfDiagonal);  // a distance field's slope
+    EXPECT_EQ(keep_threshold(FieldType::Udf, h), 2.0f * h * kHalfDiagonal);
     float f[8];
     std::fill(f, f + 8, 1.0f);
-    EXPECT_FALSE(cell_may_contain_surface(f, h));
+    EXPECT_FALSE(cell_may_contain_surface(f, keep));
     f[3] = -1.0f;
-    EXPECT_TRUE(cell_may_contain_surface(f, h));  // sign change
+    EXPECT_TRUE(cell_may_contain_surface(f, keep));  // sign change
     std::fill(f, f + 8, 1.0f);
     f[5] = keep * 0.99f;
-    EXPECT_TRUE(cell_may_contain_surface(f, h));  // close enough to hide a surface
+    EXPECT_TRUE(cell_may_contain_surface(f, keep));  // close enough to hide a surface
     f[5] = -keep * 0.99f;
     std::fill(f, f + 5, -1.0f);
     std::fill(f + 6, f + 8, -1.0f);
-    EXPECT_TRUE(cell_may_contain_surface(f, h));
+    EXPECT_TRUE(cell_may_contain_surface(f, keep));
     f[5] = -keep * 1.01f;
-    EXPECT_FALSE(cell_may_contain_surface(f, h));
+    EXPECT_FALSE(cell_may_contain_surface(f, keep));
     std::fill(f, f + 8, NAN);
-    EXPECT_FALSE(cell_may_contain_surface(f, h));
+    EXPECT_FALSE(cell_may_contain_surface(f, keep));
 }
 
 // ---- closed field --------------------------------------------------------------------------
@@ -341,6 +343,30 @@ TEST(Extract, MatchesPythonReferenceMeshExactly) {
         EXPECT_LE(normal, 1e-3f) << name;
     }
     EXPECT_GE(udf, 2u) << "the UDF vectors (garment, point cloud) are missing";
+}
+
+// The keep rule on learned fields (margin 1 for an SDF, grid.h): every sign change of the dense
+// grid is found on the real scans, at a power of two and at a resolution whose last cell reaches
+// past u = 1. bench/keep_rule.cpp runs the same check at 256 and 512 on more shapes.
+TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
+    size_t sdf = 0;
+    for (const std::string& name : golden_names()) {
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        if (g.field != FieldType::Sdf) continue;
+        ++sdf;
+        for (uint32_t r : {128u, 150u}) {
+            MeshData mesh;
+            ExtractStats stats;
+            ASSERT_EQ(extract_mesh_cpu(g, r, &mesh, &stats), NFD_SUCCESS) << name;
+            uint64_t active = 0, triangles = 0;
+            dense_reference(g.network, r, &active, &triangles);
+            EXPECT_EQ(stats.active_cells, active) << name << " at " << r;
+            EXPECT_EQ(mesh.triangle_count(), triangles) << name << " at " << r;
+            std::printf("%s at %u: %.2f evaluations per active cell\n", name.c_str(), r,
+                        double(stats.points_evaluated) / double(stats.active_cells));
+        }
+    }
+    EXPECT_GE(sdf, 4u) << "the SDF vectors are missing";
 }
 
 }  // namespace

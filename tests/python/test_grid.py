@@ -8,12 +8,12 @@ import pytest
 
 from nfencode.grid import (
     HALF_DIAGONAL,
-    LIPSCHITZ_MARGIN,
     build_grid,
     cell_may_contain_surface,
     cells_at_level,
     coarse_resolution,
     grid_coordinates,
+    keep_threshold,
     refinement_levels,
     udf_cell_is_near,
     udf_near_threshold,
@@ -42,7 +42,8 @@ def test_vertex_coordinates_are_the_f32_formula() -> None:
 
 def test_keep_rule_thresholds_are_f32() -> None:
     h = np.float32(2.0) / np.float32(64)
-    threshold = LIPSCHITZ_MARGIN * h * HALF_DIAGONAL
+    threshold = keep_threshold(False, h)
+    assert threshold == h * HALF_DIAGONAL and keep_threshold(True, h) == np.float32(2.0) * h * HALF_DIAGONAL
     above = np.nextafter(threshold, np.float32(1.0))
     cells = np.array([
         [threshold] * 8,  # at the threshold: kept
@@ -51,7 +52,7 @@ def test_keep_rule_thresholds_are_f32() -> None:
         [np.nan] + [threshold] * 7,  # NaN corners are left out of the minimum
         [np.nan] * 8,
     ], dtype=np.float32)
-    np.testing.assert_array_equal(cell_may_contain_surface(cells, h), [True, False, True, True, False])
+    np.testing.assert_array_equal(cell_may_contain_surface(cells, threshold), [True, False, True, True, False])
     near = udf_near_threshold(h)
     udf = np.array([[near] * 8, [np.nextafter(near, np.float32(1.0))] * 8, [np.inf] + [0.0] * 7], dtype=np.float32)
     np.testing.assert_array_equal(udf_cell_is_near(udf, h), [True, False, False])  # non-finite: not meshed
@@ -73,7 +74,7 @@ def test_levels_visit_children_of_kept_cells_in_order() -> None:
     h = grid.step * np.float32(2)
     expected, dropped = [], 0
     for cell, values in zip(coarse.cells.tolist(), coarse.corner_values()):
-        if cell_may_contain_surface(values[None], h)[0]:
+        if cell_may_contain_surface(values[None], keep_threshold(False, h))[0]:
             for offset in CORNER_OFFSET.tolist():
                 child = [2 * c + o for c, o in zip(cell, offset)]
                 if max(child) < resolution:

@@ -101,7 +101,8 @@ std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
 LevelBuilder::LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry,
                            uint32_t resolution, const Plan* plan)
     : job_(job), net_(net), plan_(plan), resolution_(resolution),
-      top_(refinement_levels(resolution)), step_(2.0f / float(resolution)), current_(top_),
+      top_(refinement_levels(resolution)), step_(2.0f / float(resolution)),
+      field_(geometry.field), current_(top_),
       level_(*job.device.vk), kept_(*job.device.vk) {
     base_.step = step_;
     base_.scale = geometry.scale;
@@ -115,7 +116,7 @@ LevelPush LevelBuilder::refine_push(uint32_t child_level, uint32_t parent_cells,
     push.child_cells = cells_at_level(resolution_, child_level);
     push.child_level = child_level;
     push.set(parents);
-    push.threshold = kLipschitzMargin * (step_ * float(1u << child_level)) * kHalfDiagonal;
+    push.threshold = keep_threshold(field_, step_ * float(1u << child_level));
     return push;
 }
 

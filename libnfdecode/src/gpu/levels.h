@@ -125,6 +125,7 @@ private:
     const Plan* plan_;
     const uint32_t resolution_, top_;
     const float step_;
+    const FieldType field_;  // the keep rule's margin
     LevelPush base_;  // center, scale, step
     uint32_t current_;
     bool stepped_ = false;
