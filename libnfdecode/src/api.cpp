@@ -357,9 +357,9 @@ nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** 
             // AUTO without a device to adopt takes a hardware GPU only: on a CPU implementation
             // (lavapipe) the C++ path decodes faster (bench/RESULTS.md, "Decode speed").
             const bool automatic = opts.device == NFD_DEVICE_AUTO && !opts.adopt;
-            std::string refused;
+            std::string declined;
             const nfd_result r = nfd::gpu::create_device(
-                opts.adopt, opts.enable_validation != 0, &ctx->gpu, automatic, &refused);
+                opts.adopt, opts.enable_validation != 0, &ctx->gpu, automatic, &declined);
             if (r == NFD_SUCCESS) {
                 ctx->kind = NFD_DEVICE_VULKAN;
                 ctx->name = nfd::gpu::device_name(*ctx->gpu);
@@ -370,9 +370,7 @@ nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** 
                 ctx->gpu.reset();
                 if (!automatic || (r != NFD_ERROR_DEVICE_UNAVAILABLE && r != NFD_ERROR_DEVICE))
                     return r;
-                if (!refused.empty())
-                    ctx->reason = "auto: the only Vulkan device, " + refused +
-                                  ", is a CPU implementation (slower than this path)";
+                if (!declined.empty()) ctx->reason = "auto: " + declined;
             }
 #else
             if (opts.device == NFD_DEVICE_VULKAN || opts.adopt) return NFD_ERROR_DEVICE_UNAVAILABLE;

@@ -54,7 +54,7 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 7
+#define NFD_VERSION_MINOR 8
 #define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
@@ -222,8 +222,10 @@ NFD_API nfd_device_kind nfd_context_device_kind(const nfd_context* context);
  * "" for NULL. */
 NFD_API const char* nfd_context_device_name(const nfd_context* context);
 /* Why the context runs on that device, for logs: "requested", "adopted", "auto: a GPU", "auto: no
- * Vulkan device", or "auto: the only Vulkan device, <name>, is a CPU implementation (...)".
- * Owned by the context; "" for NULL (0.3). */
+ * Vulkan device", "auto: the only Vulkan device, <name>, is a CPU implementation (...)", or (0.8,
+ * Linux) "auto: no GPU device node (...)": with no /dev/dri, /dev/nvidia* (nor WSL's or a phone's
+ * GPU node), AUTO does not create a Vulkan instance at all, since only a CPU implementation could
+ * load. Owned by the context; "" for NULL (0.3). */
 NFD_API const char* nfd_context_device_reason(const nfd_context* context);
 
 /* ---------------------------------------------------------------------------------------------

@@ -4,7 +4,12 @@
 #include "device.h"
 
 #include <cstring>
+#include <initializer_list>
 #include <new>
+
+#if defined(__linux__)
+#include <dirent.h>
+#endif
 
 #include "../mc_tables.h"
 #include "gpu_decode.h"
@@ -247,13 +252,37 @@ nfd_result record_scan(Job& job, Buffers& scratch, const Buffer& in, const Buffe
                           &count, invocations);
 }
 
+bool gpu_device_node_present() {
+#if defined(__linux__) && !defined(__ANDROID__)
+    auto any_entry = [](const char* dir, std::initializer_list<const char*> prefixes) {
+        DIR* d = opendir(dir);
+        if (!d) return false;
+        bool found = false;
+        for (dirent* e; !found && (e = readdir(d));)
+            for (const char* p : prefixes) found = found || std::strncmp(e->d_name, p, std::strlen(p)) == 0;
+        closedir(d);
+        return found;
+    };
+    return any_entry("/dev/dri", {"renderD", "card"}) || any_entry("/dev", {"nvidia", "dxg", "kgsl", "mali"});
+#else
+    return true;
+#endif
+}
+
 nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
-                         std::unique_ptr<Device>* out, bool hardware_only, std::string* refused) {
+                         std::unique_ptr<Device>* out, bool hardware_only, std::string* declined) {
+    hardware_only = hardware_only && !adopt;
+    if (hardware_only && !gpu_device_node_present()) {
+        if (declined) *declined = "no GPU device node (/dev/dri, /dev/nvidia*), so no GPU";
+        return NFD_ERROR_DEVICE_UNAVAILABLE;
+    }
     std::unique_ptr<Device> d(new (std::nothrow) Device());
     if (!d) return NFD_ERROR_OUT_OF_MEMORY;
     NFD_TRY(Context::create(adopt, enable_validation, &d->vk));
     if (hardware_only && d->vk->cpu_implementation()) {
-        if (refused) *refused = d->vk->name();
+        if (declined)
+            *declined = "the only Vulkan device, " + d->vk->name() +
+                        ", is a CPU implementation (slower than this path)";
         return NFD_ERROR_DEVICE_UNAVAILABLE;
     }
     for (size_t i = 0; i < kKernelCount; ++i)

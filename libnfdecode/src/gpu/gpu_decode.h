@@ -19,11 +19,17 @@ class Device;  // Vulkan instance/device/queue (own or adopted), pipelines, scra
 
 // Creates a headless compute device, or adopts the host's when `adopt` is not null.
 // NFD_ERROR_DEVICE_UNAVAILABLE when no Vulkan loader/ICD/device with a compute queue exists, and
-// with `hardware_only` when the device picked is a CPU implementation (lavapipe), refused before
-// any pipeline is made; its name then goes to *refused.
+// with `hardware_only` (no `adopt`) when no hardware GPU can be there or the device picked is a
+// CPU implementation (lavapipe), refused before any pipeline is made; *declined then says which,
+// for nfd_context_device_reason.
 nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
                          std::unique_ptr<Device>* out, bool hardware_only = false,
-                         std::string* refused = nullptr);
+                         std::string* declined = nullptr);
+// False where no hardware GPU can be present: on Linux every GPU driver works through a device
+// node (DRM for Mesa's and AMD's, /dev/nvidia* for NVIDIA's, /dev/dxg under WSL, /dev/kgsl* and
+// /dev/mali* on phones and boards), so with none only a CPU implementation could load, and an
+// instance made to find that out costs 35-80 ms (it loads lavapipe and LLVM). True elsewhere.
+bool gpu_device_node_present();
 void destroy_device(Device* device);  // also what the unique_ptr's deleter calls
 const char* device_name(const Device& device);
 // The device memory its buffers hold, and the peak since the last reset: what the progressive
