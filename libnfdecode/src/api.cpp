@@ -30,6 +30,7 @@
 #include "queue.h"
 #include "sample_points.h"
 #include "stream.h"
+#include "vdb_module.h"
 #if NFD_WITH_VULKAN
 #include "gpu/gpu_decode.h"
 #endif
@@ -837,9 +838,12 @@ nfd_result nfd_grid_get_colours(const nfd_grid* grid, const float** out_colours)
 nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, const char* source_name) {
     if (!grid || !path) return NFD_ERROR_INVALID_ARGUMENT;
 #if NFD_WITH_OPENVDB
-    const nfd::VdbSource source{source_name, grid->format_major, grid->format_minor};
-    const float* colours = grid->colours.empty() ? nullptr : grid->colours.data();
-    return guarded([&] { return nfd::write_vdb(grid->voxels, grid->offset, colours, source, path); });
+    const nfd::VdbWriteEntry write = nfd::vdb_module_entry();
+    if (!write) return NFD_ERROR_UNSUPPORTED_FEATURE;
+    const nfd::VdbWriteCall call{NFD_VERSION, &grid->voxels, grid->offset,
+                                 grid->colours.empty() ? nullptr : grid->colours.data(),
+                                 {source_name, grid->format_major, grid->format_minor}, path};
+    return write(&call);
 #else
     (void)source_name;
     return NFD_ERROR_UNSUPPORTED_FEATURE;

@@ -28,18 +28,4 @@ nfd_result write_points_ply(const float* points, const float* normals, const flo
 // An rgb component in [0, 1] as 8 bits, as FORMAT.md ("colr") rounds it.
 uint8_t colour_byte(float c);
 
-// Where a grid came from, for the VDB metadata: the .nfc file's name (null: not recorded) and its
-// format version.
-struct VdbSource {
-    const char* file_name;
-    uint32_t format_major, format_minor;
-};
-
-// OpenVDB file with one openvdb::FloatGrid "distance" holding `voxels` (the narrow band) with their
-// index -> original transform (translated by `offset`, in double), and a Vec3SGrid "colour" on the
-// same voxels when `colours` (rgb per voxel) is not null, as nfd_grid_write_vdb documents.
-// NFD_WITH_OPENVDB builds only.
-nfd_result write_vdb(const nfd_grid_voxels& voxels, const std::array<double, 3>& offset,
-                     const float* colours, const VdbSource& source, const char* path);
-
 }  // namespace nfd

@@ -1,14 +1,15 @@
-// OpenVDB output of the sparse grid's narrow band (export.h). Compiled only with NFD_WITH_OPENVDB;
-// OpenVDB's headers and exceptions stay inside this file.
+// OpenVDB output of the sparse grid's narrow band: the libnfdecode_vdb module (vdb_module.h).
+// Compiled only with NFD_WITH_OPENVDB; OpenVDB's headers and exceptions stay inside this file.
 #include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/SignedFloodFill.h>
 
 #include <cmath>
 #include <fstream>
+#include <new>
 #include <string>
 
-#include "export.h"
+#include "vdb_module.h"
 
 namespace nfd {
 
@@ -104,3 +105,15 @@ nfd_result write_vdb(const nfd_grid_voxels& voxels, const std::array<double, 3>&
 }
 
 }  // namespace nfd
+
+extern "C" __attribute__((visibility("default"))) nfd_result nfd_vdb_module_write(
+    const nfd::VdbWriteCall* call) {
+    if (!call || call->decoder_version != NFD_VERSION) return NFD_ERROR_UNSUPPORTED_FEATURE;
+    try {
+        return nfd::write_vdb(*call->voxels, call->offset, call->colours, call->source, call->path);
+    } catch (const std::bad_alloc&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
+    } catch (...) {
+        return NFD_ERROR_INTERNAL;
+    }
+}

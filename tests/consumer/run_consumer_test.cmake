@@ -19,3 +19,9 @@ run(${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -G ${GENERATOR}
   "-DCMAKE_EXE_LINKER_FLAGS=${LINKER_FLAGS}")
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build --config ${CONFIG})
 run(${WORK_DIR}/build/consumer)
+# The OpenVDB writer is a module the library loads by itself: from an installed prefix that is not
+# the configured one, found on the loader's search path.
+if(VDB_INPUT)
+  run(${CMAKE_COMMAND} -E env LD_LIBRARY_PATH=${WORK_DIR}/prefix/${LIBDIR}
+    ${WORK_DIR}/build/consumer ${VDB_INPUT} ${WORK_DIR}/consumer.vdb)
+endif()

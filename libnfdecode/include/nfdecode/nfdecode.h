@@ -740,9 +740,15 @@ NFD_API nfd_result nfd_grid_get_colours(const nfd_grid* grid, const float** out_
  * ("libnfdecode MAJOR.MINOR.PATCH").
  * A grid with colours (0.4) adds an openvdb::Vec3SGrid named "colour" with the same transform and
  * active voxels, holding RGB in [0, 1] (see "Colour"), background (0, 0, 0), class unknown.
+ * The writer is a module of its own (0.8), libnfdecode_vdb.so, installed beside the library and
+ * loaded on the first call, so that OpenVDB and its dependencies load only in processes that
+ * write .vdb files. It is looked for at $NFD_VDB_MODULE (a path) if set; else beside the binary
+ * holding libnfdecode (the shared library, or the executable a static one is linked into), in
+ * ../lib (the install's libdir) from there, in the configured install libdir, then by name on
+ * the dynamic loader's search path (LD_LIBRARY_PATH). It stays loaded for the process.
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (grid or path NULL);
- * NFD_ERROR_UNSUPPORTED_FEATURE in a build without OpenVDB (CMake NFD_WITH_OPENVDB=OFF), before
- * the file is touched; NFD_ERROR_LIMIT_EXCEEDED (0.4), before the file is touched, for a transform
+ * NFD_ERROR_UNSUPPORTED_FEATURE in a build without OpenVDB (CMake NFD_WITH_OPENVDB=OFF), or when
+ * the module is not found or is from another libnfdecode version, before the file is touched; NFD_ERROR_LIMIT_EXCEEDED (0.4), before the file is touched, for a transform
  * OpenVDB cannot hold: a voxel size under 1.45e-5 in the file's units (OpenVDB refuses a voxel
  * volume under 3e-15), or an origin more than 2^52 voxel sizes from zero (decode at a lower
  * resolution, or encode in larger units); NFD_ERROR_IO if the file cannot be created or fully
