@@ -9,13 +9,12 @@
 namespace nfd {
 
 uint64_t mesh_bytes_bound(const LevelSize& level) {
-    // march_cells (marching.h): the active cells and their cases (push_back: under twice their
-    // count), a vertex set of their corners with a vertex slot per edge (3 per corner), the indices
+    // march_cells (marching.h): a case per visited cell, a vertex set of their corners with a vertex slot per edge (3 per corner), the indices
     // reserved at the table's most triangles per cell, positions and normals growing by insert to
     // under twice the vertices, at most one per grid edge.
     const mc::Tables& t = mc::tables();
     const uint64_t most_triangles = *std::max_element(t.triangle_count, t.triangle_count + 256);
-    return 2 * 5 * level.cells + VertexSet::bytes_bound(level.cells_per_axis + 1, level.blocks) +
+    return level.cells + VertexSet::bytes_bound(level.cells_per_axis + 1, level.blocks) +
            12 * level.vertices + 12 * most_triangles * level.cells + 2 * 2 * 12 * level.edges;
 }
 
@@ -27,8 +26,8 @@ nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshDa
     const auto t_mesh = std::chrono::steady_clock::now();
     MeshData out;
     ExtractStats st;
-    const nfd_result m = udf ? mesh_udf_cpu(level, &out, &st.active_cells)
-                             : mesh_sdf_cpu(level, &out, &st.active_cells);
+    const nfd_result m = udf ? mesh_udf_cpu(level, builder.threads(), &out, &st.active_cells)
+                             : mesh_sdf_cpu(level, builder.threads(), &out, &st.active_cells);
     if (m != NFD_SUCCESS) return m;
     for (size_t i = 0; i < out.positions.size(); ++i)
         out.positions[i] = out.positions[i] * geometry.scale + geometry.emit_center(int(i % 3));

@@ -135,7 +135,7 @@ nfd::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, 
     next->vertices = std::min<uint64_t>(27 * parents, uint64_t(child_cells + 1) * (child_cells + 1) * (child_cells + 1));
     next->edges = std::min<uint64_t>(54 * parents, 3 * next->vertices);
     next->blocks = 0;
-    for (uint64_t w : touched) next->blocks += uint64_t(__builtin_popcountll(w));
+    for (uint64_t w : touched) next->blocks += popcount64(w);
     return kept;
 }
 
@@ -195,16 +195,10 @@ void VertexSet::finish() {
         table_[b.index] = uint32_t(s);
         for (int w = 0; w < 8; ++w) {
             b.prefix[w] = total;
-            total += uint32_t(__builtin_popcountll(b.words[w]));
+            total += popcount64(b.words[w]);
         }
     }
     size_ = total;
-}
-
-uint32_t VertexSet::rank(uint32_t x, uint32_t y, uint32_t z) const {
-    const Block& b = blocks_[table_[block_index(x, y, z)]];
-    const uint64_t below = b.words[z & 7] & ((uint64_t(1) << ((x & 7) + 8 * (y & 7))) - 1);
-    return b.prefix[z & 7] + uint32_t(__builtin_popcountll(below));
 }
 
 uint64_t VertexSet::bytes_bound(uint32_t side, uint64_t blocks) {
@@ -258,11 +252,6 @@ bool udf_cell_is_near(const float corner_values[8], float h) {
         lowest = std::min(lowest, corner_values[k]);
     }
     return lowest <= udf_near_threshold(h);
-}
-
-float GridLevel::corner(const uint32_t cell[3], int corner_index) const {
-    const uint8_t* o = mc::kCornerOffset[corner_index];
-    return values[vertices.rank(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2])];
 }
 
 // ---- the builder ---------------------------------------------------------------------------

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "mc_tables.h"
 #include "network.h"
 #include "nfdecode/nfdecode.h"
 
@@ -73,6 +74,16 @@ inline void unpack_coords(uint32_t packed, uint32_t xyz[3]) {
 // follows the occupied blocks (the band around the surface), not side^3.
 // Ranks follow the blocks in raster order (x fastest), then the vertices inside a block in
 // raster order: for_each visits them in that order.
+// Bits set in x. __builtin_popcountll is a call into libgcc (__popcountdi2) where the target
+// lacks POPCNT (baseline x86-64, as this library is built): 6% of a CPU decode went there, from
+// the vertex sets' ranks. The same arithmetic inline costs a dozen instructions.
+inline uint32_t popcount64(uint64_t x) {
+    x = x - ((x >> 1) & 0x5555555555555555ull);
+    x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
+    x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0full;
+    return uint32_t((x * 0x0101010101010101ull) >> 56);
+}
+
 class VertexSet {
 public:
     VertexSet() = default;
@@ -85,8 +96,12 @@ public:
     void finish();
 
     uint32_t size() const { return size_; }
-    // The rank of vertex (x, y, z), which must be in the set.
-    uint32_t rank(uint32_t x, uint32_t y, uint32_t z) const;
+    // The rank of vertex (x, y, z), which must be in the set. Inline: the meshers' inner loops.
+    uint32_t rank(uint32_t x, uint32_t y, uint32_t z) const {
+        const Block& b = blocks_[table_[block_index(x, y, z)]];
+        const uint64_t below = b.words[z & 7] & ((uint64_t(1) << ((x & 7) + 8 * (y & 7))) - 1);
+        return b.prefix[z & 7] + popcount64(below);
+    }
     // An upper bound of the bytes a set of `side` vertices per axis in at most `blocks` blocks
     // allocates (the block table, and the blocks at their largest capacity).
     static uint64_t bytes_bound(uint32_t side, uint64_t blocks);
@@ -125,7 +140,11 @@ struct GridLevel {
     // near cells and the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
     VertexSet gradient_vertices;
     nfd::vector<float> gradients;
-    float corner(const uint32_t cell[3], int corner_index) const;  // mc::kCornerOffset numbering
+    // The value at a corner of a cell of this level, mc::kCornerOffset numbering.
+    float corner(const uint32_t cell[3], int corner_index) const {
+        const uint8_t* o = mc::kCornerOffset[corner_index];
+        return values[vertices.rank(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2])];
+    }
     // -1 + v * h equals the fine grid's -1 + (v << l) * step in f32: both products are the same
     // real number times a power of two, rounded once.
     float coord(uint32_t v) const { return -1.0f + float(v) * cell_size; }
@@ -190,6 +209,7 @@ public:
 
     const SparseGrid& grid() const { return grid_; }
     SparseGrid take() { return std::move(grid_); }
+    unsigned threads() const { return threads_; }  // as given: 0 = hardware concurrency
 
 private:
     const Network& network_;

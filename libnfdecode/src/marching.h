@@ -8,6 +8,7 @@
 #include "grid.h"
 #include "mc_tables.h"
 #include "mesh.h"
+#include "parallel.h"
 
 #include "host_memory.h"
 
@@ -26,43 +27,49 @@ struct CrossedEdge {
 // c inside). edge_valid(edge) -> bool: whether a triangle may use the edge (all three edges of a
 // triangle must be valid). place(edge, u, n): the vertex in the unit frame and its normal.
 // Vertices and normals go to `mesh` in the unit frame; returns the number of cells that emitted
-// a triangle. mesh_bytes_bound (extract.h) bounds what it allocates.
+// a triangle. mesh_bytes_bound (extract.h) bounds what it allocates. `threads` (as evaluate_cpu's)
+// run the first pass, so classify must be safe to call concurrently; the output does not depend
+// on them.
 template <class Classify, class EdgeValid, class Place>
-uint64_t march_cells(const GridLevel& level, Classify&& classify, EdgeValid&& edge_valid,
-                     Place&& place, MeshData* mesh) {
+uint64_t march_cells(const GridLevel& level, unsigned threads, Classify&& classify,
+                     EdgeValid&& edge_valid, Place&& place, MeshData* mesh) {
     const mc::Tables& t = mc::tables();
-    // Pass 1: the cells with triangles and their cases. Welding then needs a slot per grid edge of
-    // these cells only (a few percent of the band's vertices), not of the whole finest level.
-    nfd::vector<uint32_t> active;
-    nfd::vector<uint8_t> cases;
-    for (uint32_t packed : level.cells) {
-        uint32_t c[3];
-        unpack_coords(packed, c);
-        float f[8];
-        for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
-        int index = 0;
-        if (!classify(c, f, &index) || t.triangle_count[index] == 0) continue;
-        active.push_back(packed);
-        cases.push_back(uint8_t(index));
-    }
+    // Pass 1, over slices of the cells at once: each cell's case, 0 where it has no triangle (case
+    // 0 has none). It reads eight corners per visited cell, most of the mesher's time; welding
+    // then needs a slot per grid edge of the cells with triangles only (a few percent of the
+    // band's vertices), not of the whole finest level.
+    nfd::vector<uint8_t> cases(level.cells.size());
+    parallel_for(level.cells.size(), 16384, threads, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+            uint32_t c[3];
+            unpack_coords(level.cells[i], c);
+            float f[8];
+            for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
+            int index = 0;
+            const bool meshed = classify(c, f, &index) && t.triangle_count[index] != 0;
+            cases[i] = meshed ? uint8_t(index) : uint8_t(0);
+        }
+    });
     VertexSet corners(level.cells_per_axis + 1);
-    for (uint32_t packed : active) {
+    size_t max_triangles = 0;  // exact for SDF, an upper bound where edge_valid drops some
+    for (size_t i = 0; i < cases.size(); ++i) {
+        if (!cases[i]) continue;
         uint32_t c[3];
-        unpack_coords(packed, c);
+        unpack_coords(level.cells[i], c);
         for (const auto& o : mc::kCornerOffset) corners.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+        max_triangles += t.triangle_count[cases[i]];
     }
     corners.finish();
-    size_t max_triangles = 0;  // exact for SDF, an upper bound where edge_valid drops some
-    for (uint8_t index : cases) max_triangles += t.triangle_count[index];
     mesh->indices.reserve(3 * max_triangles);
 
     // Pass 2: triangles in cell order, one vertex per grid edge (corner rank * 3 + axis).
     constexpr uint32_t kNone = ~0u;
     nfd::vector<uint32_t> edge_vertex(size_t(corners.size()) * 3, kNone);
     uint64_t emitting = 0;
-    for (size_t i = 0; i < active.size(); ++i) {
+    for (size_t i = 0; i < cases.size(); ++i) {
+        if (!cases[i]) continue;
         uint32_t c[3];
-        unpack_coords(active[i], c);
+        unpack_coords(level.cells[i], c);
         float f[8];
         for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
         const int index = cases[i];

@@ -26,7 +26,8 @@ bool canonical_direction(const float v[3], float out[3]) {
 
 }  // namespace
 
-nfd_result mesh_udf_cpu(const GridLevel& level, MeshData* mesh, uint64_t* active_cells) {
+nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,
+                        uint64_t* active_cells) {
     if (level.gradient_vertices.side() != level.cells_per_axis + 1 ||
         level.gradients.size() != size_t(3) * level.gradient_vertices.size())
         return NFD_ERROR_INTERNAL;  // the level's gradients were not evaluated
@@ -41,7 +42,7 @@ nfd_result mesh_udf_cpu(const GridLevel& level, MeshData* mesh, uint64_t* active
     };
     const float max_edge_sum = kUdfEdgeFactor * level.cell_size;
     *active_cells = march_cells(
-        level,
+        level, threads,
         [&](const uint32_t* c, const float* f, int* index) {
             if (!udf_cell_is_near(f, level.cell_size)) return false;  // step 1
             int nearest = 0;
