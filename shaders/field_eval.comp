@@ -21,6 +21,14 @@
 // Defining WEIGHTS_IN_STORAGE_BUFFER gives the variant for layers larger than the device's
 // maxUniformBufferRange.
 //
+// Defining WEIGHTS_IN_SHARED gives the shape for GPUs (field.cpp picks it on a device that is not
+// a CPU implementation, when the weights fit the workgroup's shared memory): run with POINTS = 1,
+// one point per invocation, the workgroup first copies every layer's block into shared memory
+// (SHARED_VEC4 vec4s, the layers back to back), so the weight reads of the layers hit on-chip
+// memory rather than the uniform path. The arithmetic is the value kernel's, in the same order: the
+// same bits. Tested on lavapipe against the CPU twin (not measured on a GPU: none in this project's
+// machines so far).
+//
 // Defining WITH_GRADIENT gives the value + gradient variant (network.h, evaluate_gradient_cpu) of
 // a network with one output,
 // in reverse mode: the forward pass is the value kernel's (the same rows, so the same value bit
@@ -52,6 +60,8 @@ layout(constant_id = 11) const uint OUTPUT_ACTIVATION = 0;  // 0 identity, 1 abs
 layout(constant_id = 12) const uint MAX4 = 25;       // widest layer input/output, in vec4s
 layout(constant_id = 13) const uint OUTPUTS = 1;     // 1 (geometry) or 3 (colour); at most 4
 layout(constant_id = 14) const uint POINTS = 8;      // points per invocation
+// 15: the local size (NFD_FIELD_LOCAL_SIZE_ID).
+layout(constant_id = 16) const uint SHARED_VEC4 = 1; // WEIGHTS_IN_SHARED: every layer's vec4s
 layout(local_size_x_id = NFD_FIELD_LOCAL_SIZE_ID) in;
 
 const uint ENC4 = 1 + 6 * FREQ4;
@@ -83,6 +93,26 @@ WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 4, layer4)
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 5, layer5)
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 6, layer6)
 WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 7, layer7)
+
+#ifdef WEIGHTS_IN_SHARED
+// Layer K's block (OUT4 rows of 4 * IN4 vec4s, then OUT4 bias vec4s) starts at layerK_BASE.
+shared vec4 weight_cache[SHARED_VEC4];
+const uint layer0_BASE = 0;
+const uint layer1_BASE = layer0_BASE + OUT4_0 * (4 * ENC4 + 1);
+const uint layer2_BASE = layer1_BASE + OUT4_1 * (4 * OUT4_0 + 1);
+const uint layer3_BASE = layer2_BASE + OUT4_2 * (4 * OUT4_1 + 1);
+const uint layer4_BASE = layer3_BASE + OUT4_3 * (4 * OUT4_2 + 1);
+const uint layer5_BASE = layer4_BASE + OUT4_4 * (4 * OUT4_3 + 1);
+const uint layer6_BASE = layer5_BASE + OUT4_5 * (4 * OUT4_4 + 1);
+const uint layer7_BASE = layer6_BASE + OUT4_6 * (4 * OUT4_5 + 1);
+#define WEIGHT(W, i) weight_cache[W##_BASE + (i)]
+#define COPY_LAYER(K, IN4, OUT4, W)                                                         \
+    if (K < NUM_LAYERS)                                                                     \
+        for (uint j = gl_LocalInvocationIndex; j < OUT4 * (4 * IN4 + 1); j += gl_WorkGroupSize.x) \
+            weight_cache[W##_BASE + j] = W.w[j];
+#else
+#define WEIGHT(W, i) W.w[i]
+#endif
 
 // Point i of the input is result first + i: a long list is evaluated in chunks of points. The
 // chunk holds push.count points at most, and fewer when counter push.count_slot says so.
@@ -133,12 +163,12 @@ float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign
     if (K < NUM_LAYERS) {                                                                   \
         for (uint o4 = 0; o4 < OUT4; ++o4) {                                                \
             vec4 acc[POINTS];                                                               \
-            vec4 bias = W.w[OUT4 * 4 * IN4 + o4];                                           \
+            vec4 bias = WEIGHT(W, OUT4 * 4 * IN4 + o4);                                           \
             for (uint p = 0; p < POINTS; ++p) acc[p] = bias;                                \
             uint row = o4 * 4 * IN4;                                                        \
             for (uint i = 0; i < IN4; ++i) {                                                \
-                vec4 w0 = W.w[row + i], w1 = W.w[row + i + IN4];                            \
-                vec4 w2 = W.w[row + i + 2 * IN4], w3 = W.w[row + i + 3 * IN4];              \
+                vec4 w0 = WEIGHT(W, row + i), w1 = WEIGHT(W, row + i + IN4);                            \
+                vec4 w2 = WEIGHT(W, row + i + 2 * IN4), w3 = WEIGHT(W, row + i + 3 * IN4);              \
                 [[unroll]] for (uint p = 0; p < POINTS; ++p) {                              \
                     vec4 x = SRC[p * MAX4 + i];                                             \
                     acc[p] += vec4(dot(w0, x), dot(w1, x), dot(w2, x), dot(w3, x));         \
@@ -161,8 +191,8 @@ float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign
         for (uint p = 0; p < POINTS; ++p) acc[p] = vec4(0.0);                               \
         for (uint o4 = 0; o4 < OUT4; ++o4) {                                                \
             uint row = o4 * 4 * IN4 + i;                                                    \
-            vec4 w0 = W.w[row], w1 = W.w[row + IN4];                                        \
-            vec4 w2 = W.w[row + 2 * IN4], w3 = W.w[row + 3 * IN4];                          \
+            vec4 w0 = WEIGHT(W, row), w1 = WEIGHT(W, row + IN4);                                        \
+            vec4 w2 = WEIGHT(W, row + 2 * IN4), w3 = WEIGHT(W, row + 3 * IN4);                          \
             [[unroll]] for (uint p = 0; p < POINTS; ++p) {                                  \
                 vec4 d = SRC[p * MAX4 + o4];                                                \
                 acc[p] += d.x * w0 + d.y * w1 + d.z * w2 + d.w * w3;                        \
@@ -193,6 +223,18 @@ mat2x4 encode(uint b, float coordinate) {
 }
 
 void main() {
+#ifdef WEIGHTS_IN_SHARED
+    // Before any invocation leaves: the barrier needs the whole workgroup.
+    COPY_LAYER(0, ENC4, OUT4_0, layer0)
+    COPY_LAYER(1, OUT4_0, OUT4_1, layer1)
+    COPY_LAYER(2, OUT4_1, OUT4_2, layer2)
+    COPY_LAYER(3, OUT4_2, OUT4_3, layer3)
+    COPY_LAYER(4, OUT4_3, OUT4_4, layer4)
+    COPY_LAYER(5, OUT4_4, OUT4_5, layer5)
+    COPY_LAYER(6, OUT4_5, OUT4_6, layer6)
+    COPY_LAYER(7, OUT4_6, OUT4_7, layer7)
+    barrier();
+#endif
     uint first = global_invocation_index(gl_WorkGroupSize.x) * POINTS;
     uint count = counted_items(push.count, push.count_slot, push.first);
     if (first >= count) return;

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "extract.h"
+#include "gpu/device.h"
 #include "gpu/gpu_decode.h"
 #include "test_util.h"
 
@@ -309,6 +310,45 @@ TEST_F(Gpu, StagedMemoryGivesTheSameResults) {
         EXPECT_EQ(a, b);
         EXPECT_EQ(ga, gb);
     }
+}
+
+// The field kernels' GPU shape (a point per invocation, weights in shared memory; picked on devices
+// that are not CPU implementations), forced on this device: the same values, gradients and
+// meshes, bit for bit, as the default shape on every golden vector, SDF and UDF.
+TEST_F(Gpu, SharedWeightKernelsGiveTheSameResults) {
+    setenv("NFD_FORCE_SHARED_WEIGHTS", "1", 1);
+    std::unique_ptr<gpu::Device> shared;
+    const nfd_result r = gpu::create_device(nullptr, false, &shared);
+    unsetenv("NFD_FORCE_SHARED_WEIGHTS");
+    ASSERT_EQ(r, NFD_SUCCESS);
+    ASSERT_TRUE(shared->shared_weight_kernels);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<float> points(3 * 1000);
+    for (float& p : points) p = u(rng);
+    for (const std::string& name : golden_names()) {
+        SCOPED_TRACE(name);
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        MeshData usual_mesh, shared_mesh;
+        ASSERT_EQ(gpu::extract_mesh(device(), g, 96, &usual_mesh, nullptr), NFD_SUCCESS);
+        ASSERT_EQ(gpu::extract_mesh(*shared, g, 96, &shared_mesh, nullptr), NFD_SUCCESS);
+        EXPECT_EQ(shared_mesh.indices, usual_mesh.indices);
+        EXPECT_EQ(shared_mesh.positions, usual_mesh.positions);
+        EXPECT_EQ(shared_mesh.normals, usual_mesh.normals);
+        std::vector<float> a(1000), b(1000), ga(3000), gb(3000), cpu(1000);
+        ASSERT_EQ(gpu::evaluate_gradient(device(), g.network, points.data(), 1000, a.data(), ga.data()),
+                  NFD_SUCCESS);
+        ASSERT_EQ(gpu::evaluate_gradient(*shared, g.network, points.data(), 1000, b.data(), gb.data()),
+                  NFD_SUCCESS);
+        EXPECT_EQ(a, b);
+        EXPECT_EQ(ga, gb);
+        evaluate_cpu(g.network, points.data(), 1000, cpu.data());
+        for (size_t i = 0; i < cpu.size(); ++i) ASSERT_NEAR(b[i], cpu[i], 1e-5f) << i;
+    }
+    size_t shared_pipelines = 0;
+    for (const gpu::Device::FieldPipeline& f : shared->field_pipelines)
+        shared_pipelines += f.kernel == gpu::Kernel::FieldEvalShared || f.kernel == gpu::Kernel::FieldGradientShared;
+    EXPECT_GE(shared_pipelines, 2u) << "the shared-memory kernels did not run";
 }
 
 // A network is uploaded once per device: decodes and evaluations of the same content share it

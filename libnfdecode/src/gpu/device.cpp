@@ -3,6 +3,7 @@
 // row here, one line in shaders/CMakeLists.txt and nfd_shaders.h, and its .comp file.
 #include "device.h"
 
+#include <cstdlib>
 #include <cstring>
 #include <initializer_list>
 #include <new>
@@ -50,7 +51,7 @@ constexpr uint32_t kArgs = B(NFD_B_SCAN_COUNTERS) | B(NFD_B_ARGS);
 static_assert(NFD_B_FIELD_COUNTERS >= NFD_B_FIELD_LAYER0 + NFD_GPU_MAX_LAYERS, "after the layers");
 constexpr uint32_t kNoSpecialization = UINT32_MAX;
 
-constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientStorage; }
+constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientShared; }
 
 // Where each kernel family binds the job's counters (counters.glsl): the field kernels after
 // their layers, the small list kernels after the scan's bindings, the level kernels (extract.glsl)
@@ -88,6 +89,10 @@ constexpr KernelDesc kKernels[] = {
      B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
     {Kernel::FieldGradientStorage, shaders::field_gradient_storage, kField | kFieldLayers,
      B(NFD_B_FIELD_FREQUENCIES), NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    {Kernel::FieldEvalShared, shaders::field_eval_shared, kField,
+     B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    {Kernel::FieldGradientShared, shaders::field_gradient_shared, kField,
+     B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
     // Prefix scans and compaction.
     {Kernel::Scan, shaders::scan, B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_SUMS), 0,
      NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE, 0},
@@ -279,6 +284,7 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
     std::unique_ptr<Device> d(new (std::nothrow) Device());
     if (!d) return NFD_ERROR_OUT_OF_MEMORY;
     NFD_TRY(Context::create(adopt, enable_validation, &d->vk));
+    d->shared_weight_kernels = !d->vk->cpu_implementation() || std::getenv("NFD_FORCE_SHARED_WEIGHTS");
     if (hardware_only && d->vk->cpu_implementation()) {
         if (declined)
             *declined = "the only Vulkan device, " + d->vk->name() +

@@ -31,6 +31,7 @@ inline uint32_t div_up(uint64_t a, uint64_t b) { return uint32_t((a + b - 1) / b
 // ---- the kernel table (kernels.cpp): every compute kernel, declared once -----------------------
 enum class Kernel : uint32_t {
     FieldEval, FieldEvalStorage, FieldGradient, FieldGradientStorage,  // specialized per network
+    FieldEvalShared, FieldGradientShared,  // the same for GPUs (field.cpp, prepare_field)
     Scan, ScanPopcount, ScanAdd, BitmapCompact,
     CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseCorners,
     RefineCount, RefinePoints, RefineCells, GatherCorners,
@@ -44,7 +45,8 @@ constexpr size_t kKernelCount = size_t(Kernel::Count);
 struct DeviceNetwork;  // below
 
 // The pipeline description of a kernel; `specialization` completes a field kernel's (its network
-// shape, FIELD_* constant ids 0-13), and must be empty for the others.
+// shape, field_eval.comp's constant ids 0-14, and 16 for the shared-memory variants), and must be
+// empty for the others.
 PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization = {});
 
 class Device {
@@ -67,6 +69,10 @@ public:
     };
     std::list<CachedNetwork> networks;
     uint64_t networks_uploaded = 0;
+    // The field kernels' shape for GPUs (one point per invocation, weights in shared memory), not
+    // for CPU implementations, whose SIMD lanes want several points per invocation. Tests set
+    // NFD_FORCE_SHARED_WEIGHTS to run it on lavapipe.
+    bool shared_weight_kernels = false;
     // Jobs on several threads share the device: the field pipelines, the networks and their
     // pipeline choices are made under this lock (field.cpp).
     std::mutex mutex;
@@ -167,6 +173,7 @@ struct DeviceNetwork {
     VkDeviceSize offset[NFD_GPU_MAX_LAYERS] = {}, range[NFD_GPU_MAX_LAYERS] = {};
     bool storage = false;
     uint32_t max4 = 0;                     // widest layer input/output, in vec4s
+    uint32_t weight_vec4s = 0;             // every layer's block, back to back (no alignment)
     std::vector<uint32_t> specialization;  // field_eval.comp's constants 0-13
     struct Variant {
         const Pipeline* pipeline = nullptr;  // created on first use

@@ -115,6 +115,7 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     for (uint32_t l = 0; l < layers; ++l) {
         out->range[l] = VkDeviceSize(out4[l]) * (4 * in4[l] + 1) * 16;
         out->storage |= out->range[l] > block;
+        out->weight_vec4s += uint32_t(out->range[l] / 16);
     }
     const VkDeviceSize align = std::max<VkDeviceSize>(
         256, out->storage ? limits.minStorageBufferOffsetAlignment
@@ -192,12 +193,17 @@ nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient) {
     // Fewer points per invocation for wide networks bounds the per-invocation activations. The
     // gradient variant runs as many as the value variant: with half as many, its per-point time
     // on 2-core llvmpipe (bunny UDF, width 32) was 5% worse; with a quarter, 30% worse.
-    variant.points_per_invocation = net.max4 <= 32 ? kPointsPerInvocation : 2;
+    // On a GPU, the shared-memory shape wherever every layer's block fits the workgroup's memory.
+    const bool shared = d.shared_weight_kernels && !net.storage &&
+                        VkDeviceSize(net.weight_vec4s) * 16 <= d.vk->limits().maxComputeSharedMemorySize;
+    variant.points_per_invocation = shared ? 1 : net.max4 <= 32 ? kPointsPerInvocation : 2;
     std::vector<uint32_t> spec = net.specialization;
     spec.push_back(variant.points_per_invocation);
-    const Kernel kernel = gradient ? (net.storage ? Kernel::FieldGradientStorage
-                                                  : Kernel::FieldGradient)
-                                   : (net.storage ? Kernel::FieldEvalStorage : Kernel::FieldEval);
+    if (shared) spec.insert(spec.end(), {0u /* local size: set by the pipeline */, net.weight_vec4s});
+    const Kernel kernel =
+        shared ? (gradient ? Kernel::FieldGradientShared : Kernel::FieldEvalShared)
+               : gradient ? (net.storage ? Kernel::FieldGradientStorage : Kernel::FieldGradient)
+                          : (net.storage ? Kernel::FieldEvalStorage : Kernel::FieldEval);
     return field_pipeline(d, kernel, spec, &variant.pipeline);
 }
 
