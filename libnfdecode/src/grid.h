@@ -37,8 +37,8 @@ uint32_t refinement_levels(uint32_t resolution);
 // - SDF: margin 1, a distance field's slope. Learned fields reach gradient norms of 1.3-2 in
 //   spots near the surface, but the cells a looser margin adds are ones the surface does not
 //   cross: on 10 shapes at 128, 256 and 512 a margin of 1 gives the mesh of margin 2 byte for
-//   byte, as does 0.25 at 256, and the dense grid's (bench/RESULTS.md, "The keep rule"). It
-//   evaluates 31-36% fewer points than 2.
+//   byte, as does 0.25 at 256, and the dense grid's (bench/RESULTS.md, "0.8: the keep rule ...").
+//   It evaluates 29-36% fewer points than 2.
 // - UDF: margin 2. Its mesher needs the near cells too (udf_cell_is_near), which lie beside the
 //   surface, and fields learned from point clouds are steeper: margin 1 loses near cells of the
 //   milk cloud at 512, and 1.5 saves only 3% of the points.
@@ -68,12 +68,6 @@ inline void unpack_coords(uint32_t packed, uint32_t xyz[3]) {
     xyz[2] = packed >> 22;
 }
 
-// A set of grid vertices with dense ranks, stored by blocks of 8^3 vertices: a block table over
-// the (side / 8)^3 blocks (4 bytes each: 8.6 MB at resolution 1024) and, per occupied block, a
-// 512-bit mask with the rank of its first vertex and a prefix count per 64-bit word. Memory
-// follows the occupied blocks (the band around the surface), not side^3.
-// Ranks follow the blocks in raster order (x fastest), then the vertices inside a block in
-// raster order: for_each visits them in that order.
 // Bits set in x. __builtin_popcountll is a call into libgcc (__popcountdi2) where the target
 // lacks POPCNT (baseline x86-64, as this library is built): 6% of a CPU decode went there, from
 // the vertex sets' ranks. The same arithmetic inline costs a dozen instructions.
@@ -84,6 +78,12 @@ inline uint32_t popcount64(uint64_t x) {
     return uint32_t((x * 0x0101010101010101ull) >> 56);
 }
 
+// A set of grid vertices with dense ranks, stored by blocks of 8^3 vertices: a block table over
+// the (side / 8)^3 blocks (4 bytes each: 8.6 MB at resolution 1024) and, per occupied block, a
+// 512-bit mask with the rank of its first vertex and a prefix count per 64-bit word. Memory
+// follows the occupied blocks (the band around the surface), not side^3.
+// Ranks follow the blocks in raster order (x fastest), then the vertices inside a block in
+// raster order: for_each visits them in that order.
 class VertexSet {
 public:
     VertexSet() = default;

@@ -35,8 +35,8 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, Classify&& classi
                      EdgeValid&& edge_valid, Place&& place, MeshData* mesh) {
     const mc::Tables& t = mc::tables();
     // Pass 1, over slices of the cells at once: each cell's case, 0 where it has no triangle (case
-    // 0 has none). It reads eight corners per visited cell, most of the mesher's time; welding
-    // then needs a slot per grid edge of the cells with triangles only (a few percent of the
+    // 0 has none). It reads eight corners of every visited cell, of which about one in four has
+    // triangles; welding then needs a slot per grid edge of those cells only (a few percent of the
     // band's vertices), not of the whole finest level.
     nfd::vector<uint8_t> cases(level.cells.size());
     parallel_for(level.cells.size(), 16384, threads, [&](size_t begin, size_t end) {
