@@ -281,14 +281,22 @@ TEST_F(Gpu, AutoDeclinesACpuImplementation) {
     nfd_context_destroy(vulkan);
 }
 
+// A device of its own, created with the environment variable `force` set (the library's switches
+// that run a discrete GPU's choices on lavapipe).
+std::unique_ptr<gpu::Device> device_forcing(const char* force) {
+    setenv(force, "1", 1);
+    std::unique_ptr<gpu::Device> d;
+    const nfd_result r = gpu::create_device(nullptr, false, &d);
+    unsetenv(force);
+    EXPECT_EQ(r, NFD_SUCCESS) << force;
+    return d;
+}
+
 // The staged path of discrete GPUs (device-local buffers the host reaches by copies), forced on
 // this device: the same values, gradients and meshes, SDF and UDF, as with mapped memory.
 TEST_F(Gpu, StagedMemoryGivesTheSameResults) {
-    setenv("NFD_FORCE_STAGING", "1", 1);
-    std::unique_ptr<gpu::Device> staged;
-    const nfd_result r = gpu::create_device(nullptr, false, &staged);
-    unsetenv("NFD_FORCE_STAGING");
-    ASSERT_EQ(r, NFD_SUCCESS);
+    const std::unique_ptr<gpu::Device> staged = device_forcing("NFD_FORCE_STAGING");
+    ASSERT_TRUE(staged);
     EXPECT_FALSE(gpu::unified_memory(*staged));
     for (const char* name : {"bunny_sdf_w32", "tshirt_udf_w16"}) {
         SCOPED_TRACE(name);
@@ -316,11 +324,8 @@ TEST_F(Gpu, StagedMemoryGivesTheSameResults) {
 // that are not CPU implementations), forced on this device: the same values, gradients and
 // meshes, bit for bit, as the default shape on every golden vector, SDF and UDF.
 TEST_F(Gpu, SharedWeightKernelsGiveTheSameResults) {
-    setenv("NFD_FORCE_SHARED_WEIGHTS", "1", 1);
-    std::unique_ptr<gpu::Device> shared;
-    const nfd_result r = gpu::create_device(nullptr, false, &shared);
-    unsetenv("NFD_FORCE_SHARED_WEIGHTS");
-    ASSERT_EQ(r, NFD_SUCCESS);
+    const std::unique_ptr<gpu::Device> shared = device_forcing("NFD_FORCE_SHARED_WEIGHTS");
+    ASSERT_TRUE(shared);
     ASSERT_TRUE(shared->shared_weight_kernels);
     std::mt19937 rng(5);
     std::uniform_real_distribution<float> u(-1.0f, 1.0f);
