@@ -292,7 +292,9 @@ void decode_grid(const Options& o, Handles* h) {
     const std::string name = slash == std::string::npos ? o.input : o.input.substr(slash + 1);
     const nfd_result r = nfd_grid_write_vdb(h->grid, o.output.c_str(), name.c_str());
     if (r == NFD_ERROR_UNSUPPORTED_FEATURE)
-        fail(1, o.output + ": this libnfdecode was built without OpenVDB (NFD_WITH_OPENVDB=OFF)");
+        fail(1, o.output + ": this libnfdecode cannot write OpenVDB files: built without OpenVDB "
+                           "(NFD_WITH_OPENVDB=OFF), or its module libnfdecode_vdb.so not found "
+                           "(see NFD_VDB_MODULE)");
     check(r, o.output);
     const double ms_write = ms_since(t);
 
