@@ -52,6 +52,7 @@ struct nfd_asset : nfd::HostAllocated {
 struct nfd_stream : nfd::HostAllocated {
     nfd::StreamReader reader;
     bool asset_taken = false, complete_asset_taken = false;
+    nfd_context* prepare_context = nullptr;  // until it has been asked to prepare (options)
 };
 
 struct nfd_mesh : nfd::HostAllocated {
@@ -461,9 +462,29 @@ nfd_result nfd_stream_create(const nfd_stream_options* options, nfd_stream** out
         return NFD_ERROR_INVALID_ARGUMENT;
     return guarded([&] {
         *out_stream = new nfd_stream();
+        (*out_stream)->prepare_context = opts.prepare_context;
         return NFD_SUCCESS;
     });
 }
+
+namespace {
+
+// nfd_stream_options.prepare_context: once the stream has read GEOM's network shape ahead of the
+// chunk, its context compiles that shape's pipelines while the weights arrive.
+void prepare_from_stream(nfd_stream& stream) {
+    const nfd::Network* shape = stream.reader.early_network_shape();
+    if (!stream.prepare_context || !shape || stream.reader.error() != NFD_SUCCESS) return;
+#if NFD_WITH_VULKAN
+    if (stream.prepare_context->gpu)
+        nfd::gpu::warm_field_pipelines(*stream.prepare_context->gpu, *shape,
+                                       shape->output == nfd::OutputActivation::Abs
+                                           ? nfd::FieldType::Udf
+                                           : nfd::FieldType::Sdf);
+#endif
+    stream.prepare_context = nullptr;
+}
+
+}  // namespace
 
 void nfd_stream_destroy(nfd_stream* stream) { delete stream; }
 
@@ -474,6 +495,7 @@ nfd_result nfd_stream_feed(nfd_stream* stream, const void* bytes, size_t size,
     if (bytes || size == 0) {
         r = guarded([&] { return stream->reader.feed(static_cast<const uint8_t*>(bytes), size); });
         stream->reader.record_failure(r);
+        prepare_from_stream(*stream);
     }
     if (out_progress) *out_progress = progress_of(*stream);
     return r;
@@ -991,6 +1013,7 @@ nfd_result nfd_queue_submit_stream(nfd_queue* queue, nfd_stream* stream,
                                                  &handle->job);
         if (!submitted) return NFD_ERROR_CANCELLED;
         input->stream.reset(stream);
+        if (!stream->prepare_context) stream->prepare_context = queue->context;
         handle->input = std::move(input);
         *out_job = handle.release();
         return NFD_SUCCESS;

@@ -137,38 +137,73 @@ bool crc_matches(uint32_t computed, uint32_t stored) {
 #endif
 }
 
-// FORMAT.md "Network block". `required_output` and `outputs` are the chunk's own rules (GEOM: the
-// activation matching the field type, and one output).
-nfd_result read_network(Reader& r, OutputActivation required_output, uint32_t outputs,
-                        Network* net) {
+// FORMAT.md "Network block" up to the steps: what fixes the network's shape.
+struct NetworkShape {
     uint8_t num_frequencies = 0, output = 0, bits = 0, num_layers = 0;
     float beta = 0, omega0 = 0;
-    NFD_TRY(r.u8(&num_frequencies));
-    NFD_CHECK(num_frequencies <= NFD_MAX_FREQUENCIES);
-    NFD_TRY(r.f32(&beta));
-    NFD_CHECK(finite(beta) && beta >= 1.0f && beta <= 2.0f);
-    NFD_TRY(r.f32(&omega0));
-    NFD_CHECK(finite(omega0) && omega0 > 0.0f && omega0 <= 1000.0f);
-    NFD_TRY(r.u8(&output));
-    NFD_CHECK(output == uint8_t(required_output));
-    NFD_TRY(r.u8(&bits));
-    NFD_CHECK(bits >= 2 && bits <= 16);
-    NFD_TRY(r.u8(&num_layers));
-    NFD_CHECK(num_layers >= 2 && num_layers <= NFD_MAX_LAYERS);
-
     uint16_t widths[NFD_MAX_LAYERS] = {};
-    for (uint32_t i = 0; i < num_layers; ++i) {
-        NFD_TRY(r.u16(&widths[i]));
-        NFD_CHECK(widths[i] >= 1 && widths[i] <= NFD_MAX_WIDTH);
+    uint32_t input_width() const { return 3u + 6u * num_frequencies; }
+};
+
+// `required_output` and `outputs` are the chunk's own rules (GEOM: the activation matching the
+// field type, and one output).
+nfd_result read_network_shape(Reader& r, OutputActivation required_output, uint32_t outputs,
+                              NetworkShape* s) {
+    NFD_TRY(r.u8(&s->num_frequencies));
+    NFD_CHECK(s->num_frequencies <= NFD_MAX_FREQUENCIES);
+    NFD_TRY(r.f32(&s->beta));
+    NFD_CHECK(finite(s->beta) && s->beta >= 1.0f && s->beta <= 2.0f);
+    NFD_TRY(r.f32(&s->omega0));
+    NFD_CHECK(finite(s->omega0) && s->omega0 > 0.0f && s->omega0 <= 1000.0f);
+    NFD_TRY(r.u8(&s->output));
+    NFD_CHECK(s->output == uint8_t(required_output));
+    NFD_TRY(r.u8(&s->bits));
+    NFD_CHECK(s->bits >= 2 && s->bits <= 16);
+    NFD_TRY(r.u8(&s->num_layers));
+    NFD_CHECK(s->num_layers >= 2 && s->num_layers <= NFD_MAX_LAYERS);
+    for (uint32_t i = 0; i < s->num_layers; ++i) {
+        NFD_TRY(r.u16(&s->widths[i]));
+        NFD_CHECK(s->widths[i] >= 1 && s->widths[i] <= NFD_MAX_WIDTH);
     }
-    NFD_CHECK(widths[num_layers - 1] == outputs);
+    NFD_CHECK(s->widths[s->num_layers - 1] == outputs);
+    return NFD_SUCCESS;
+}
+
+// The shape's fields of a Network (weights and biases empty), frequencies in f64 by repeated
+// multiplication, each rounded to f32 (FORMAT.md step 1).
+void set_network_shape(const NetworkShape& s, Network* net) {
+    net->layers.assign(s.num_layers, Layer{});
+    for (uint32_t i = 0, in = s.input_width(); i < s.num_layers; in = s.widths[i++]) {
+        net->layers[i].in = in;
+        net->layers[i].out = s.widths[i];
+    }
+    const uint64_t pi_bits = 0x400921FB54442D18ull;
+    double a = 0;
+    std::memcpy(&a, &pi_bits, sizeof a);
+    net->frequencies.resize(s.num_frequencies);
+    for (float& f : net->frequencies) {
+        f = float(a);
+        a *= double(s.beta);
+    }
+    net->omega0 = s.omega0;
+    net->output = OutputActivation(s.output);
+    net->bits = s.bits;
+}
+
+// FORMAT.md "Network block".
+nfd_result read_network(Reader& r, OutputActivation required_output, uint32_t outputs,
+                        Network* net) {
+    NetworkShape shape;
+    NFD_TRY(read_network_shape(r, required_output, outputs, &shape));
+    const uint32_t num_layers = shape.num_layers, bits = shape.bits;
+    const uint16_t* widths = shape.widths;
     float steps[2 * NFD_MAX_LAYERS] = {};
     for (uint32_t i = 0; i < 2u * num_layers; ++i) {
         NFD_TRY(r.f32(&steps[i]));
         NFD_CHECK(finite(steps[i]) && steps[i] > 0.0f);
     }
 
-    const uint32_t input_width = 3u + 6u * num_frequencies;
+    const uint32_t input_width = shape.input_width();
     uint64_t parameters = 0;
     for (uint32_t i = 0, in = input_width; i < num_layers; in = widths[i++])
         parameters += uint64_t(in) * widths[i] + widths[i];
@@ -194,32 +229,18 @@ nfd_result read_network(Reader& r, OutputActivation required_output, uint32_t ou
             dst[k] = float(q) * step;  // FORMAT.md: one f32 multiplication
         }
     };
-    net->layers.assign(num_layers, Layer{});
-    for (uint32_t i = 0, in = input_width; i < num_layers; in = widths[i++]) {
+    set_network_shape(shape, net);
+    for (uint32_t i = 0; i < num_layers; ++i) {
         Layer& layer = net->layers[i];
-        layer.in = in;
-        layer.out = widths[i];
-        dequantize(layer.weights, size_t(in) * layer.out, steps[2 * i]);
+        dequantize(layer.weights, size_t(layer.in) * layer.out, steps[2 * i]);
         dequantize(layer.bias, layer.out, steps[2 * i + 1]);
     }
     NFD_CHECK(levels_ok);
-
-    // Frequencies in f64 by repeated multiplication, each rounded to f32 (FORMAT.md step 1).
-    const uint64_t pi_bits = 0x400921FB54442D18ull;
-    double a = 0;
-    std::memcpy(&a, &pi_bits, sizeof a);
-    net->frequencies.resize(num_frequencies);
-    for (float& f : net->frequencies) {
-        f = float(a);
-        a *= double(beta);
-    }
-    net->omega0 = omega0;
-    net->output = OutputActivation(output);
-    net->bits = bits;
     return NFD_SUCCESS;
 }
 
-nfd_result read_geometry(Reader& r, Geometry* g) {
+// GEOM's fields before its network block.
+nfd_result read_geometry_frame(Reader& r, Geometry* g) {
     uint8_t field = 0;
     NFD_TRY(r.u8(&field));
     NFD_CHECK(field <= uint8_t(FieldType::Udf));
@@ -236,9 +257,16 @@ nfd_result read_geometry(Reader& r, Geometry* g) {
     double extent = 0;
     for (float c : g->center) extent = std::max(extent, std::fabs(double(c)));
     NFD_CHECK(extent + double(g->scale) <= NFD_MAX_FRAME_EXTENT);
-    const OutputActivation activation =
-        g->field == FieldType::Sdf ? OutputActivation::Identity : OutputActivation::Abs;
-    return read_network(r, activation, 1, &g->network);
+    return NFD_SUCCESS;
+}
+
+OutputActivation geometry_activation(FieldType field) {
+    return field == FieldType::Sdf ? OutputActivation::Identity : OutputActivation::Abs;
+}
+
+nfd_result read_geometry(Reader& r, Geometry* g) {
+    NFD_TRY(read_geometry_frame(r, g));
+    return read_network(r, geometry_activation(g->field), 1, &g->network);
 }
 
 // FORMAT.md "`fram` payload": the exact frame, of which GEOM holds the nearest f32 values (so
@@ -295,6 +323,17 @@ bool TagSet::insert(uint32_t tag) {
     const uint32_t i = tag_index(tag);
     if (bitmap_[i / 64] >> (i % 64) & 1) return false;
     set_bit(bitmap_, i);
+    return true;
+}
+
+bool peek_geometry_network(const uint8_t* payload, size_t size, Network* shape) {
+    Reader r(payload, size);
+    Geometry g;
+    NetworkShape s;
+    if (read_geometry_frame(r, &g) != NFD_SUCCESS ||
+        read_network_shape(r, geometry_activation(g.field), 1, &s) != NFD_SUCCESS)
+        return false;
+    set_network_shape(s, shape);
     return true;
 }
 

@@ -42,6 +42,13 @@ struct ParsedFile {
 // `header` holds kHeaderSize bytes. NFD_ERROR_CORRUPT, or the file's version, whatever it is.
 nfd_result read_format_version(const uint8_t* header, uint32_t* major, uint32_t* minor);
 
+// The geometry network's shape (frequencies, omega0, output activation, layer widths; no weights)
+// from the first bytes of a GEOM payload, as soon as they hold it (about 40 bytes): for work that
+// can start before the chunk is complete, such as the GPU pipelines of that shape. The rules of
+// those fields are checked, the chunk's CRC cannot be yet: the shape is a hint, never a result.
+// False while the bytes are too few, or when they break a rule.
+bool peek_geometry_network(const uint8_t* payload, size_t size, Network* shape);
+
 // "Each tag may appear at most once", checked in O(1) per chunk whatever the chunk count: a file
 // may legally hold millions of empty optional chunks. A tag is four letters, so a bitmap over the
 // 52^4 possible tags (0.9 MiB) is allocated only when a file has more chunks than the inline list.
@@ -87,6 +94,11 @@ public:
     bool geometry_read() const {
         return chunks_read_ > 1 ||
                (chunks_read_ == 1 && (next_ == Next::End || (next_ == Next::Body && tag_ != kTagFrame64)));
+    }
+    // The next piece is the first chunk's body under a GEOM tag (not yet verified): its payload
+    // starts with what peek_geometry_network reads.
+    bool reading_geometry_body() const {
+        return next_ == Next::Body && chunks_read_ == 0 && tag_ == kTagGeom;
     }
     uint64_t offset() const { return offset_; }              // bytes of the pieces read
     const ParsedFile& file() const { return file_; }

@@ -1,6 +1,7 @@
 #include "stream.h"
 
 #include <algorithm>
+#include <new>
 #include <utility>
 
 namespace nfd {
@@ -21,13 +22,27 @@ nfd_result StreamReader::feed(const uint8_t* bytes, size_t size) {
             pending_.insert(pending_.end(), bytes, bytes + take);
             bytes += take, size -= take;
             consumed_ += take;
-            if (pending_.size() < need) break;
+            if (pending_.size() < need) {
+                peek_network_shape();
+                break;
+            }
             piece = pending_.data();
         }
         error_ = parser_.read_piece(piece);
         nfd::vector<uint8_t>().swap(pending_);  // hold no chunk past its end
     }
     return error_;
+}
+
+void StreamReader::peek_network_shape() {
+    if (early_shape_ || !parser_.reading_geometry_body()) return;
+    try {
+        Network shape;
+        if (peek_geometry_network(pending_.data(), pending_.size(), &shape))
+            early_shape_ = std::move(shape);
+    } catch (const std::bad_alloc&) {
+        // Only a hint (early_network_shape): the stream goes on without it.
+    }
 }
 
 nfd_result StreamReader::finish() {

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "bitstream.h"
@@ -32,16 +33,23 @@ public:
     }
 
     nfd_result error() const { return error_; }
+    // The GEOM network's shape (peek_geometry_network) once a feed has gathered enough of a GEOM
+    // body split across feeds, before the body is complete; nullptr before, and when the body
+    // arrived whole in one feed (then the asset itself is ready). Set at most once.
+    const Network* early_network_shape() const { return early_shape_ ? &*early_shape_ : nullptr; }
     // Bytes taken from feed: after a failure, up to the end of the piece that failed.
     uint64_t bytes_consumed() const { return consumed_; }
     const FileParser& parser() const { return parser_; }
     FileParser& parser() { return parser_; }
 
 private:
+    void peek_network_shape();
+
     FileParser parser_;
     nfd::vector<uint8_t> pending_;  // the start of a piece split across feed calls
     uint64_t consumed_ = 0;
     nfd_result error_ = NFD_SUCCESS;
+    std::optional<Network> early_shape_;
 };
 
 // The one-shot reader: `size` bytes, all of them the file. Errors exactly as FORMAT.md orders them

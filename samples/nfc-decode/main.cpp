@@ -328,13 +328,17 @@ Input read_asset(const Options& o, nfd_asset** asset) {
 
 // --stream-chunk: the file read piece by piece into nfd_stream, paced by --bandwidth, never held
 // whole; the asset is taken as soon as the stream has the geometry, and the stream must still
-// finish cleanly (a damaged or truncated tail fails the decode, as without streaming).
-Input stream_asset(const Options& o, nfd_asset** asset) {
+// finish cleanly (a damaged or truncated tail fails the decode, as without streaming). A context
+// that exists already (--levels) compiles the network's pipelines while the weights arrive.
+Input stream_asset(const Options& o, nfd_context* context, nfd_asset** asset) {
     std::FILE* f = std::fopen(o.input.c_str(), "rb");
     if (!f) fail(1, o.input + ": cannot open: " + std::strerror(errno));
     const std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(f, &std::fclose);
     nfd_stream* s = nullptr;
-    check(nfd_stream_create(nullptr, &s), "stream");
+    nfd_stream_options so = {};
+    so.struct_size = sizeof so;
+    so.prepare_context = context;
+    check(nfd_stream_create(&so, &s), "stream");
     const std::unique_ptr<nfd_stream, void (*)(nfd_stream*)> stream(s, &nfd_stream_destroy);
 
     Input in;
@@ -370,8 +374,8 @@ Input stream_asset(const Options& o, nfd_asset** asset) {
     return in;
 }
 
-Input acquire_asset(const Options& o, nfd_asset** asset) {
-    return o.stream_chunk ? stream_asset(o, asset) : read_asset(o, asset);
+Input acquire_asset(const Options& o, nfd_context* context, nfd_asset** asset) {
+    return o.stream_chunk ? stream_asset(o, context, asset) : read_asset(o, asset);
 }
 
 // OUT.<resolution>.<ext>: bunny.glb -> bunny.64.glb.
@@ -398,7 +402,7 @@ void decode_progressive(const Options& o, Handles* h) {
 
     const auto t0 = Clock::now();
     const double cpu0 = process_cpu_ms();
-    const Input in = acquire_asset(o, &h->asset);
+    const Input in = acquire_asset(o, h->context, &h->asset);
     const double ms_asset = ms_since(t0);
     nfd_extraction_options eo = {};
     eo.struct_size = sizeof eo;
@@ -459,7 +463,7 @@ void decode_progressive(const Options& o, Handles* h) {
 void run(const Options& o) {
     Handles h;
     if (!o.levels.empty()) return decode_progressive(o, &h);
-    const Input in = acquire_asset(o, &h.asset);
+    const Input in = acquire_asset(o, nullptr, &h.asset);
     nfd_asset_info info;
     check(nfd_asset_get_info(h.asset, &info), o.input);
 

@@ -6,7 +6,9 @@
 
 #include <cmath>
 #include <random>
+#include <thread>
 
+#include "bitstream.h"
 #include "extract.h"
 #include "gpu/device.h"
 #include "gpu/gpu_decode.h"
@@ -432,6 +434,107 @@ TEST_F(Gpu, UdfMeshMatchesCpu) {
     ASSERT_GT(m.gpu.triangle_count(), 0u);
     EXPECT_EQ(m.gpu_stats.gradients_evaluated, m.cpu_stats.gradients_evaluated);
     expect_same_mesh(m, siren, 64);
+}
+
+// A network's shape read ahead of its weights (peek_geometry_network, as nfd_stream does for
+// nfd_stream_options.prepare_context) compiles the very pipelines its decode uses: the value
+// kernel's, and for a UDF the gradient kernel's. The decode then compiles nothing, and its mesh
+// is the CPU twin's as ever.
+TEST_F(Gpu, PipelinesCompiledFromTheShapeAreTheDecodesOwn) {
+    for (uint8_t field_type : {0, 1}) {
+        SCOPED_TRACE(field_type ? "udf" : "sdf");
+        // A shape no other test decodes (width 20, 5 frequencies): nothing is compiled for it yet.
+        const Bytes bytes = geom_file(random_siren(20, 8, 70 + field_type, field_type, 1, 5));
+        const Geometry g = parse_or_throw(bytes);
+        Network shape;
+        ASSERT_TRUE(peek_geometry_network(&bytes[24], 64, &shape));
+        const size_t before = device().field_pipelines.size(), expected = before + 1 + field_type;
+        gpu::warm_field_pipelines(device(), shape, g.field);
+        device().join_warmers(false);
+        EXPECT_EQ(device().field_pipelines.size(), expected);
+        for (const gpu::Device::FieldPipeline& f : device().field_pipelines) EXPECT_TRUE(f.ready);
+        const MeshPair m = extract_both(device(), g, 48);
+        EXPECT_EQ(device().field_pipelines.size(), expected) << "the decode compiled its own";
+        ASSERT_GT(m.gpu.triangle_count(), 0u);
+        expect_same_mesh(m, g, 48);
+    }
+}
+
+// Decodes of a new network shape on several threads at once, each compiling what it needs while
+// a read-ahead compiles the same: every pipeline is compiled once, and each mesh is the CPU twin's.
+TEST_F(Gpu, ConcurrentDecodesOfANewShapeCompileItOnce) {
+    const Geometry g = parse_or_throw(geom_file(random_siren(24, 8, 72, /*field_type=*/1, 1, 6)));
+    const size_t before = device().field_pipelines.size();
+    gpu::warm_field_pipelines(device(), g.network, g.field);
+    std::vector<MeshData> meshes(3);
+    std::vector<nfd_result> results(3, NFD_ERROR_INTERNAL);
+    std::vector<std::thread> threads;
+    for (size_t i = 0; i < meshes.size(); ++i)
+        threads.emplace_back(
+            [&, i] { results[i] = gpu::extract_mesh(device(), g, 40, &meshes[i], nullptr); });
+    for (std::thread& t : threads) t.join();
+    device().join_warmers(false);
+    EXPECT_EQ(device().field_pipelines.size(), before + 2);
+    const MeshPair m = extract_both(device(), g, 40);
+    for (size_t i = 0; i < meshes.size(); ++i) {
+        ASSERT_EQ(results[i], NFD_SUCCESS);
+        EXPECT_EQ(meshes[i].indices, m.gpu.indices);
+        EXPECT_EQ(meshes[i].positions, m.gpu.positions);
+    }
+}
+
+// nfd_stream_options.prepare_context through the C API: a stream fed a byte at a time on a
+// Vulkan context gives the mesh of the one-shot asset on that context, byte for byte; and the
+// context may be destroyed while the compile it was asked for runs (it waits for it), the stream
+// then finishing without it.
+TEST_F(Gpu, StreamThatPreparesItsContextDecodesAsWithout) {
+    nfd_context_options co{};
+    co.struct_size = sizeof co;
+    co.device = NFD_DEVICE_VULKAN;
+    auto mesh_arrays = [](nfd_context* c, const nfd_asset* a) {
+        nfd_mesh_options mo{};
+        mo.struct_size = sizeof mo;
+        mo.resolution = 64;
+        nfd_mesh* mesh = nullptr;
+        EXPECT_EQ(nfd_mesh_extract(c, a, &mo, &mesh), NFD_SUCCESS);
+        nfd_mesh_data d{};
+        EXPECT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
+        std::vector<float> out(d.positions, d.positions + 3 * d.vertex_count);
+        out.insert(out.end(), d.indices, d.indices + 3 * d.triangle_count);  // exact as floats
+        nfd_mesh_destroy(mesh);
+        return out;
+    };
+    for (const char* name : {"bunny_sdf_w16", "tshirt_udf_w16"}) {
+        SCOPED_TRACE(name);
+        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
+        nfd_context* context = nullptr;
+        ASSERT_EQ(nfd_context_create(&co, &context), NFD_SUCCESS);
+        nfd_stream_options so{};
+        so.struct_size = sizeof so;
+        so.prepare_context = context;
+        nfd_stream* stream = nullptr;
+        ASSERT_EQ(nfd_stream_create(&so, &stream), NFD_SUCCESS);
+        for (size_t i = 0; i < bytes.size(); ++i)
+            ASSERT_EQ(nfd_stream_feed(stream, &bytes[i], 1, nullptr), NFD_SUCCESS);
+        nfd_asset *streamed = nullptr, *whole = nullptr;
+        ASSERT_EQ(nfd_stream_finish(stream), NFD_SUCCESS);
+        ASSERT_EQ(nfd_stream_take_complete_asset(stream, &streamed), NFD_SUCCESS);
+        nfd_stream_destroy(stream);
+        ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &whole), NFD_SUCCESS);
+        EXPECT_EQ(mesh_arrays(context, streamed), mesh_arrays(context, whole));
+        nfd_asset_destroy(streamed);
+        nfd_asset_destroy(whole);
+        nfd_context_destroy(context);
+
+        ASSERT_EQ(nfd_context_create(&co, &context), NFD_SUCCESS);
+        so.prepare_context = context;
+        ASSERT_EQ(nfd_stream_create(&so, &stream), NFD_SUCCESS);
+        ASSERT_EQ(nfd_stream_feed(stream, bytes.data(), 80, nullptr), NFD_SUCCESS);
+        nfd_context_destroy(context);  // waits for the compile the stream started
+        ASSERT_EQ(nfd_stream_feed(stream, &bytes[80], bytes.size() - 80, nullptr), NFD_SUCCESS);
+        EXPECT_EQ(nfd_stream_finish(stream), NFD_SUCCESS);
+        nfd_stream_destroy(stream);
+    }
 }
 
 // Golden vectors from the Python encoder (SDF and UDF): GPU mesh vs CPU mesh.

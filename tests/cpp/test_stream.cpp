@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "alloc_tracking.h"
+#include "stream.h"
 #include "test_util.h"
 
 namespace nfd::test {
@@ -609,6 +610,74 @@ TEST(Stream, OutOfMemoryIsSticky) {
         nfd_asset* a = nullptr;
         EXPECT_EQ(nfd_stream_take_asset(s.get(), &a), NFD_ERROR_OUT_OF_MEMORY);
     }
+}
+
+// The network's shape is known from GEOM's first bytes, long before the chunk is complete
+// (nfd_stream_options.prepare_context compiles its pipelines then): fed a byte at a time, every
+// file shows the shape of the network it decodes to while its geometry is still incomplete, from
+// the same byte whatever the piece sizes; a GEOM that arrives whole in one feed shows none.
+TEST(Stream, NetworkShapeIsReadBeforeTheGeometryChunkIsComplete) {
+    for (const auto& [name, bytes] : all_files()) {
+        SCOPED_TRACE(name);
+        const Geometry parsed = parse_or_throw(bytes);
+        // Header, GEOM's frame, its 21 bytes of frame fields, the network's 12 bytes, the widths.
+        const size_t shape_end = 16 + 8 + 21 + 12 + 2 * parsed.network.layers.size();
+        for (uint32_t seed : {0u, 1u, 2u}) {
+            StreamReader reader;
+            size_t at = 0;
+            for (size_t n : split(bytes.size(), seed, 8)) {
+                ASSERT_EQ(reader.feed(bytes.data() + at, n), NFD_SUCCESS);
+                at += n;
+                if (reader.early_network_shape()) break;
+            }
+            const Network* shape = reader.early_network_shape();
+            ASSERT_NE(shape, nullptr);
+            EXPECT_FALSE(reader.parser().geometry_read());
+            if (seed == 0) EXPECT_EQ(at, shape_end);
+            EXPECT_GE(at, shape_end);
+            EXPECT_LT(at, shape_end + 16);  // within the piece that completes it
+            EXPECT_EQ(shape->frequencies, parsed.network.frequencies);
+            EXPECT_EQ(shape->omega0, parsed.network.omega0);
+            EXPECT_EQ(shape->output, parsed.network.output);
+            ASSERT_EQ(shape->layers.size(), parsed.network.layers.size());
+            for (size_t l = 0; l < shape->layers.size(); ++l) {
+                EXPECT_EQ(shape->layers[l].in, parsed.network.layers[l].in);
+                EXPECT_EQ(shape->layers[l].out, parsed.network.layers[l].out);
+                EXPECT_TRUE(shape->layers[l].weights.empty());
+            }
+        }
+        StreamReader whole;
+        ASSERT_EQ(whole.feed(bytes.data(), bytes.size()), NFD_SUCCESS);
+        EXPECT_EQ(whole.early_network_shape(), nullptr);
+    }
+}
+
+// The shape is read before the CRC can vouch for it, so it is checked as the parser checks those
+// fields: a prefix that breaks a rule (field type, widths, activation) gives no shape, and every
+// byte flip of the shape's bytes gives either none or one that passes the rules, never a crash.
+TEST(Stream, NetworkShapeReadAheadFollowsTheRules) {
+    const Bytes bytes = geom_file(random_siren(16, 8, 5, /*field_type=*/1));
+    const size_t payload = 16 + 8;
+    for (size_t k = payload; k < payload + 60; ++k)
+        for (uint8_t flip : {0x01, 0x80, 0xFF}) {
+            Bytes damaged = bytes;
+            damaged[k] ^= flip;
+            Network shape;
+            if (peek_geometry_network(&damaged[payload], 60, &shape)) {
+                EXPECT_LE(shape.frequencies.size(), size_t(NFD_MAX_FREQUENCIES));
+                EXPECT_GE(shape.layers.size(), 2u);
+                EXPECT_LE(shape.layers.size(), size_t(NFD_MAX_LAYERS));
+                EXPECT_EQ(shape.layers.back().out, 1u);
+            }
+        }
+    Network shape;
+    EXPECT_TRUE(peek_geometry_network(&bytes[payload], bytes.size() - payload - 4, &shape));
+    EXPECT_EQ(shape.output, OutputActivation::Abs);
+    for (size_t n = 0; n < 21 + 12 + 2 * 3; ++n)
+        EXPECT_FALSE(peek_geometry_network(&bytes[payload], n, &shape)) << n;  // too few bytes
+    Bytes wrong_activation = bytes;
+    wrong_activation[payload + 21 + 9] = 0;  // identity on a UDF
+    EXPECT_FALSE(peek_geometry_network(&wrong_activation[payload], 60, &shape));
 }
 
 }  // namespace

@@ -54,7 +54,7 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 8
+#define NFD_VERSION_MINOR 9
 #define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
@@ -380,10 +380,22 @@ NFD_API nfd_result nfd_asset_evaluate_colour(nfd_context* context, const nfd_ass
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_stream nfd_stream;
 
-/* Zero-initialise and set struct_size (see "Option structs"). No options yet: the struct exists so
- * that later versions can add some without changing nfd_stream_create. */
+/* Zero-initialise and set struct_size (see "Option structs"). */
 typedef struct nfd_stream_options {
     uint32_t struct_size; /* 0.2: sizeof(nfd_stream_options), or 0 */
+    /* (0.9) The context that will decode this stream's asset, or NULL. When set, the feed that
+     * brings GEOM's first ~40 bytes (the network's shape: frequencies, widths, output) while the
+     * rest of the chunk is still to come starts compiling that shape's field pipelines on a
+     * thread of the context, and returns without waiting for it: a decode of the asset created
+     * later on this context (nfd_mesh_extract, nfd_extraction_create, ...) finds them built, or
+     * waits only for the rest of the compile. On 2-core lavapipe that is 20-80 ms the first level
+     * no longer waits for after its geometry arrives (bench/RESULTS.md, "Streaming decode").
+     * Only a hint: the shape is read before the chunk's CRC can vouch for it, so a damaged one
+     * costs at most a compile nobody uses; results and errors are those of a stream without it.
+     * A CPU context, a GEOM that arrives whole in one feed, or a context already compiling 4
+     * shapes ahead: nothing happens. The context must outlive the stream's feed calls (its
+     * destruction waits for the compiles it is running). */
+    nfd_context* prepare_context;
 } nfd_stream_options;
 
 /* Bits of nfd_stream_progress.flags. Once set, a bit stays set (also after a failure, for what was
@@ -932,7 +944,8 @@ NFD_API nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
  * Outcomes: as nfd_queue_submit (stream NULL: NFD_ERROR_INVALID_ARGUMENT). On NFD_SUCCESS the job
  * owns the stream (do not use or destroy it; nfd_job_destroy does); on failure the caller keeps
  * it. A stream that has failed gives a job that fails at once with the stream's error (its
- * callback runs on this thread before this returns). */
+ * callback runs on this thread before this returns). A stream without a prepare_context
+ * (nfd_stream_options) takes the queue's context as its own (0.9). */
 NFD_API nfd_result nfd_queue_submit_stream(nfd_queue* queue, nfd_stream* stream,
                                            const nfd_mesh_options* mesh_options,
                                            const nfd_job_options* job_options, nfd_job** out_job);

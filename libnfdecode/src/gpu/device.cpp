@@ -212,10 +212,22 @@ PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization
 }
 
 Device::~Device() {
+    join_warmers(false);
     if (!vk) return;
     for (FieldPipeline& f : field_pipelines) vk->destroy(f.pipeline);
     for (Pipeline& p : kernels) vk->destroy(p);
     vk->destroy(mc_tables);
+}
+
+void Device::join_warmers(bool finished_only) {
+    for (auto it = warmers.begin(); it != warmers.end();) {
+        if (finished_only && !it->done) {
+            ++it;
+            continue;
+        }
+        if (it->thread.joinable()) it->thread.join();
+        it = warmers.erase(it);
+    }
 }
 
 Buffers& Buffers::operator=(Buffers&& other) noexcept {

@@ -3,11 +3,14 @@
 // counters and indirect records; job.cpp); buffers; the network as the field kernels read it; the
 // prefix scan: what every stage (field.cpp, levels.cpp, mesh_sdf.cpp, mesh_udf.cpp) builds on.
 #pragma once
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <list>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <vector>
 
 #include "../network.h"
@@ -54,12 +57,23 @@ public:
     std::unique_ptr<Context> vk;
     Pipeline kernels[kKernelCount];  // all but the field kernels, created with the device
     // Field kernels, one per (variant, network shape); a list: DeviceNetwork keeps pointers.
+    // An entry exists from the moment a thread starts compiling it (`ready` false), so that
+    // others needing it wait on `field_pipeline_ready` instead of compiling it again (field.cpp).
     struct FieldPipeline {
         Kernel kernel;
         std::vector<uint32_t> specialization;
         Pipeline pipeline;
+        bool ready = false;
     };
     std::list<FieldPipeline> field_pipelines;
+    std::condition_variable field_pipeline_ready;
+    // Threads compiling field pipelines ahead of their first use (field.cpp,
+    // compile_in_background), joined by the destructor before anything is destroyed.
+    struct Warmer {
+        std::thread thread;
+        std::atomic<bool> done{false};
+    };
+    std::list<Warmer> warmers;
     Buffer mc_tables;  // mc.glsl's layout of mc_tables.h
     // Uploaded networks (field.cpp, device_network), most recently used first, with the network
     // they hold (compared in full: a cached upload serves exactly that content).
@@ -79,6 +93,9 @@ public:
 
     const Pipeline& operator[](Kernel k) const { return kernels[size_t(k)]; }
     ~Device();
+    // Joins the warmers (all, or those done) and drops them from the list. Without d.mutex when
+    // not `finished_only`: a running warmer takes it.
+    void join_warmers(bool finished_only);
 };
 
 // Buffers that live as long as this object (one refinement level, one stage of work).
@@ -174,6 +191,7 @@ struct DeviceNetwork {
     bool storage = false;
     uint32_t max4 = 0;                     // widest layer input/output, in vec4s
     uint32_t weight_vec4s = 0;             // every layer's block, back to back (no alignment)
+    VkDeviceSize bytes = 0;                // of `weights`, the aligned blocks
     std::vector<uint32_t> specialization;  // field_eval.comp's constants 0-13
     struct Variant {
         const Pipeline* pipeline = nullptr;  // created on first use
@@ -198,5 +216,10 @@ nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, cons
 // Creates the pipeline record_field will use (it does so itself on first use): compiling on a
 // CPU implementation takes tens of MB for a while, better spent before the big buffers exist.
 nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient);
+// The pipelines a decode of this field type needs: the value kernel's, and for a UDF the
+// gradient kernel's, which compiles on a thread of the device meanwhile and is waited for only
+// when the first gradients are recorded (on 2-core lavapipe 55 ms against the value kernel's
+// 25: the first UDF level waited for both in turn, and its value work needs only the first).
+nfd_result prepare_fields(Device& d, DeviceNetwork& net, FieldType field);
 
 }  // namespace nfd::gpu

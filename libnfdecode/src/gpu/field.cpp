@@ -3,6 +3,10 @@
 // twin is network.cpp.
 #include <algorithm>
 #include <cstring>
+#include <iterator>
+#include <new>
+#include <system_error>
+#include <thread>
 
 #include "device.h"
 #include "gpu_decode.h"
@@ -17,6 +21,9 @@ constexpr VkDeviceSize kFrequencyBytes = NFD_GPU_MAX_FREQUENCIES * 4;
 constexpr size_t kEvaluateChunk = size_t(1) << 22;    // points per dispatch in evaluate()
 // Networks kept on a device: a few hundred KB of weights each at most (width 96: 80 KB).
 constexpr size_t kCachedNetworks = 8;
+// Field pipelines compiled on the device's own threads at once (compile_in_background): two
+// per network shape, for four shapes.
+constexpr size_t kMaxWarmers = 8;
 
 bool same_network(const Network& a, const Network& b) {
     if (a.frequencies != b.frequencies || a.omega0 != b.omega0 || a.output != b.output ||
@@ -40,19 +47,42 @@ uint32_t encoded_column(uint32_t e) {
 }
 
 // The pipeline of `kernel` for a network shape, created on first use and kept by the device.
-nfd_result field_pipeline(Device& d, Kernel kernel, const std::vector<uint32_t>& specialization,
-                          const Pipeline** out) {
-    for (const Device::FieldPipeline& f : d.field_pipelines) {
-        if (f.kernel == kernel && f.specialization == specialization) {
-            *out = &f.pipeline;
+// Called with d.mutex held by `lock`, which is released while compiling: another thread that
+// needs the same pipeline meanwhile waits for this compile rather than starting its own.
+nfd_result field_pipeline(Device& d, std::unique_lock<std::mutex>& lock, Kernel kernel,
+                          const std::vector<uint32_t>& specialization, const Pipeline** out) {
+    auto same = [&](const Device::FieldPipeline& f) {
+        return f.kernel == kernel && f.specialization == specialization;
+    };
+    for (auto it = std::find_if(d.field_pipelines.begin(), d.field_pipelines.end(), same);
+         it != d.field_pipelines.end();
+         it = std::find_if(d.field_pipelines.begin(), d.field_pipelines.end(), same)) {
+        if (it->ready) {
+            *out = &it->pipeline;
             return NFD_SUCCESS;
         }
+        d.field_pipeline_ready.wait(lock);  // then look again: that compile may have failed
     }
-    Device::FieldPipeline f{kernel, specialization, {}};
-    NFD_TRY(d.vk->create_pipeline(kernel_pipeline(kernel, specialization), &f.pipeline));
-    d.field_pipelines.push_back(std::move(f));
-    *out = &d.field_pipelines.back().pipeline;
-    return NFD_SUCCESS;
+    d.field_pipelines.push_back({kernel, specialization, {}, false});
+    const auto entry = std::prev(d.field_pipelines.end());
+    Pipeline built;
+    lock.unlock();
+    nfd_result r;
+    try {
+        r = d.vk->create_pipeline(kernel_pipeline(kernel, specialization), &built);
+    } catch (const std::bad_alloc&) {
+        r = NFD_ERROR_OUT_OF_MEMORY;
+    }
+    lock.lock();
+    if (r == NFD_SUCCESS) {
+        entry->pipeline = std::move(built);
+        entry->ready = true;
+        *out = &entry->pipeline;
+    } else {
+        d.field_pipelines.erase(entry);
+    }
+    d.field_pipeline_ready.notify_all();
+    return r;
 }
 
 // Evaluates n points kEvaluateChunk at a time, handing each chunk's results (output_width()
@@ -84,47 +114,76 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
     return NFD_SUCCESS;
 }
 
-// Per layer, rows of in4 vec4s at aligned offsets (device.h, DeviceNetwork).
-nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
+// Vec4 rows per layer: in4 inputs (layer 0: the encoding's blocks), out4 outputs.
+struct LayerVec4s {
+    uint32_t in4[NFD_GPU_MAX_LAYERS] = {};
+    uint32_t out4[NFD_GPU_MAX_LAYERS] = {};
+};
+
+// Where field_eval.comp finds each layer (device.h, DeviceNetwork: ranges, offsets, storage or
+// uniform) and the kernel's specialization: from the network's shape alone, so that a shape read
+// ahead of its weights (warm_field_pipelines) gives the very pipelines of the whole network.
+nfd_result network_layout(const VkPhysicalDeviceLimits& limits, const Network& net,
+                          DeviceNetwork* out, LayerVec4s* v) {
     const uint32_t layers = uint32_t(net.layers.size());
     if (layers < 1 || layers > NFD_GPU_MAX_LAYERS ||
         net.frequencies.size() > NFD_GPU_MAX_FREQUENCIES || net.output_width() < 1 ||
         net.output_width() > 4)
         return NFD_ERROR_UNSUPPORTED_FEATURE;
     const uint32_t freq4 = div_up(net.frequencies.size(), 4);
-    std::vector<uint32_t> in4(layers), out4(NFD_GPU_MAX_LAYERS, 1);
+    std::fill(std::begin(v->out4), std::end(v->out4), 1u);
     uint32_t in = net.input_width();
     for (uint32_t l = 0; l < layers; ++l) {
         const Layer& layer = net.layers[l];
-        if (layer.in != in || layer.out == 0 ||
-            layer.weights.size() != size_t(layer.in) * layer.out || layer.bias.size() != layer.out)
-            return NFD_ERROR_UNSUPPORTED_FEATURE;  // not a network the parser produces
-        in4[l] = l == 0 ? 1 + 6 * freq4 : out4[l - 1];
-        out4[l] = div_up(layer.out, 4);
-        if (out4[l] > kMaxVec4PerLayer) return NFD_ERROR_UNSUPPORTED_FEATURE;
+        if (layer.in != in || layer.out == 0) return NFD_ERROR_UNSUPPORTED_FEATURE;
+        v->in4[l] = l == 0 ? 1 + 6 * freq4 : v->out4[l - 1];
+        v->out4[l] = div_up(layer.out, 4);
+        if (v->out4[l] > kMaxVec4PerLayer) return NFD_ERROR_UNSUPPORTED_FEATURE;
         in = layer.out;
     }
 
     // Uniform blocks are what makes field_eval.comp fast on CPU implementations; a layer too
     // large for one (64 KiB: 128 rows of 99 inputs) takes the storage-buffer variant, slower
     // there but exact.
-    const VkPhysicalDeviceLimits& limits = d.vk->limits();
     const VkDeviceSize block =
         std::min<VkDeviceSize>(kUniformBlockBytes, limits.maxUniformBufferRange);
-    VkDeviceSize total = 0;
     for (uint32_t l = 0; l < layers; ++l) {
-        out->range[l] = VkDeviceSize(out4[l]) * (4 * in4[l] + 1) * 16;
+        out->range[l] = VkDeviceSize(v->out4[l]) * (4 * v->in4[l] + 1) * 16;
         out->storage |= out->range[l] > block;
         out->weight_vec4s += uint32_t(out->range[l] / 16);
     }
     const VkDeviceSize align = std::max<VkDeviceSize>(
         256, out->storage ? limits.minStorageBufferOffsetAlignment
                           : limits.minUniformBufferOffsetAlignment);
+    VkDeviceSize total = 0;
     for (uint32_t l = 0; l < layers; ++l) {
         out->offset[l] = total;
         total += (out->range[l] + align - 1) / align * align;
     }
+    out->bytes = total;
     for (uint32_t l = layers; l < NFD_GPU_MAX_LAYERS; ++l) out->range[l] = out->range[0];  // unused
+
+    float omega0 = net.omega0;
+    uint32_t omega0_bits;
+    std::memcpy(&omega0_bits, &omega0, 4);
+    out->max4 = v->in4[0];
+    for (uint32_t l = 0; l < layers; ++l) out->max4 = std::max(out->max4, v->out4[l]);
+    std::vector<uint32_t>& spec = out->specialization;
+    spec = {freq4, layers};
+    spec.insert(spec.end(), std::begin(v->out4), std::end(v->out4));
+    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), out->max4, net.output_width()});
+    return NFD_SUCCESS;
+}
+
+// Per layer, rows of in4 vec4s at aligned offsets (device.h, DeviceNetwork).
+nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
+    LayerVec4s v;
+    NFD_TRY(network_layout(d.vk->limits(), net, out, &v));
+    const uint32_t layers = uint32_t(net.layers.size());
+    for (const Layer& layer : net.layers)
+        if (layer.weights.size() != size_t(layer.in) * layer.out || layer.bias.size() != layer.out)
+            return NFD_ERROR_UNSUPPORTED_FEATURE;  // not a network the parser produces
+    const VkDeviceSize total = out->bytes;
     out->device = &d;
     NFD_TRY(d.vk->create_buffer(total, &out->weights));
     NFD_TRY(d.vk->create_buffer(kFrequencyBytes, &out->frequencies));
@@ -134,25 +193,15 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
         const Layer& layer = net.layers[l];
         float* w = weights.data() + out->offset[l] / 4;
         for (uint32_t o = 0; o < layer.out; ++o) {
-            float* row = w + size_t(o) * 4 * in4[l];
+            float* row = w + size_t(o) * 4 * v.in4[l];
             for (uint32_t i = 0; i < layer.in; ++i)
                 row[l == 0 ? encoded_column(i) : i] = layer.weights[size_t(o) * layer.in + i];
         }
-        float* bias = w + size_t(out4[l]) * 4 * 4 * in4[l];
+        float* bias = w + size_t(v.out4[l]) * 4 * 4 * v.in4[l];
         for (uint32_t o = 0; o < layer.out; ++o) bias[o] = layer.bias[o];
     }
     NFD_TRY(d.vk->upload(out->weights, 0, weights.data(), total));
     NFD_TRY(d.vk->upload(out->frequencies, 0, frequencies.data(), kFrequencyBytes));
-
-    float omega0 = net.omega0;
-    uint32_t omega0_bits;
-    std::memcpy(&omega0_bits, &omega0, 4);
-    out->max4 = in4[0];
-    for (uint32_t l = 0; l < layers; ++l) out->max4 = std::max(out->max4, out4[l]);
-    std::vector<uint32_t>& spec = out->specialization;
-    spec = {freq4, layers};
-    spec.insert(spec.end(), out4.begin(), out4.end());
-    spec.insert(spec.end(), {omega0_bits, uint32_t(net.output), out->max4, net.output_width()});
     return NFD_SUCCESS;
 }
 
@@ -187,7 +236,7 @@ nfd_result device_network(Device& d, const Network& net, std::shared_ptr<DeviceN
 }
 
 nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient) {
-    std::lock_guard<std::mutex> lock(d.mutex);
+    std::unique_lock<std::mutex> lock(d.mutex);
     DeviceNetwork::Variant& variant = gradient ? net.gradients : net.values;
     if (variant.pipeline) return NFD_SUCCESS;
     // Fewer points per invocation for wide networks bounds the per-invocation activations. The
@@ -196,15 +245,82 @@ nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient) {
     // On a GPU, the shared-memory shape wherever every layer's block fits the workgroup's memory.
     const bool shared = d.shared_weight_kernels && !net.storage &&
                         VkDeviceSize(net.weight_vec4s) * 16 <= d.vk->limits().maxComputeSharedMemorySize;
-    variant.points_per_invocation = shared ? 1 : net.max4 <= 32 ? kPointsPerInvocation : 2;
+    const uint32_t points = shared ? 1 : net.max4 <= 32 ? kPointsPerInvocation : 2;
     std::vector<uint32_t> spec = net.specialization;
-    spec.push_back(variant.points_per_invocation);
+    spec.push_back(points);
     if (shared) spec.insert(spec.end(), {0u /* local size: set by the pipeline */, net.weight_vec4s});
     const Kernel kernel =
         shared ? (gradient ? Kernel::FieldGradientShared : Kernel::FieldEvalShared)
                : gradient ? (net.storage ? Kernel::FieldGradientStorage : Kernel::FieldGradient)
                           : (net.storage ? Kernel::FieldEvalStorage : Kernel::FieldEval);
-    return field_pipeline(d, kernel, spec, &variant.pipeline);
+    const Pipeline* pipeline = nullptr;
+    NFD_TRY(field_pipeline(d, lock, kernel, spec, &pipeline));
+    variant.points_per_invocation = points;
+    variant.pipeline = pipeline;
+    return NFD_SUCCESS;
+}
+
+namespace {
+
+// A network's layout without its buffers (the destructor then frees nothing): what a pipeline
+// compiled on another thread needs, whose lifetime the network's owner does not control.
+std::shared_ptr<DeviceNetwork> layout_copy(const DeviceNetwork& net) {
+    auto layout = std::make_shared<DeviceNetwork>();
+    std::copy(std::begin(net.offset), std::end(net.offset), std::begin(layout->offset));
+    std::copy(std::begin(net.range), std::end(net.range), std::begin(layout->range));
+    layout->storage = net.storage;
+    layout->max4 = net.max4;
+    layout->weight_vec4s = net.weight_vec4s;
+    layout->bytes = net.bytes;
+    layout->specialization = net.specialization;
+    return layout;
+}
+
+// Compiles one field pipeline of `layout` on a thread of the device (Device::warmers), into the
+// device's list, where prepare_field finds it or waits for it. False when no thread could start,
+// or kMaxWarmers are running: the pipeline is then compiled where it is first needed.
+bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, bool gradient) {
+    std::lock_guard<std::mutex> lock(d.mutex);
+    d.join_warmers(true);
+    if (d.warmers.size() >= kMaxWarmers) return false;
+    Device::Warmer& w = d.warmers.emplace_back();
+    try {
+        w.thread = std::thread([&d, &w, layout, gradient] {
+            try {
+                prepare_field(d, *layout, gradient);  // a failure is the decode's to report
+            } catch (const std::bad_alloc&) {
+            }
+            w.done = true;
+        });
+    } catch (const std::system_error&) {
+        d.warmers.pop_back();
+        return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+nfd_result prepare_fields(Device& d, DeviceNetwork& net, FieldType field) {
+    if (field == FieldType::Udf) {
+        try {
+            compile_in_background(d, layout_copy(net), true);
+        } catch (const std::bad_alloc&) {
+            return NFD_ERROR_OUT_OF_MEMORY;
+        }
+    }
+    return prepare_field(d, net, false);
+}
+
+void warm_field_pipelines(Device& d, const Network& shape, FieldType field) {
+    try {
+        auto layout = std::make_shared<DeviceNetwork>();
+        LayerVec4s v;
+        if (network_layout(d.vk->limits(), shape, layout.get(), &v) != NFD_SUCCESS) return;
+        compile_in_background(d, layout, false);
+        if (field == FieldType::Udf) compile_in_background(d, layout, true);
+    } catch (const std::bad_alloc&) {
+    }
 }
 
 nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, const Buffer& results,

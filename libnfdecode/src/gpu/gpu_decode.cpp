@@ -33,7 +33,7 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
     std::shared_ptr<DeviceNetwork> uploaded;
     NFD_TRY(device_network(device, geometry.network, &uploaded));
     DeviceNetwork& net = *uploaded;
-    if (geometry.field == FieldType::Udf) NFD_TRY(prepare_field(device, net, true));
+    NFD_TRY(prepare_fields(device, net, geometry.field));
     Job job(device, true);
     NFD_TRY(job.init());
     LevelBuilder levels(job, net, geometry, resolution);

@@ -45,6 +45,14 @@ bool unified_memory(const Device& device);
 uint64_t networks_uploaded(const Device& device);
 void reset_device_memory_peak(Device& device);
 
+// Starts compiling the field pipelines that a decode of a network of this shape (weights and
+// biases may be empty: peek_geometry_network's) and field type will need, on a thread of the
+// device, and returns at once: so that a decode created later finds them built, or waits only for
+// the rest of the compile. Only a hint: a shape the device cannot run, a failed compile, or more
+// than kMaxWarmers (field.cpp) compiles already running are ignored (the decode then compiles as before and
+// reports any error itself). The device joins its threads before it is destroyed.
+void warm_field_pipelines(Device& device, const Network& shape, FieldType field);
+
 // Network outputs at n unit-frame points (xyz interleaved; output_width() floats per point): the
 // GPU twin of evaluate_cpu.
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,

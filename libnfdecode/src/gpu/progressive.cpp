@@ -20,8 +20,7 @@ public:
     nfd_result prepare() {
         NFD_TRY(job_.init());
         NFD_TRY(device_network(device_, geometry_.network, &net_));
-        NFD_TRY(prepare_field(device_, *net_, false));
-        if (geometry_.field == FieldType::Udf) NFD_TRY(prepare_field(device_, *net_, true));
+        NFD_TRY(prepare_fields(device_, *net_, geometry_.field));
         levels_.reset(new (std::nothrow) LevelBuilder(job_, *net_, geometry_, resolution_));
         return levels_ ? NFD_SUCCESS : NFD_ERROR_OUT_OF_MEMORY;
     }

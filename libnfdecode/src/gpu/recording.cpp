@@ -32,8 +32,7 @@ public:
     nfd_result prepare() {
         NFD_TRY(job_.init());
         NFD_TRY(device_network(device_, geometry_.network, &net_));
-        NFD_TRY(prepare_field(device_, *net_, false));
-        if (geometry_.field == FieldType::Udf) NFD_TRY(prepare_field(device_, *net_, true));
+        NFD_TRY(prepare_fields(device_, *net_, geometry_.field));
         mesh_.vertex_capacity = plan_.vertices;
         mesh_.triangle_capacity = plan_.triangles;
         NFD_TRY(job_.new_slot(&mesh_.vertex_slot));
