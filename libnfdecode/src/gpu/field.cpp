@@ -302,7 +302,12 @@ bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, boo
 }  // namespace
 
 nfd_result prepare_fields(Device& d, DeviceNetwork& net, FieldType field) {
+    bool gradient_missing = false;
     if (field == FieldType::Udf) {
+        std::lock_guard<std::mutex> lock(d.mutex);
+        gradient_missing = !net.gradients.pipeline;  // else every later decode started a thread
+    }
+    if (gradient_missing) {
         try {
             compile_in_background(d, layout_copy(net), true);
         } catch (const std::bad_alloc&) {
