@@ -118,6 +118,12 @@ void Streamer::run() {
     const nfd_result qr = nfd_queue_create(context_, &qo, &queue_);
     const size_t n = assets_.size();
     std::vector<Loading> loading(n);
+    // The decoding context compiles each file's field pipelines as soon as its network's shape
+    // has arrived, while the rest of its geometry is still on the way (the streams end on this
+    // thread, before the context is destroyed).
+    nfd_stream_options so = {};
+    so.struct_size = sizeof so;
+    so.prepare_context = context_;
     for (size_t i = 0; i < n; ++i) {
         std::string error;
         nfd_result r = NFD_SUCCESS;
@@ -125,7 +131,7 @@ void Streamer::run() {
             fail(assets_[i].get(), std::string("queue: ") + nfd_result_string(qr));
         else if (!read_file(assets_[i]->path, &loading[i].bytes, &error))
             fail(assets_[i].get(), error);
-        else if ((r = nfd_stream_create(nullptr, &loading[i].stream)) != NFD_SUCCESS)
+        else if ((r = nfd_stream_create(&so, &loading[i].stream)) != NFD_SUCCESS)
             fail(assets_[i].get(), nfd_result_string(r));
     }
     // Ticks at twice the frame rate: a piece is fed, and a level offered, within 8 ms.
