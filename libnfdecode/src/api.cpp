@@ -361,7 +361,8 @@ nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** 
             const bool automatic = opts.device == NFD_DEVICE_AUTO && !opts.adopt;
             std::string declined;
             const nfd_result r = nfd::gpu::create_device(
-                opts.adopt, opts.enable_validation != 0, &ctx->gpu, automatic, &declined);
+                opts.adopt, opts.enable_validation != 0, &ctx->gpu, automatic, &declined,
+                opts.pipeline_cache, opts.pipeline_cache_size);
             if (r == NFD_SUCCESS) {
                 ctx->kind = NFD_DEVICE_VULKAN;
                 ctx->name = nfd::gpu::device_name(*ctx->gpu);
@@ -384,6 +385,25 @@ nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** 
 }
 
 void nfd_context_destroy(nfd_context* context) { delete context; }
+
+nfd_result nfd_context_get_pipeline_cache(const nfd_context* context, void* data,
+                                          size_t* size) {
+    if (!context || !size) return NFD_ERROR_INVALID_ARGUMENT;
+    return guarded([&] {
+        std::vector<uint8_t> bytes;
+#if NFD_WITH_VULKAN
+        if (context->gpu)
+            if (const nfd_result r = nfd::gpu::pipeline_cache(*context->gpu, &bytes); r != NFD_SUCCESS)
+                return r;
+#endif
+        const size_t capacity = *size;
+        *size = bytes.size();
+        if (!data) return NFD_SUCCESS;
+        if (bytes.size() > capacity) return NFD_ERROR_LIMIT_EXCEEDED;
+        if (!bytes.empty()) std::memcpy(data, bytes.data(), bytes.size());
+        return NFD_SUCCESS;
+    });
+}
 
 nfd_device_kind nfd_context_device_kind(const nfd_context* context) {
     return context ? context->kind : NFD_DEVICE_AUTO;

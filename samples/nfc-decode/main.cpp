@@ -3,6 +3,7 @@
 //
 //   nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N] [--no-colour]
 //              [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]] [--stats]
+//              [--pipeline-cache FILE]
 //   nfc-decode IN.nfc -o OUT.{glb,ply} --levels R1,R2,... [--write-levels] [--stats[=json]]
 //
 // Errors are one line on stderr ("nfc-decode: error: ...") and a non-zero exit status: 2 for a
@@ -25,12 +26,14 @@
 #include <thread>
 #include <vector>
 
+#include <unistd.h>
+
 namespace {
 
 const char kUsage[] =
     "usage: nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N] [--no-colour]\n"
     "                  [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]]\n"
-    "                  [--stats]\n"
+    "                  [--stats] [--pipeline-cache FILE]\n"
     "  OUT             .glb or .ply: the surface mesh; .vdb: the distance on a narrow band\n"
     "                  around it (OpenVDB)\n"
     "  --resolution N  grid cells per axis over the unit cube (8..1024, default 256)\n"
@@ -44,6 +47,10 @@ const char kUsage[] =
     "  --bandwidth R   with --stream-chunk: pace the pieces as if the file arrived at R, a\n"
     "                  positive number then B/s, KB/s or MB/s (1 KB = 1024 B), e.g. 256KB/s\n"
     "  --stats         print sizes, per-stage timings and counts\n"
+    "  --pipeline-cache FILE\n"
+    "                  start the Vulkan device's pipeline cache from FILE when it was saved on\n"
+    "                  this device and is intact (else ignored), and save the cache there after\n"
+    "                  the decode (e.g. ~/.cache/nfc/pipelines.bin)\n"
     "  --levels LIST   decode progressively through the ladder levels LIST (ascending, e.g.\n"
     "                  32,64,128,256: levels of the last one's ladder), write the last\n"
     "  --write-levels  with --levels, also write each level as OUT.<resolution>.<ext>\n"
@@ -68,6 +75,7 @@ struct Options {
     nfd_device_kind device = NFD_DEVICE_AUTO;
     size_t stream_chunk = 0;  // 0: read the whole file, then nfd_asset_create
     double bandwidth = 0;     // bytes per second; 0: as fast as the file reads
+    std::string pipeline_cache;  // empty: none kept between runs
     bool stats = false;
     // Progressive decoding (decode_progressive).
     std::vector<uint32_t> levels;  // ascending resolutions of the last one's ladder
@@ -149,6 +157,8 @@ Options parse_args(int argc, char** argv) {
             o.stream_chunk = size_t(parse_count("--stream-chunk", value(), 1, NFD_MAX_FILE_SIZE));
         } else if (arg == "--bandwidth") {
             o.bandwidth = parse_bandwidth(value());
+        } else if (arg == "--pipeline-cache") {
+            o.pipeline_cache = value();
         } else if (arg == "--stats") {
             o.stats = true;
         } else if (arg == "--stats=json") {
@@ -178,20 +188,23 @@ Options parse_args(int argc, char** argv) {
     return o;
 }
 
-// Reads at most one byte more than the format allows, so a huge file is refused cheaply.
+// Reads `f` to its end, or to the first 64 KiB piece past `cap` bytes (so that a huge file is
+// refused cheaply), and closes it; false on a read error.
+bool read_and_close(std::FILE* f, size_t cap, std::vector<unsigned char>* bytes) {
+    unsigned char buffer[1 << 16];
+    size_t n;
+    while (bytes->size() <= cap && (n = std::fread(buffer, 1, sizeof buffer, f)) > 0)
+        bytes->insert(bytes->end(), buffer, buffer + n);
+    const bool error = std::ferror(f) != 0;
+    std::fclose(f);
+    return !error;
+}
+
 std::vector<unsigned char> read_file(const std::string& path) {
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) fail(1, path + ": cannot open: " + std::strerror(errno));
     std::vector<unsigned char> bytes;
-    unsigned char buffer[1 << 16];
-    size_t n;
-    while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) {
-        bytes.insert(bytes.end(), buffer, buffer + n);
-        if (bytes.size() > NFD_MAX_FILE_SIZE) break;
-    }
-    const bool error = std::ferror(f) != 0;
-    std::fclose(f);
-    if (error) fail(1, path + ": read error");
+    if (!read_and_close(f, NFD_MAX_FILE_SIZE, &bytes)) fail(1, path + ": read error");
     if (bytes.size() > NFD_MAX_FILE_SIZE) fail(1, path + ": larger than the format's 64 MiB cap");
     return bytes;
 }
@@ -217,6 +230,54 @@ struct Handles {
         nfd_context_destroy(context);
     }
 };
+
+// The context of o.device, its pipeline cache started from --pipeline-cache's file: a missing,
+// unreadable, stale or damaged file is the library's to ignore (it checks what it is given).
+void create_context(const Options& o, nfd_context** out) {
+    std::vector<unsigned char> cache;
+    if (!o.pipeline_cache.empty())
+        if (std::FILE* f = std::fopen(o.pipeline_cache.c_str(), "rb"))
+            if (!read_and_close(f, size_t(256) << 20, &cache)) cache.clear();
+    nfd_context_options co = {};
+    co.struct_size = sizeof co;
+    co.device = o.device;
+    co.pipeline_cache = cache.data();
+    co.pipeline_cache_size = cache.size();
+    check(nfd_context_create(&co, out), "device");
+}
+
+// Saves the context's pipeline cache to --pipeline-cache's file, replacing it whole (written
+// beside it, then renamed: a concurrent run reads the old file or the new one). A cache is an
+// optimisation: failing to save it is a warning, not a failed decode.
+void save_pipeline_cache(const Options& o, const nfd_context* context) {
+    if (o.pipeline_cache.empty()) return;
+    std::vector<unsigned char> bytes;
+    size_t size = 0;
+    nfd_result r = nfd_context_get_pipeline_cache(context, nullptr, &size);
+    for (int attempt = 0; r == NFD_SUCCESS && size > 0 && attempt < 4; ++attempt) {
+        bytes.resize(size);
+        r = nfd_context_get_pipeline_cache(context, bytes.data(), &size);
+        if (r == NFD_SUCCESS) break;
+        if (r == NFD_ERROR_LIMIT_EXCEEDED) r = NFD_SUCCESS;  // grew meanwhile: again
+    }
+    if (r != NFD_SUCCESS || bytes.empty()) {
+        if (r != NFD_SUCCESS)
+            std::fprintf(stderr, "nfc-decode: warning: pipeline cache not saved: %s\n",
+                         nfd_result_string(r));
+        return;
+    }
+    bytes.resize(size);
+    const std::string temporary = o.pipeline_cache + ".tmp" + std::to_string(getpid());
+    std::FILE* f = std::fopen(temporary.c_str(), "wb");
+    bool ok = f && std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+    if (f) ok = std::fclose(f) == 0 && ok;
+    ok = ok && std::rename(temporary.c_str(), o.pipeline_cache.c_str()) == 0;
+    if (!ok) {
+        std::remove(temporary.c_str());
+        std::fprintf(stderr, "nfc-decode: warning: pipeline cache not saved to %s: %s\n",
+                     o.pipeline_cache.c_str(), std::strerror(errno));
+    }
+}
 
 const char* field_name(const nfd_asset_info& info) {
     return info.field_type == NFD_FIELD_SDF ? "SDF" : "UDF";
@@ -395,10 +456,7 @@ void write_mesh(const nfd_mesh* mesh, const std::string& path) {
 // ladder level. Files are
 // written after the last level so that writing does not count in the levels' times.
 void decode_progressive(const Options& o, Handles* h) {
-    nfd_context_options co = {};
-    co.struct_size = sizeof co;
-    co.device = o.device;
-    check(nfd_context_create(&co, &h->context), "device");
+    create_context(o, &h->context);
 
     const auto t0 = Clock::now();
     const double cpu0 = process_cpu_ms();
@@ -462,16 +520,16 @@ void decode_progressive(const Options& o, Handles* h) {
 
 void run(const Options& o) {
     Handles h;
-    if (!o.levels.empty()) return decode_progressive(o, &h);
+    if (!o.levels.empty()) {
+        decode_progressive(o, &h);
+        return save_pipeline_cache(o, h.context);
+    }
     const Input in = acquire_asset(o, nullptr, &h.asset);
     nfd_asset_info info;
     check(nfd_asset_get_info(h.asset, &info), o.input);
 
     auto t = Clock::now();
-    nfd_context_options co = {};
-    co.struct_size = sizeof co;
-    co.device = o.device;
-    check(nfd_context_create(&co, &h.context), "device");
+    create_context(o, &h.context);
     const double ms_device = ms_since(t);
 
     if (o.stats) {
@@ -499,6 +557,7 @@ void run(const Options& o) {
         decode_grid(o, &h);
     else
         decode_mesh(o, info, &h);
+    save_pipeline_cache(o, h.context);
 }
 
 }  // namespace

@@ -286,5 +286,45 @@ TEST(Cli, BadLevelListsAreOneLineErrors) {
     expect_one_line_error(run_cli(in + " -o x.glb --write-levels"), 2, "need --levels");
 }
 
+// --pipeline-cache: the first run writes the cache file, a later run starts from it and
+// rewrites it, a damaged file is ignored and replaced, and a cache that cannot be saved is a
+// warning (the decode still succeeds). On the CPU path there is nothing to save.
+TEST(Cli, PipelineCacheFileIsKeptAcrossRuns) {
+    const std::string in = golden_path("bunny_sdf_w16", ".nfc");
+    const std::string base = temp_file("pipelines", {});
+    const std::string cache = base + ".bin", out = base + ".glb";
+    std::remove(cache.c_str());
+    const std::string common = in + " -o " + out + " --resolution 32 --pipeline-cache ";
+    ASSERT_EQ(run_cli(common + cache + " --device cpu").status, 0);
+    EXPECT_FALSE(std::filesystem::exists(cache));
+#if !NFD_WITH_VULKAN
+    std::remove(base.c_str());
+    GTEST_SKIP() << "built without Vulkan";
+#endif
+    const CliRun first = run_cli(common + cache + " --device vulkan");
+    if (first.status != 0 && first.err.find("device") != std::string::npos) {
+        std::remove(base.c_str());
+        return skip_without_vulkan(first.err);
+    }
+    ASSERT_EQ(first.status, 0) << first.err;
+    EXPECT_TRUE(first.err.empty()) << first.err;
+    const Bytes saved = read_bytes(cache);
+    ASSERT_GE(saved.size(), 52u + 32u);  // the envelope and the driver's header at least
+    EXPECT_EQ(std::string(saved.begin(), saved.begin() + 4), "NFPC");
+    const Bytes mesh = read_bytes(out);
+    ASSERT_EQ(run_cli(common + cache + " --device vulkan").status, 0);
+    EXPECT_TRUE(read_bytes(out) == mesh);
+    std::ofstream(cache, std::ios::binary) << "not a pipeline cache";
+    const CliRun damaged = run_cli(common + cache + " --device vulkan");
+    ASSERT_EQ(damaged.status, 0) << damaged.err;
+    EXPECT_TRUE(read_bytes(out) == mesh);
+    EXPECT_EQ(read_bytes(cache).size(), saved.size());
+    const CliRun unsaved = run_cli(common + "/nonexistent-dir/pipelines.bin --device vulkan");
+    EXPECT_EQ(unsaved.status, 0) << unsaved.err;
+    EXPECT_EQ(unsaved.err.rfind("nfc-decode: warning: pipeline cache not saved", 0), 0u)
+        << unsaved.err;
+    for (const std::string& p : {base, cache, out}) std::remove(p.c_str());
+}
+
 }  // namespace
 }  // namespace nfd::test

@@ -54,7 +54,7 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 9
+#define NFD_VERSION_MINOR 10
 #define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
@@ -203,10 +203,20 @@ typedef struct nfd_context_options {
                                              lavapipe, which AUTO declines) */
     uint32_t cpu_threads;                 /* CPU path threads; 0 = hardware concurrency */
     int enable_validation;                /* non-zero: enable VK_LAYER_KHRONOS_validation if present */
+    /* (0.10) Bytes from nfd_context_get_pipeline_cache of an earlier context, e.g. read back from
+     * a file in the user's cache directory: the pipelines they hold are not compiled again. Used
+     * only where they were made on this device (vendor, device ID, driver version, pipeline-cache
+     * UUID), by a library of this pointer size, and are intact (size, CRC-32); anything else
+     * (another driver, a damaged or truncated file, more than 256 MiB, NULL) is ignored and the
+     * cache starts empty: never an error. Not retained: may be freed when create returns. A CPU
+     * context ignores them. */
+    const void* pipeline_cache;
+    size_t pipeline_cache_size;
 } nfd_context_options;
 
 /* options may be NULL (all defaults). Creating a Vulkan device compiles the pipelines; later
- * contexts reuse the driver's pipeline cache where it has one.
+ * contexts reuse the driver's pipeline cache where it has one (within the process; across
+ * processes through nfd_context_options.pipeline_cache).
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (out_context NULL, unknown device kind,
  * `adopt` with NFD_DEVICE_CPU, or with a NULL handle or a queue family index that the physical
  * device lacks or that has no compute); NFD_ERROR_DEVICE_UNAVAILABLE (VULKAN requested, or a
@@ -215,6 +225,21 @@ typedef struct nfd_context_options {
  * the CPU when no Vulkan device can be created or initialised. */
 NFD_API nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** out_context);
 NFD_API void nfd_context_destroy(nfd_context* context);
+
+/* (0.10) The context's pipeline cache as bytes to store and give to a later context
+ * (nfd_context_options.pipeline_cache), so that a program's first decode does not compile its
+ * kernels again: what a driver keeps is its own (lavapipe 22.3 keeps nothing but its header;
+ * drivers for GPUs keep the compiled kernels). The bytes hold the pipelines compiled so far: the
+ * context's own, and the field kernels of the networks decoded or prepared.
+ * With `data` NULL, *size receives the bytes needed. Else *size is the capacity of `data`: the
+ * bytes are written and *size set to their count, or, if the cache has grown past *size since it
+ * was asked (a compile on another of the context's threads), *size is set to the new need and
+ * NFD_ERROR_LIMIT_EXCEEDED returned with nothing usable written. A CPU context: *size = 0.
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_LIMIT_EXCEEDED as above; NFD_ERROR_INVALID_ARGUMENT (context or
+ * size NULL); NFD_ERROR_OUT_OF_MEMORY; NFD_ERROR_DEVICE. Thread safety: as other calls on the
+ * context (its own background compiles may run meanwhile). */
+NFD_API nfd_result nfd_context_get_pipeline_cache(const nfd_context* context, void* data,
+                                                  size_t* size);
 
 /* NFD_DEVICE_VULKAN or NFD_DEVICE_CPU: what the context actually runs on (AUTO for NULL). */
 NFD_API nfd_device_kind nfd_context_device_kind(const nfd_context* context);

@@ -287,7 +287,8 @@ bool gpu_device_node_present() {
 }
 
 nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
-                         std::unique_ptr<Device>* out, bool hardware_only, std::string* declined) {
+                         std::unique_ptr<Device>* out, bool hardware_only, std::string* declined,
+                         const void* pipeline_cache, size_t pipeline_cache_size) {
     hardware_only = hardware_only && !adopt;
     if (hardware_only && !gpu_device_node_present()) {
         if (declined) *declined = "no GPU device node (/dev/dri, /dev/nvidia*), so no GPU";
@@ -295,7 +296,7 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
     }
     std::unique_ptr<Device> d(new (std::nothrow) Device());
     if (!d) return NFD_ERROR_OUT_OF_MEMORY;
-    NFD_TRY(Context::create(adopt, enable_validation, &d->vk));
+    NFD_TRY(Context::create(adopt, enable_validation, pipeline_cache, pipeline_cache_size, &d->vk));
     d->shared_weight_kernels = !d->vk->cpu_implementation() || std::getenv("NFD_FORCE_SHARED_WEIGHTS");
     if (hardware_only && d->vk->cpu_implementation()) {
         if (declined)
@@ -314,6 +315,10 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
 void destroy_device(Device* device) { delete device; }
 
 const char* device_name(const Device& device) { return device.vk->name().c_str(); }
+
+nfd_result pipeline_cache(const Device& device, std::vector<uint8_t>* out) {
+    return device.vk->pipeline_cache(out);
+}
 
 DeviceMemory device_memory(const Device& device) {
     return {device.vk->live_bytes(), device.vk->peak_bytes()};

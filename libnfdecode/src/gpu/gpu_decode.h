@@ -17,14 +17,18 @@ namespace nfd::gpu {
 
 class Device;  // Vulkan instance/device/queue (own or adopted), pipelines, scratch buffers
 
-// Creates a headless compute device, or adopts the host's when `adopt` is not null.
+// Creates a headless compute device, or adopts the host's when `adopt` is not null; its
+// pipeline cache starts from `pipeline_cache` where that is an intact envelope made on it.
 // NFD_ERROR_DEVICE_UNAVAILABLE when no Vulkan loader/ICD/device with a compute queue exists, and
 // with `hardware_only` (no `adopt`) when no hardware GPU can be there or the device picked is a
 // CPU implementation (lavapipe), refused before any pipeline is made; *declined then says which,
 // for nfd_context_device_reason.
 nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
                          std::unique_ptr<Device>* out, bool hardware_only = false,
-                         std::string* declined = nullptr);
+                         std::string* declined = nullptr, const void* pipeline_cache = nullptr,
+                         size_t pipeline_cache_size = 0);
+// The device's pipeline cache in its envelope (nfd_context_get_pipeline_cache).
+nfd_result pipeline_cache(const Device& device, std::vector<uint8_t>* out);
 // False where no hardware GPU can be present: on Linux every GPU driver works through a device
 // node (DRM for Mesa's and AMD's, /dev/nvidia* for NVIDIA's, /dev/dxg under WSL, /dev/kgsl* and
 // /dev/mali* on phones and boards), so with none only a CPU implementation could load, and an

@@ -65,7 +65,7 @@ void inject_fault(Fault kind, int after) { g_fault_countdown[int(kind)] = after 
     } while (0)
 
 nfd_result Context::create(const nfd_vulkan_device* adopt, bool enable_validation,
-                           std::unique_ptr<Context>* out) {
+                           const void* cache, size_t cache_size, std::unique_ptr<Context>* out) {
     std::unique_ptr<Context> context(new (std::nothrow) Context());
     if (!context) return NFD_ERROR_OUT_OF_MEMORY;
     nfd_result r = context->init_functions(adopt);
@@ -82,7 +82,7 @@ nfd_result Context::create(const nfd_vulkan_device* adopt, bool enable_validatio
     if (r == NFD_SUCCESS && !adopt) r = context->create_instance(enable_validation);
     if (r == NFD_SUCCESS && !adopt) r = context->pick_physical_device();
     if (r == NFD_SUCCESS && !adopt) r = context->create_logical_device();
-    if (r == NFD_SUCCESS) r = context->create_command_objects();
+    if (r == NFD_SUCCESS) r = context->create_command_objects(cache, cache_size);
     if (r != NFD_SUCCESS) return r;
     *out = std::move(context);
     return NFD_SUCCESS;
@@ -245,7 +245,7 @@ nfd_result Context::pick_memory_types() {
     return NFD_SUCCESS;
 }
 
-nfd_result Context::create_command_objects() {
+nfd_result Context::create_command_objects(const void* cache_blob, size_t cache_size) {
     if (!owns_device_) {  // adopted: instance-level functions come from the host's instance
         if (const nfd_result r = load_functions(false); r != NFD_SUCCESS) return r;
         // The host's queue family index is used for our command pool: an index the device does
@@ -266,10 +266,42 @@ nfd_result Context::create_command_objects() {
     NFD_TRY_RESULT(pick_memory_types());
 
     VkPipelineCacheCreateInfo cache{};
-
     cache.sType = VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO;
+    const uint8_t* driver_bytes = nullptr;
+    size_t driver_size = 0;
+    if (open_pipeline_cache(cache_key(), cache_blob, cache_size, &driver_bytes, &driver_size)) {
+        cache.initialDataSize = driver_size;
+        cache.pInitialData = driver_bytes;
+    }
     NFD_VK_TRY(vkCreatePipelineCache(device_, &cache, nullptr, &cache_));
     return command_buffer(&transfer_pool_, &transfer_, &transfer_fence_);
+}
+
+PipelineCacheKey Context::cache_key() const {
+    PipelineCacheKey key;
+    key.vendor_id = properties_.vendorID;
+    key.device_id = properties_.deviceID;
+    key.driver_version = properties_.driverVersion;
+    std::memcpy(key.cache_uuid, properties_.pipelineCacheUUID, sizeof key.cache_uuid);
+    return key;
+}
+
+nfd_result Context::pipeline_cache(std::vector<uint8_t>* out) const {
+    // The cache may grow between the size query and the copy (a compile on another thread):
+    // VK_INCOMPLETE then, and the query again.
+    std::vector<uint8_t> bytes;
+    for (;;) {
+        size_t size = 0;
+        NFD_VK_TRY(vkGetPipelineCacheData(device_, cache_, &size, nullptr));
+        bytes.resize(size);
+        const VkResult r = vkGetPipelineCacheData(device_, cache_, &size, bytes.data());
+        if (r == VK_INCOMPLETE) continue;
+        if (r != VK_SUCCESS) return to_result(r);
+        bytes.resize(size);
+        break;
+    }
+    *out = wrap_pipeline_cache(cache_key(), bytes.data(), bytes.size());
+    return NFD_SUCCESS;
 }
 
 nfd_result Context::command_buffer(VkCommandPool* pool, VkCommandBuffer* commands,

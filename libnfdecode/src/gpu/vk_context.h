@@ -29,6 +29,7 @@
 #include "faults.h"
 #include "nfd_shaders.h"
 #include "nfdecode/nfdecode.h"
+#include "../pipeline_cache.h"
 
 namespace nfd::gpu {
 
@@ -43,7 +44,8 @@ namespace nfd::gpu {
     X(vkMapMemory) X(vkUnmapMemory) X(vkCreateShaderModule) X(vkDestroyShaderModule)          \
     X(vkCreateDescriptorSetLayout) X(vkDestroyDescriptorSetLayout) X(vkCreatePipelineLayout)  \
     X(vkDestroyPipelineLayout) X(vkCreateComputePipelines) X(vkDestroyPipeline)               \
-    X(vkCreatePipelineCache) X(vkDestroyPipelineCache) X(vkCreateDescriptorPool)              \
+    X(vkCreatePipelineCache) X(vkDestroyPipelineCache) X(vkGetPipelineCacheData)            \
+    X(vkCreateDescriptorPool)                                                                 \
     X(vkDestroyDescriptorPool) X(vkResetDescriptorPool) X(vkAllocateDescriptorSets)           \
     X(vkUpdateDescriptorSets) X(vkCreateCommandPool) X(vkDestroyCommandPool)                  \
     X(vkAllocateCommandBuffers) X(vkResetCommandPool) X(vkBeginCommandBuffer)                 \
@@ -133,13 +135,18 @@ struct PipelineDesc {
 
 class Context {
 public:
+    // `cache`/`cache_size`: an earlier context's pipeline_cache() (may be NULL/0); ignored
+    // unless it is an intact envelope made on this device (pipeline_cache.h).
     static nfd_result create(const nfd_vulkan_device* adopt, bool enable_validation,
-                             std::unique_ptr<Context>* out);
+                             const void* cache, size_t cache_size, std::unique_ptr<Context>* out);
     ~Context();
     Context(const Context&) = delete;
     Context& operator=(const Context&) = delete;
 
     const std::string& name() const { return name_; }
+    // The pipelines compiled so far (and those the cache was created with), in their envelope.
+    // Safe beside compiles on other threads: a pipeline cache is synchronised by the driver.
+    nfd_result pipeline_cache(std::vector<uint8_t>* out) const;
     const VkPhysicalDeviceLimits& limits() const { return properties_.limits; }
 
     nfd_result create_buffer(VkDeviceSize size, Buffer* out, Memory memory = Memory::Device);
@@ -196,8 +203,9 @@ private:
     nfd_result create_instance(bool enable_validation);
     nfd_result pick_physical_device();
     nfd_result create_logical_device();
-    nfd_result create_command_objects();
+    nfd_result create_command_objects(const void* cache, size_t cache_size);
     nfd_result load_functions(bool device_level);
+    PipelineCacheKey cache_key() const;
     nfd_result pick_memory_types();
     nfd_result command_buffer(VkCommandPool* pool, VkCommandBuffer* commands, VkFence* fence);
     nfd_result submit_and_wait(VkCommandBuffer commands, VkFence fence);
