@@ -11,6 +11,7 @@
 #include <nfdecode/nfdecode.h>
 
 #include "../common/cli_values.h"
+#include "../common/pipeline_cache_file.h"
 
 #include <algorithm>
 #include <cctype>
@@ -25,8 +26,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <unistd.h>
 
 namespace {
 
@@ -188,23 +187,20 @@ Options parse_args(int argc, char** argv) {
     return o;
 }
 
-// Reads `f` to its end, or to the first 64 KiB piece past `cap` bytes (so that a huge file is
-// refused cheaply), and closes it; false on a read error.
-bool read_and_close(std::FILE* f, size_t cap, std::vector<unsigned char>* bytes) {
-    unsigned char buffer[1 << 16];
-    size_t n;
-    while (bytes->size() <= cap && (n = std::fread(buffer, 1, sizeof buffer, f)) > 0)
-        bytes->insert(bytes->end(), buffer, buffer + n);
-    const bool error = std::ferror(f) != 0;
-    std::fclose(f);
-    return !error;
-}
-
+// Reads at most one byte more than the format allows, so a huge file is refused cheaply.
 std::vector<unsigned char> read_file(const std::string& path) {
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) fail(1, path + ": cannot open: " + std::strerror(errno));
     std::vector<unsigned char> bytes;
-    if (!read_and_close(f, NFD_MAX_FILE_SIZE, &bytes)) fail(1, path + ": read error");
+    unsigned char buffer[1 << 16];
+    size_t n;
+    while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) {
+        bytes.insert(bytes.end(), buffer, buffer + n);
+        if (bytes.size() > NFD_MAX_FILE_SIZE) break;
+    }
+    const bool error = std::ferror(f) != 0;
+    std::fclose(f);
+    if (error) fail(1, path + ": read error");
     if (bytes.size() > NFD_MAX_FILE_SIZE) fail(1, path + ": larger than the format's 64 MiB cap");
     return bytes;
 }
@@ -231,13 +227,9 @@ struct Handles {
     }
 };
 
-// The context of o.device, its pipeline cache started from --pipeline-cache's file: a missing,
-// unreadable, stale or damaged file is the library's to ignore (it checks what it is given).
+// The context of o.device, its pipeline cache started from --pipeline-cache's file.
 void create_context(const Options& o, nfd_context** out) {
-    std::vector<unsigned char> cache;
-    if (!o.pipeline_cache.empty())
-        if (std::FILE* f = std::fopen(o.pipeline_cache.c_str(), "rb"))
-            if (!read_and_close(f, size_t(256) << 20, &cache)) cache.clear();
+    const std::vector<unsigned char> cache = nfc_cli::read_pipeline_cache(o.pipeline_cache);
     nfd_context_options co = {};
     co.struct_size = sizeof co;
     co.device = o.device;
@@ -246,37 +238,13 @@ void create_context(const Options& o, nfd_context** out) {
     check(nfd_context_create(&co, out), "device");
 }
 
-// Saves the context's pipeline cache to --pipeline-cache's file, replacing it whole (written
-// beside it, then renamed: a concurrent run reads the old file or the new one). A cache is an
-// optimisation: failing to save it is a warning, not a failed decode.
+// A cache is an optimisation: failing to save it is a warning, not a failed decode.
 void save_pipeline_cache(const Options& o, const nfd_context* context) {
     if (o.pipeline_cache.empty()) return;
-    std::vector<unsigned char> bytes;
-    size_t size = 0;
-    nfd_result r = nfd_context_get_pipeline_cache(context, nullptr, &size);
-    for (int attempt = 0; r == NFD_SUCCESS && size > 0 && attempt < 4; ++attempt) {
-        bytes.resize(size);
-        r = nfd_context_get_pipeline_cache(context, bytes.data(), &size);
-        if (r == NFD_SUCCESS) break;
-        if (r == NFD_ERROR_LIMIT_EXCEEDED) r = NFD_SUCCESS;  // grew meanwhile: again
-    }
-    if (r != NFD_SUCCESS || bytes.empty()) {
-        if (r != NFD_SUCCESS)
-            std::fprintf(stderr, "nfc-decode: warning: pipeline cache not saved: %s\n",
-                         nfd_result_string(r));
-        return;
-    }
-    bytes.resize(size);
-    const std::string temporary = o.pipeline_cache + ".tmp" + std::to_string(getpid());
-    std::FILE* f = std::fopen(temporary.c_str(), "wb");
-    bool ok = f && std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-    if (f) ok = std::fclose(f) == 0 && ok;
-    ok = ok && std::rename(temporary.c_str(), o.pipeline_cache.c_str()) == 0;
-    if (!ok) {
-        std::remove(temporary.c_str());
+    const std::string why = nfc_cli::save_pipeline_cache(context, o.pipeline_cache);
+    if (!why.empty())
         std::fprintf(stderr, "nfc-decode: warning: pipeline cache not saved to %s: %s\n",
-                     o.pipeline_cache.c_str(), std::strerror(errno));
-    }
+                     o.pipeline_cache.c_str(), why.c_str());
 }
 
 const char* field_name(const nfd_asset_info& info) {

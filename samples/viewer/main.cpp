@@ -49,12 +49,16 @@ bool decodes_on_device(const Options& o, const VkDeviceContext& vk) {
            (o.decode_device == DecodeDevice::kAuto && !vk.is_cpu_device());
 }
 
-// A context on the CPU, or on `lent` (the viewer's device) when given.
-ContextPtr create_context(const nfd_vulkan_device* lent) {
+// A context on the CPU, or on `lent` (the viewer's device) when given, whose pipeline cache
+// starts from `cache` (an earlier run's; the library ignores bytes that do not match).
+ContextPtr create_context(const nfd_vulkan_device* lent,
+                          const std::vector<unsigned char>& cache = {}) {
     nfd_context_options co = {};
     co.struct_size = sizeof co;
     co.device = lent ? NFD_DEVICE_VULKAN : NFD_DEVICE_CPU;
     co.adopt = lent;
+    co.pipeline_cache = cache.data();
+    co.pipeline_cache_size = cache.size();
     nfd_context* context = nullptr;
     const nfd_result r = nfd_context_create(&co, &context);
     if (r != NFD_SUCCESS)
@@ -94,8 +98,11 @@ int run(const Options& o) {
     // vertex is cheap on a core. Destroyed last: after the recordings, the jobs and the assets.
     const bool on_device = decodes_on_device(o, vk);
     const nfd_vulkan_device lent = on_device ? vk.lend() : nfd_vulkan_device{};
-    ContextPtr context = create_context(on_device ? &lent : nullptr);
-    ContextPtr recording_context = on_device ? create_context(&lent) : ContextPtr(nullptr, nullptr);
+    const std::vector<unsigned char> cache =
+        on_device ? nfc_cli::read_pipeline_cache(o.pipeline_cache) : std::vector<unsigned char>();
+    ContextPtr context = create_context(on_device ? &lent : nullptr, cache);
+    ContextPtr recording_context =
+        on_device ? create_context(&lent, cache) : ContextPtr(nullptr, nullptr);
     ContextPtr colour_context = create_context(nullptr);
     OverlayStatus status;
     status.render_device = vk.properties().deviceName;
@@ -130,6 +137,14 @@ int run(const Options& o) {
         finals.reset();
         for (AssetView& v : views) destroy_mesh(vk.device(), &v.mesh);
         streamer.reset();  // cancels jobs still running, joins the workers: before the context
+        // The queue's context has compiled the kernels of every network the viewer decoded (the
+        // recordings' context those of the final levels, the same ones).
+        if (on_device && !o.pipeline_cache.empty()) {
+            const std::string why = nfc_cli::save_pipeline_cache(context.get(), o.pipeline_cache);
+            if (!why.empty())
+                std::fprintf(stderr, "nfc-viewer: warning: pipeline cache not saved to %s: %s\n",
+                             o.pipeline_cache.c_str(), why.c_str());
+        }
     }};
     std::vector<StreamedAsset*> streamed;
     for (size_t i = 0; i < n; ++i) streamed.push_back(&streamer->asset(i));

@@ -16,7 +16,7 @@ const char kUsage[] =
     "                  [--width W --height H] [--decode-device auto|cpu|vulkan]\n"
     "                  [--screenshot OUT.png --frames N [--wait-loaded] [--timeout S]]\n"
     "                  [--no-overlay] [--no-colour] [--preload] [--fps N] [--frame-log FILE]\n"
-    "                  [--recording-capacity N]\n"
+    "                  [--recording-capacity N] [--pipeline-cache FILE|none]\n"
     "  DIR|FILE        .nfc files, or directories of them (laid out in a grid, by name)\n"
     "  --bandwidth R   each asset arrives at R (B/s, KB/s, MB/s; 1 KB = 1024 B), default 256KB/s\n"
     "  --levels LIST   progressive levels shown as they decode (ascending, on the last one's\n"
@@ -39,6 +39,9 @@ const char kUsage[] =
     "  --recording-capacity N  every capacity of a recording's first try (cells, gradient\n"
     "                  points, vertices, triangles; default 0: libnfdecode's); an overflow is\n"
     "                  recorded again with the capacities it needed\n"
+    "  --pipeline-cache FILE|none  with decoding on the device, libnfdecode's compiled kernels\n"
+    "                  are kept in FILE between runs (default $XDG_CACHE_HOME/nfc/pipelines.bin,\n"
+    "                  else ~/.cache/nfc/pipelines.bin); none: compiled anew each run\n"
     "Mouse: left drag rotates, right drag (or shift + left) pans, wheel zooms.\n"
     "Keys: R reset camera, W wireframe, N shading (lit / normals), C colour (the vertex colours\n"
     "of a file with colour, lit, or the tint), O overlay, Esc quit.\n"
@@ -123,6 +126,9 @@ Options parse_options(int argc, char** argv) {
             o.frame_log = value();
         } else if (arg == "--recording-capacity") {
             o.recording_capacity = uint32_t(parse_int(arg, value(), 0, 1 << 25));
+        } else if (arg == "--pipeline-cache") {
+            const std::string path = value();
+            o.pipeline_cache = path == "none" ? "" : path;
         } else if (arg == "--decode-device") {
             const std::string d = value();
             if (d == "auto") o.decode_device = DecodeDevice::kAuto;

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "../common/pipeline_cache_file.h"
+
 namespace nfc_viewer {
 
 enum class DecodeDevice { kAuto, kCpu, kVulkan };
@@ -25,6 +27,8 @@ struct Options {
     int fps = 60;              // frame-rate cap; 0: uncapped
     std::string frame_log;     // one line per frame: milliseconds, assets still loading
     uint32_t recording_capacity = 0;  // first try's nfd_recording capacities; 0: the defaults
+    // libnfdecode's pipeline cache on the viewer's device, kept between runs ("": none).
+    std::string pipeline_cache = nfc_cli::default_pipeline_cache_path();
 };
 
 // Parses argv; prints the usage and exits 0 for --help, or prints one line and exits 2 for a bad

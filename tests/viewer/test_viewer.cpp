@@ -182,13 +182,22 @@ TEST(Viewer, ScreenshotSilhouetteMatchesTheDecodedMeshes) {
 // On the viewer's device the final level is recorded into the viewer's command buffer and drawn
 // from libnfdecode's buffers: each asset says so, after the queue's coarser level (32), and with
 // a first try's capacities far too small, after at least one overflow recorded again. An upload
-// of the final level would say "final mesh uploaded"; the silhouette is the CPU decode's.
+// of the final level would say "final mesh uploaded"; the silhouette is the CPU decode's. The
+// run leaves libnfdecode's pipeline cache in the file given (nfd_context_get_pipeline_cache).
 TEST(Viewer, OnTheDeviceTheFinalLevelIsRecordedAndDrawnInPlace) {
     if (!have_xvfb()) GTEST_SKIP() << "xvfb-run is not installed (scripts/setup.sh installs xvfb)";
     Mask shot(kWidth, kHeight);
-    const Outcome r =
-        screenshot_of_golden_vectors(" --decode-device vulkan --recording-capacity 64", &shot);
+    const fs::path cache =
+        fs::temp_directory_path() / ("nfc_viewer_cache_" + std::to_string(::getpid())) / "p.bin";
+    const Outcome r = screenshot_of_golden_vectors(
+        " --decode-device vulkan --recording-capacity 64 --pipeline-cache '" + cache.string() + "'",
+        &shot);
+    const std::vector<unsigned char> saved =
+        fs::exists(cache) ? read_bytes(cache.string()) : std::vector<unsigned char>();
+    fs::remove_all(cache.parent_path());
     ASSERT_EQ(r.status, 0) << r.err << r.out;
+    ASSERT_GE(saved.size(), 4u);
+    EXPECT_EQ(std::string(saved.begin(), saved.begin() + 4), "NFPC");
     for (const char* name : kVectors) {
         const std::string line = summary_line(r.out, name);
         SCOPED_TRACE(line);
