@@ -12,6 +12,11 @@
 #include <vector>
 
 namespace nfd {
+
+uint32_t load_u32(const uint8_t* p) {
+    return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
+}
+
 namespace {
 
 #define NFD_TRY(expr)                                  \
@@ -63,10 +68,6 @@ private:
     const uint8_t* p_;
     const uint8_t* end_;
 };
-
-uint32_t load_u32(const uint8_t* p) {
-    return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
-}
 
 bool is_letter(uint8_t c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
 

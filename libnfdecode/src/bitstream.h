@@ -29,6 +29,8 @@ constexpr uint32_t kTagFrame64 = tag_of("fram");
 // `previous` continues a CRC over more bytes, as zlib's crc32(): crc32(b, m + n) ==
 // crc32(b + m, n, crc32(b, m)).
 uint32_t crc32(const uint8_t* data, size_t size, uint32_t previous = 0);
+// The little-endian u32 at p (every integer of the format, and of pipeline_cache.h's envelope).
+uint32_t load_u32(const uint8_t* p);
 
 struct ParsedFile {
     uint32_t major = 0, minor = 0;  // minor may exceed NFD_FORMAT_MINOR (newer optional chunks)

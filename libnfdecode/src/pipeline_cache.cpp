@@ -16,9 +16,6 @@ constexpr size_t kVulkanHeaderBytes = 32;
 void put32(std::vector<uint8_t>& out, uint32_t v) {
     for (int i = 0; i < 4; ++i) out.push_back(uint8_t(v >> (8 * i)));
 }
-uint32_t get32(const uint8_t* p) {
-    return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
-}
 
 }  // namespace
 
@@ -48,17 +45,17 @@ bool open_pipeline_cache(const PipelineCacheKey& key, const void* blob, size_t b
     const auto* p = static_cast<const uint8_t*>(blob);
     const uint8_t* body = p + kPipelineCacheEnvelopeBytes;
     const size_t n = blob_size - kPipelineCacheEnvelopeBytes;
-    const uint64_t announced = uint64_t(get32(p + 40)) | uint64_t(get32(p + 44)) << 32;
-    if (std::memcmp(p, kMagic, 4) != 0 || get32(p + 4) != kEnvelopeVersion ||
-        get32(p + 8) != key.vendor_id || get32(p + 12) != key.device_id ||
-        get32(p + 16) != key.driver_version || std::memcmp(p + 20, key.cache_uuid, 16) != 0 ||
-        get32(p + 36) != sizeof(void*) || announced != n || get32(p + 48) != crc32(body, n))
+    const uint64_t announced = uint64_t(load_u32(p + 40)) | uint64_t(load_u32(p + 44)) << 32;
+    if (std::memcmp(p, kMagic, 4) != 0 || load_u32(p + 4) != kEnvelopeVersion ||
+        load_u32(p + 8) != key.vendor_id || load_u32(p + 12) != key.device_id ||
+        load_u32(p + 16) != key.driver_version || std::memcmp(p + 20, key.cache_uuid, 16) != 0 ||
+        load_u32(p + 36) != sizeof(void*) || announced != n || load_u32(p + 48) != crc32(body, n))
         return false;
     // The driver's own header, for the same device: a mismatch means an envelope written around
     // another driver's bytes.
-    if (n < kVulkanHeaderBytes || get32(body) < kVulkanHeaderBytes || get32(body) > n ||
-        get32(body + 4) != 1 || get32(body + 8) != key.vendor_id ||
-        get32(body + 12) != key.device_id || std::memcmp(body + 16, key.cache_uuid, 16) != 0)
+    if (n < kVulkanHeaderBytes || load_u32(body) < kVulkanHeaderBytes || load_u32(body) > n ||
+        load_u32(body + 4) != 1 || load_u32(body + 8) != key.vendor_id ||
+        load_u32(body + 12) != key.device_id || std::memcmp(body + 16, key.cache_uuid, 16) != 0)
         return false;
     *driver_bytes = body;
     *size = n;
