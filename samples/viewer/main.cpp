@@ -137,10 +137,16 @@ int run(const Options& o) {
         finals.reset();
         for (AssetView& v : views) destroy_mesh(vk.device(), &v.mesh);
         streamer.reset();  // cancels jobs still running, joins the workers: before the context
-        // The queue's context has compiled the kernels of every network the viewer decoded (the
-        // recordings' context those of the final levels, the same ones).
+        // Each of the two device contexts has its own cache, and either may hold kernels the
+        // other lacks (with one level, the queue decodes nothing but files with colour, whose
+        // finals are not recorded): the fuller one is kept.
         if (on_device && !o.pipeline_cache.empty()) {
-            const std::string why = nfc_cli::save_pipeline_cache(context.get(), o.pipeline_cache);
+            size_t queue_bytes = 0, recording_bytes = 0;
+            nfd_context_get_pipeline_cache(context.get(), nullptr, &queue_bytes);
+            nfd_context_get_pipeline_cache(recording_context.get(), nullptr, &recording_bytes);
+            const nfd_context* fuller =
+                recording_bytes > queue_bytes ? recording_context.get() : context.get();
+            const std::string why = nfc_cli::save_pipeline_cache(fuller, o.pipeline_cache);
             if (!why.empty())
                 std::fprintf(stderr, "nfc-viewer: warning: pipeline cache not saved to %s: %s\n",
                              o.pipeline_cache.c_str(), why.c_str());
