@@ -52,7 +52,8 @@
 #define NFD_B_OFFSETS 5            // per parent, its first point's index in the list
 #define NFD_B_VALUES 6             // field values of the new points
 #define NFD_B_COUNTS 7             // per parent, the number of points it owns
-#define NFD_B_POINTS 8             // unit-frame xyz of the listed points
+#define NFD_B_POINTS 8             // unit-frame xyz of the listed points; dense_lookup:
+                                   // their values (1 or 4 floats each)
 #define NFD_B_CHILD_BITS 9         // the child level's kept bitmap
 #define NFD_B_CHILD_CELLS 10       // the child level's sorted kept cells
 #define NFD_B_CHILD_CORNERS 11     // their corner values
@@ -75,7 +76,8 @@
 #define NFD_B_GRADIENT_OFFSETS 25
 #define NFD_B_GRADIENTS 26         // (value, gradient) per listed point, field_eval's output
 #define NFD_B_COUNTERS 27          // the job's counters (counters.glsl)
-#define NFD_B_DENSE_VALUES 28      // dense_corners: the top level's values, side^3 vertices
+#define NFD_B_DENSE_VALUES 28      // dense_lookup: the coarsest level's values (side^3
+                                   // vertices; 1 or 4 floats each), from the host
 // Progressive UDF levels: a level's gradient list carried to the next finer level, whose parents
 // are the level's kept cells and whose even child-grid points are those cells' corners.
 #define NFD_B_CORNER_GRADIENTS 29  // per parent, 8 indices into the level above's list

@@ -102,6 +102,24 @@ uvec3 owner_cell(uvec3 n, uint s, uint r) {
     return o;
 }
 
+// Point i of a point list: its parent's rank (the last parent whose offset is at most i, by a
+// binary search over the offsets, which are non-decreasing over the whole buffer: parents past
+// the last one own no points) and its child-grid coordinates (that parent's (i - offset)-th owned
+// point in ascending local order, the order child_grid_value() assumes).
+uvec3 listed_point(uint i) {
+    uint lo = 0u, hi = uint(offsets.length());  // offsets[lo] <= i < offsets[hi] (or hi = end)
+    while (hi - lo > 1u) {
+        uint mid = (lo + hi) / 2u;
+        if (offsets[mid] <= i) lo = mid;
+        else hi = mid;
+    }
+    uint mask = owned[lo];
+    for (uint skip = i - offsets[lo]; skip > 0u; --skip) mask &= mask - 1u;
+    uint l = uint(findLSB(mask));
+    uvec3 p = cell_coords(kept_cells[lo], push.parent_cells);
+    return 2u * p + uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
+}
+
 // Value at point l of the child grid of kept cell p (rank k) at level r.
 float child_grid_value(uvec3 p, uint k, uvec3 l, uint r) {
     if (is_corner(l)) return corners[8u * k + corner_index(l)];

@@ -21,7 +21,7 @@ extern const Spirv refine_points;       // writes the owned vertices' unit posit
 extern const Spirv refine_cells;        // tests the children of kept cells, sets kept bits
 extern const Spirv gather_corners;      // corner values of the newly kept cells
 extern const Spirv bitmap_compact;      // kept bitmap -> sorted list of cell indices
-extern const Spirv dense_corners;       // corner values of the densely evaluated top level
+extern const Spirv dense_lookup;        // point lists of the host-evaluated coarsest level
 extern const Spirv count_total;         // a scanned list's total into a counter, overflow flag
 extern const Spirv dispatch_args;       // indirect dispatch records from a counter
 extern const Spirv draw_args;           // a recording's indirect draw record

@@ -559,6 +559,28 @@ TEST_F(Gpu, GoldenVectorMeshesMatchCpu) {
     }
 }
 
+// The coarsest level is evaluated on the host, by the C++ evaluator (gpu/levels.h, HostTop), so
+// that a first level needs none of the network's pipelines: a decode at a resolution that is its
+// own coarsest level (32) has the CPU path's values and, for a UDF, gradients bit for bit, hence
+// the same cells, the same gradient count, the same triangles and vertices to the meshers'
+// rounding, on every golden vector.
+TEST_F(Gpu, CoarsestLevelIsTheCppEvaluators) {
+    for (const std::string& name : golden_names()) {
+        SCOPED_TRACE(name);
+        ParsedFile f;
+        const Bytes bytes = read_bytes(golden_path(name, ".nfc"));
+        ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &f), NFD_SUCCESS);
+        const MeshPair m = extract_both(device(), f.geometry, 32);
+        EXPECT_EQ(m.gpu_stats.gradients_evaluated, m.cpu_stats.gradients_evaluated);
+        expect_same_mesh(m, f.geometry, 32);
+        // The vertices differ by the two meshers' rounding only: far below the ~1e-3 cells of
+        // values from the GPU's field kernel (expect_same_mesh's measurement).
+        const float cell = 2.0f / 32.0f * f.geometry.scale;
+        const std::vector<int64_t> map = match_vertices(m.gpu, m.cpu, cell, 1e-5f * cell);
+        EXPECT_EQ(std::count(map.begin(), map.end(), int64_t(-1)), 0);
+    }
+}
+
 }  // namespace
 }  // namespace nfd::test
 

@@ -280,7 +280,9 @@ std::vector<uint64_t> progressive_gradients(nfd_context* ctx, const nfd_asset* a
 // instead of evaluating them again, on the CPU (grid.cpp) and on the Vulkan path (udf_gradient_
 // merge.comp): fewer gradient evaluations than the one-shot decodes of its levels together, the
 // final level fewer than its one-shot, whose mesh it still equals (EveryLevelEqualsTheOneShot-
-// Decode), and the same count per level on every device.
+// Decode), and the same count per level on every device but for the second level on Vulkan:
+// there the coarsest level's gradients are the host's (levels.h, HostTop), which the next level
+// evaluates again on the device, as its one-shot decode does.
 TEST_P(Progressive, UdfLevelsReuseTheGradientsAbove) {
     Context cpu(NFD_DEVICE_CPU);
     for (const char* name : {"tshirt_udf_w16", "bunny_scans_udf_w16"}) {
@@ -301,7 +303,11 @@ TEST_P(Progressive, UdfLevelsReuseTheGradientsAbove) {
         EXPECT_LT(here[0] + here[1] + here[2], one_shots);
         EXPECT_LT(here[2], final_one_shot);
         EXPECT_GT(here[2], final_one_shot / 2);
-        EXPECT_EQ(here, progressive_gradients(cpu.handle, asset.handle, 128));
+        const std::vector<uint64_t> on_cpu = progressive_gradients(cpu.handle, asset.handle, 128);
+        ASSERT_EQ(on_cpu.size(), 3u);
+        EXPECT_EQ(here[0], on_cpu[0]);
+        EXPECT_GE(here[1], on_cpu[1]);
+        EXPECT_EQ(here[2], on_cpu[2]);
     }
 }
 

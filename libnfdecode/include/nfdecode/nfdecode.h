@@ -676,7 +676,10 @@ typedef struct nfd_extraction_level {
  * The extraction borrows both: they must outlive it, and the context must not be used by another
  * call (this extraction's, another's, any nfd_* call taking it) while a step runs. One thread at a
  * time may call an extraction; different threads may call it one after the other.
- * On a Vulkan context the network is uploaded and its pipelines made here.
+ * On a Vulkan context the network is uploaded here and its field pipelines start compiling on
+ * threads of the context; the first step evaluates the coarsest level with the C++ evaluator
+ * meanwhile (it needs none of them: a first level is not held up by a slow first compile), and
+ * the second waits for them if they are not ready.
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (NULL argument, mesh_levels without the final
  * level or with a bit past the ladder: a level not on the ladder); NFD_ERROR_LIMIT_EXCEEDED
  * (resolution outside the caps); NFD_ERROR_UNSUPPORTED_FEATURE (Vulkan: a network beyond the
@@ -1136,11 +1139,11 @@ typedef struct nfd_recording_result {
     nfd_decode_stats stats;     /* points_evaluated, active_cells; times are 0 (the engine's) */
 } nfd_recording_result;
 
-/* Makes the recording: uploads the network, makes the pipelines and the mesh buffers; records
- * nothing yet. Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (NULL argument, a CPU context);
- * NFD_ERROR_LIMIT_EXCEEDED (resolution outside the caps, a capacity above its cap above);
- * NFD_ERROR_UNSUPPORTED_FEATURE (a network beyond the shaders'
- * caps); NFD_ERROR_OUT_OF_MEMORY; NFD_ERROR_DEVICE. */
+/* Makes the recording: uploads the network, starts compiling its pipelines (recording waits for
+ * them), makes the mesh buffers; records nothing yet. Outcomes: NFD_SUCCESS;
+ * NFD_ERROR_INVALID_ARGUMENT (NULL argument, a CPU context); NFD_ERROR_LIMIT_EXCEEDED (resolution
+ * outside the caps, a capacity above its cap above); NFD_ERROR_UNSUPPORTED_FEATURE (a network
+ * beyond the shaders' caps); NFD_ERROR_OUT_OF_MEMORY; NFD_ERROR_DEVICE. */
 NFD_API nfd_result nfd_recording_create(nfd_context* context, const nfd_asset* asset,
                                         const nfd_recording_options* options,
                                         nfd_recording** out_recording);

@@ -46,6 +46,8 @@ constexpr uint32_t kGradientCount = kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADI
 constexpr uint32_t kFieldLayers = ((1u << NFD_GPU_MAX_LAYERS) - 1) << NFD_B_FIELD_LAYER0;
 constexpr uint32_t kField =
     B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES) | B(NFD_B_FIELD_COUNTERS);
+constexpr uint32_t kDenseLookup = B(NFD_B_KEPT_CELLS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) |
+                                  B(NFD_B_DENSE_VALUES) | B(NFD_B_POINTS) | B(NFD_B_COUNTERS);
 constexpr uint32_t kTotal = B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_COUNTERS);
 constexpr uint32_t kArgs = B(NFD_B_SCAN_COUNTERS) | B(NFD_B_ARGS);
 static_assert(NFD_B_FIELD_COUNTERS >= NFD_B_FIELD_LAYER0 + NFD_GPU_MAX_LAYERS, "after the layers");
@@ -108,9 +110,11 @@ constexpr KernelDesc kKernels[] = {
     {Kernel::CountTotalPopcount, shaders::count_total, kTotal, 0, NFD_TOTAL_PUSH_BYTES, 1, 1},
     {Kernel::DispatchArgs, shaders::dispatch_args, kArgs, 0, NFD_ARGS_PUSH_BYTES, 1},
     {Kernel::DrawArgs, shaders::draw_args, kArgs, 0, NFD_DRAW_PUSH_BYTES, 1},
-    {Kernel::DenseCorners, shaders::dense_corners,
-     B(NFD_B_COUNTERS) | B(NFD_B_DENSE_VALUES) | B(NFD_B_CHILD_CORNERS), 0, NFD_LEVEL_PUSH_BYTES,
-     NFD_LOCAL_SIZE},
+    // The coarsest level's point lists from the host's values, or values and gradients.
+    {Kernel::DenseValues, shaders::dense_lookup, kDenseLookup, 0, NFD_LEVEL_PUSH_BYTES,
+     NFD_LOCAL_SIZE, 1},
+    {Kernel::DenseGradients, shaders::dense_lookup, kDenseLookup, 0, NFD_LEVEL_PUSH_BYTES,
+     NFD_LOCAL_SIZE, 4},
     // Refinement (extract.glsl). RefinePoints also lists the UDF's gradient points: the caller
     // binds that list's masks and offsets at NFD_B_OWNED and NFD_B_OFFSETS.
     {Kernel::RefineCount, shaders::refine_count, kLevel | B(NFD_B_OWNED) | B(NFD_B_COUNTS), 0,

@@ -36,7 +36,7 @@ enum class Kernel : uint32_t {
     FieldEval, FieldEvalStorage, FieldGradient, FieldGradientStorage,  // specialized per network
     FieldEvalShared, FieldGradientShared,  // the same for GPUs (field.cpp, prepare_field)
     Scan, ScanPopcount, ScanAdd, BitmapCompact,
-    CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseCorners,
+    CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseValues, DenseGradients,
     RefineCount, RefinePoints, RefineCells, GatherCorners,
     McClassify, McEmit, McVertices,
     UdfNear, UdfGradientCount, UdfGradientCountCarried, UdfGradientMerge, UdfCornerGradients,
@@ -216,10 +216,12 @@ nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, cons
 // Creates the pipeline record_field will use (it does so itself on first use): compiling on a
 // CPU implementation takes tens of MB for a while, better spent before the big buffers exist.
 nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient);
-// The pipelines a decode of this field type needs: the value kernel's, and for a UDF the
-// gradient kernel's, which compiles on a thread of the device meanwhile and is waited for only
-// when the first gradients are recorded (on 2-core lavapipe 55 ms against the value kernel's
-// 25: the first UDF level waited for both in turn, and its value work needs only the first).
+// Starts compiling the pipelines a decode of this field type needs, on one thread of the device:
+// the value kernel's, then for a UDF the gradient kernel's. Neither is waited for here: the
+// coarsest level is evaluated on the host meanwhile (levels.h, HostTop), and record_field waits
+// for each when it is first recorded. On 2-core lavapipe each takes 25-120 ms: a progressive
+// decode's first level waited for the value kernel before the host evaluated it, and two threads
+// compiling at once (one per kernel) slowed a UDF's first level by ~25 ms (bench/RESULTS.md).
 nfd_result prepare_fields(Device& d, DeviceNetwork& net, FieldType field);
 
 }  // namespace nfd::gpu

@@ -276,18 +276,21 @@ std::shared_ptr<DeviceNetwork> layout_copy(const DeviceNetwork& net) {
     return layout;
 }
 
-// Compiles one field pipeline of `layout` on a thread of the device (Device::warmers), into the
-// device's list, where prepare_field finds it or waits for it. False when no thread could start,
-// or kMaxWarmers are running: the pipeline is then compiled where it is first needed.
-bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, bool gradient) {
+// Compiles the value and (or) gradient pipelines of `layout`, in that order, on one thread of the
+// device (Device::warmers), into the device's list, where prepare_field finds them or waits for
+// them. False when no thread could start, or kMaxWarmers are running: each pipeline is then
+// compiled where it is first needed.
+bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, bool values,
+                           bool gradients) {
     std::lock_guard<std::mutex> lock(d.mutex);
     d.join_warmers(true);
     if (d.warmers.size() >= kMaxWarmers) return false;
     Device::Warmer& w = d.warmers.emplace_back();
     try {
-        w.thread = std::thread([&d, &w, layout, gradient] {
-            try {
-                prepare_field(d, *layout, gradient);  // a failure is the decode's to report
+        w.thread = std::thread([&d, &w, layout, values, gradients] {
+            try {  // a failure is the decode's to report
+                if (values) prepare_field(d, *layout, false);
+                if (gradients) prepare_field(d, *layout, true);
             } catch (const std::bad_alloc&) {
             }
             w.done = true;
@@ -302,19 +305,19 @@ bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, boo
 }  // namespace
 
 nfd_result prepare_fields(Device& d, DeviceNetwork& net, FieldType field) {
-    bool gradient_missing = false;
-    if (field == FieldType::Udf) {
-        std::lock_guard<std::mutex> lock(d.mutex);
-        gradient_missing = !net.gradients.pipeline;  // else every later decode started a thread
+    bool value_missing, gradient_missing;
+    {
+        std::lock_guard<std::mutex> lock(d.mutex);  // else every later decode started threads
+        value_missing = !net.values.pipeline;
+        gradient_missing = field == FieldType::Udf && !net.gradients.pipeline;
     }
-    if (gradient_missing) {
-        try {
-            compile_in_background(d, layout_copy(net), true);
-        } catch (const std::bad_alloc&) {
-            return NFD_ERROR_OUT_OF_MEMORY;
-        }
+    if (!value_missing && !gradient_missing) return NFD_SUCCESS;
+    try {
+        compile_in_background(d, layout_copy(net), value_missing, gradient_missing);
+    } catch (const std::bad_alloc&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
     }
-    return prepare_field(d, net, false);
+    return NFD_SUCCESS;
 }
 
 void warm_field_pipelines(Device& d, const Network& shape, FieldType field) {
@@ -322,8 +325,7 @@ void warm_field_pipelines(Device& d, const Network& shape, FieldType field) {
         auto layout = std::make_shared<DeviceNetwork>();
         LayerVec4s v;
         if (network_layout(d.vk->limits(), shape, layout.get(), &v) != NFD_SUCCESS) return;
-        compile_in_background(d, layout, false);
-        if (field == FieldType::Udf) compile_in_background(d, layout, true);
+        compile_in_background(d, layout, true, field == FieldType::Udf);
     } catch (const std::bad_alloc&) {
     }
 }

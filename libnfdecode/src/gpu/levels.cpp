@@ -1,5 +1,5 @@
 // The sparse levels on the device, the GPU side of grid.cpp, one level per LevelBuilder::step:
-// the level above the coarsest evaluated densely, then per level the child grids of the kept
+// the coarsest level evaluated on the host (HostTop), then per level the child grids of the kept
 // cells (refine_count/points.comp + the field), the keep rule on their children
 // (refine_cells.comp), the child level's sorted kept list and corner values (bitmap_compact,
 // gather_corners.comp). Counts stay on the device (Job): a level's buffers are sized up front
@@ -9,6 +9,7 @@
 #include <new>
 
 #include "../mc_tables.h"
+#include "../network.h"
 #include "levels.h"
 
 namespace nfd::gpu {
@@ -27,7 +28,7 @@ constexpr uint32_t kNewPointsPerParent = 19;  // of a child grid's 27, the 8 cor
 // total into a fresh counter, then the list itself.
 nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& parent,
                                 const LevelPush& push, Buffers& buffers, Buffers& scratch,
-                                PointList* g) {
+                                const Buffer* dense, PointList* g) {
     const uint32_t k = parent.capacity;
     Buffer* counts;
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &g->owned));
@@ -43,7 +44,51 @@ nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& paren
                          &push, parent.count()));
     NFD_TRY(record_scan(job, scratch, *counts, *g->offsets, k, false));
     NFD_TRY(job.total(*counts, *g->offsets, k, false, g->slot, g->capacity));
-    return record_list(job, net, parent, *g, *g->values, false, push, scratch);
+    return record_list(job, net, parent, *g, *g->values, false, push, scratch, dense);
+}
+
+// The coordinates of the coarsest level's vertices (HostTop), as grid.h's GridLevel::coord.
+void top_vertex(const HostTop& top, uint32_t x, uint32_t y, uint32_t z, float* xyz) {
+    xyz[0] = -1.0f + float(x << top.level) * top.step;
+    xyz[1] = -1.0f + float(y << top.level) * top.step;
+    xyz[2] = -1.0f + float(z << top.level) * top.step;
+}
+
+// The coarsest level's vertices that `wanted` marks (all when it is empty), evaluated by the C++
+// evaluator into `out` (4 floats a vertex with gradients, else 1).
+nfd_result evaluate_top_vertices(const HostTop& top, const nfd::vector<uint8_t>& wanted,
+                                 bool gradients, float* out) {
+    const size_t n = size_t(top.side) * top.side * top.side;
+    try {
+        nfd::vector<uint32_t> index;
+        nfd::vector<float> xyz;
+        const size_t count =
+            wanted.empty() ? n : size_t(std::count(wanted.begin(), wanted.end(), 1));
+        index.reserve(count);
+        xyz.reserve(3 * count);
+        for (uint32_t z = 0, i = 0; z < top.side; ++z)
+            for (uint32_t y = 0; y < top.side; ++y)
+                for (uint32_t x = 0; x < top.side; ++x, ++i) {
+                    if (!wanted.empty() && !wanted[i]) continue;
+                    index.push_back(i);
+                    xyz.resize(xyz.size() + 3);
+                    top_vertex(top, x, y, z, &xyz[xyz.size() - 3]);
+                }
+        if (!gradients) {
+            evaluate_cpu(*top.network, xyz.data(), index.size(), out);
+            return NFD_SUCCESS;
+        }
+        nfd::vector<float> values(index.size()), g(3 * index.size());
+        evaluate_gradient_cpu(*top.network, xyz.data(), index.size(), values.data(), g.data());
+        for (size_t k = 0; k < index.size(); ++k) {
+            float* o = out + 4 * size_t(index[k]);
+            o[0] = values[k];
+            std::copy_n(&g[3 * k], 3, o + 1);
+        }
+    } catch (const std::bad_alloc&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
+    }
+    return NFD_SUCCESS;
 }
 
 }  // namespace
@@ -63,16 +108,28 @@ std::vector<Bind> level_bindings(const Level& level) {
 
 nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const PointList& list,
                        const Buffer& results, bool gradient, const LevelPush& push,
-                       Buffers& scratch) {
+                       Buffers& scratch, const Buffer* dense) {
     // Chunks of kListChunk points: the points buffer (12 bytes a point, 167 MB for the 14M new
     // points of resolution 1024) stays at 12 MB.
     constexpr uint32_t kListChunk = 1u << 20;
     if (list.capacity == 0 || parents.capacity == 0) return NFD_SUCCESS;
+    // refine_points and dense_lookup search the offsets of the parents' capacity, no further
+    // (buffers may be larger than asked for).
+    const BufferRange offsets(*list.offsets, 0, VkDeviceSize(parents.capacity) * 4);
+    if (dense) {
+        LevelPush all = push;
+        const Count c{list.capacity, list.slot};
+        all.set(c);
+        return job.dispatch(gradient ? Kernel::DenseGradients : Kernel::DenseValues,
+                            {{NFD_B_KEPT_CELLS, *parents.list},
+                             {NFD_B_OWNED, *list.owned},
+                             {NFD_B_OFFSETS, offsets},
+                             {NFD_B_DENSE_VALUES, *dense},
+                             {NFD_B_POINTS, results}},
+                            &all, c);
+    }
     Buffer* points;
     NFD_TRY(scratch.make(VkDeviceSize(std::min(list.capacity, kListChunk)) * 12, &points));
-    // refine_points searches the offsets of the parents' capacity, no further (buffers may be
-    // larger than asked for).
-    const BufferRange offsets(*list.offsets, 0, VkDeviceSize(parents.capacity) * 4);
     LevelPush chunk = push;
     for (uint64_t first = 0; first < list.capacity; first += kListChunk) {
         const Count c{uint32_t(std::min<uint64_t>(kListChunk, list.capacity - first)), list.slot,
@@ -89,6 +146,36 @@ nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const
     return NFD_SUCCESS;
 }
 
+nfd_result top_gradients(const HostTop& top, float h, Buffers& buffers, Buffer** out) {
+    const uint32_t side = top.side, cells = side - 1;
+    const size_t n = size_t(side) * side * side;
+    NFD_TRY(buffers.make(VkDeviceSize(n) * 16, out, Memory::Host));
+    float* dense = (*out)->as<float>();
+    std::fill_n(dense, 4 * n, 0.0f);
+    const float* values = top.values->as<float>();
+    auto vertex = [side](uint32_t x, uint32_t y, uint32_t z) {
+        return (size_t(z) * side + y) * side + x;
+    };
+    try {
+        nfd::vector<uint8_t> wanted(n, 0);
+        for (uint32_t z = 0; z < cells; ++z)
+            for (uint32_t y = 0; y < cells; ++y)
+                for (uint32_t x = 0; x < cells; ++x) {
+                    float f[8];
+                    for (int k = 0; k < 8; ++k) {
+                        const uint8_t* o = mc::kCornerOffset[k];
+                        f[k] = values[vertex(x + o[0], y + o[1], z + o[2])];
+                    }
+                    if (!udf_cell_is_near(f, h)) continue;
+                    for (const auto& o : mc::kCornerOffset)
+                        wanted[vertex(x + o[0], y + o[1], z + o[2])] = 1;
+                }
+        return evaluate_top_vertices(top, wanted, true, dense);
+    } catch (const std::bad_alloc&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
+    }
+}
+
 std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
     std::vector<Bind> b = level_bindings(parent);
     b.insert(b.end(), {{NFD_B_CORNERS, *parent.corners},
@@ -100,7 +187,7 @@ std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
 
 LevelBuilder::LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry,
                            uint32_t resolution, const Plan* plan)
-    : job_(job), net_(net), plan_(plan), resolution_(resolution),
+    : job_(job), net_(net), network_(geometry.network), plan_(plan), resolution_(resolution),
       top_(refinement_levels(resolution)), step_(2.0f / float(resolution)),
       field_(geometry.field), current_(top_),
       level_(*job.device.vk), kept_(*job.device.vk) {
@@ -120,50 +207,50 @@ LevelPush LevelBuilder::refine_push(uint32_t child_level, uint32_t parent_cells,
     return push;
 }
 
-// The level above the coarsest, evaluated densely, every cell kept: its bitmap, list and prefix
-// written by the host, its corners by dense_corners from the field at the vertices that are
-// vertices of the coarsest level (2 v <= its cells per axis).
-nfd_result LevelBuilder::evaluate_dense_top(Buffers& scratch) {
+// The coarsest level on the host (HostTop): the field at its side^3 vertices into a host-visible
+// buffer that its child grids copy; the level above it, every cell kept, written here too (its
+// bitmap, list, prefix and the corners, from the same values: a vertex v of it is the coarsest
+// level's 2 v). Small (at most 64^3 vertices): host memory, no staging while recording.
+nfd_result LevelBuilder::evaluate_top_on_host() {
     const uint32_t l = top_ + 1, n = cells_at_level(resolution_, l);
-    const uint32_t side = cells_at_level(resolution_, top_) / 2 + 1;  // <= n + 1
-    const uint32_t count = side * side * side;
-    Buffer *points, *values;
-    NFD_TRY(scratch.make(VkDeviceSize(count) * 12, &points, Memory::Host));
-    NFD_TRY(scratch.make(VkDeviceSize(count) * 4, &values));
-    float* p = points->as<float>();
-    for (uint32_t z = 0; z < side; ++z)
-        for (uint32_t y = 0; y < side; ++y)
-            for (uint32_t x = 0; x < side; ++x) {
-                *p++ = -1.0f + float(x << l) * step_;
-                *p++ = -1.0f + float(y << l) * step_;
-                *p++ = -1.0f + float(z << l) * step_;
-            }
-    NFD_TRY(record_field(job_, net_, *points, *values, Count{count}, false));
-    level_.points_evaluated += count;
+    HostTop& top = level_.top;
+    top.network = &network_;
+    top.side = cells_at_level(resolution_, top_) + 1;
+    top.level = top_;
+    top.step = step_;
+    const uint32_t side = top.side;
+    NFD_TRY(level_.buffers.make(VkDeviceSize(side) * side * side * 4, &top.values, Memory::Host));
+    NFD_TRY(evaluate_top_vertices(top, {}, false, top.values->as<float>()));
+    // Counted as before: the level above's vertices here, the rest with the child grids.
+    const uint32_t above = (side - 1) / 2 + 1;  // 2 v <= the coarsest level's cells per axis
+    level_.points_evaluated += uint64_t(above) * above * above;
 
     Level& level = level_.parents;
     level.cells = n;
     level.capacity = level.kept = n * n * n;
     const uint32_t words = level.words();
-    // Written here, small (at most 32^3 cells): host memory, no staging while recording.
     NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.bits, Memory::Host));
     NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.prefix, Memory::Host));
     NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 4, &level.list, Memory::Host));
-    NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 32, &level.corners));
+    NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 32, &level.corners, Memory::Host));
     uint32_t* bits = level.bits->as<uint32_t>();
     std::memset(bits, 0, size_t(words) * 4);
+    const float* values = top.values->as<float>();
+    float* corners = level.corners->as<float>();
     for (uint32_t c = 0; c < level.kept; ++c) {
         bits[c >> 5] |= 1u << (c & 31);
         level.list->as<uint32_t>()[c] = c;
+        const uint32_t p[3] = {c % n, c / n % n, c / (n * n)};
+        for (int k = 0; k < 8; ++k) {
+            const uint8_t* o = mc::kCornerOffset[k];
+            const uint32_t v[3] = {2 * (p[0] + o[0]), 2 * (p[1] + o[1]), 2 * (p[2] + o[2])};
+            // A last cell whose children past the grid are dropped has corners nothing reads.
+            const bool exists = v[0] < side && v[1] < side && v[2] < side;
+            corners[8 * c + k] = exists ? values[(size_t(v[2]) * side + v[1]) * side + v[0]] : 0.0f;
+        }
     }
     for (uint32_t w = 0; w < words; ++w) level.prefix->as<uint32_t>()[w] = 32 * w;
-    LevelPush dense = base_;
-    dense.parent_cells = n;
-    dense.child_cells = side;
-    dense.set(level.count());
-    return job_.dispatch(Kernel::DenseCorners,
-                         {{NFD_B_DENSE_VALUES, *values}, {NFD_B_CHILD_CORNERS, *level.corners}},
-                         &dense, level.count());
+    return NFD_SUCCESS;
 }
 
 // The previous level's kept list and corners (from its child grids), which become the parents of
@@ -203,6 +290,7 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
     }
     level_.buffers.release();
     level_.grid = PointList();
+    level_.top = HostTop();
     level_.parents = std::move(kept_);
     kept_ = Level(*job_.device.vk);
     return NFD_SUCCESS;
@@ -215,8 +303,8 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
         --current_;
         NFD_TRY(job_.begin());
     } else {
+        NFD_TRY(evaluate_top_on_host());
         NFD_TRY(job_.begin());
-        NFD_TRY(evaluate_dense_top(scratch));
     }
     stepped_ = true;
     const uint32_t l = current_;
@@ -232,7 +320,7 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
     if (!empty) {
         const LevelPush push = refine_push(l, parents.cells, parents.count());
         NFD_TRY(evaluate_child_grids(job_, net_, parents, push, level_.buffers, scratch,
-                                     &level_.grid));
+                                     level_.top.values, &level_.grid));
         try {
             point_slots_.push_back(level_.grid.slot);
             if (l > 0) kept_slots_.reserve(kept_slots_.size() + 1);

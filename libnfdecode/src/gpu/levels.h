@@ -58,6 +58,18 @@ struct PointList {
     uint32_t capacity = 0, slot = NFD_NO_COUNTER, count = 0;
 };
 
+// The coarsest level evaluated on the host (LevelBuilder::step): the field at all of its
+// side^3 vertices in raster order, in a host-visible buffer, which its point lists copy
+// (Kernel::DenseValues) instead of running the network's pipelines. So a decode's first level
+// needs none of them (a stream's first level does not wait for their compile), and the C++
+// evaluator gives the UDF mesher the gradients there too (top_gradients).
+struct HostTop {
+    const Network* network = nullptr;
+    Buffer* values = nullptr;
+    uint32_t side = 0, level = 0;  // vertices per axis; vertex v is fine vertex v << level
+    float step = 0;                // fine cell edge
+};
+
 // A level as the meshers see it, the finest or a coarser one meshed as if it were (progressive.h):
 // the kept cells of the level above (`parents`), the new values of their child grids (whose cells
 // are this level's), and the push constants that describe them as a finest level (child level 0,
@@ -70,6 +82,7 @@ struct FinestLevel {
     LevelPush push;
     Buffers buffers;  // grid's
     uint64_t points_evaluated = 0;  // own jobs; recorded ones: LevelBuilder::point_slots()
+    HostTop top;                    // the coarsest level's (its values in `buffers`), else empty
     // The meshers free the level's storage as soon as they have read it (peak memory), unless
     // `keep`: a coarser level whose kept cells the next step refines.
     bool keep = false;
@@ -91,11 +104,12 @@ struct CarriedGradients {
 // Coarse-to-fine evaluation one level per step(), the GPU twin of grid.h's GridBuilder:
 // extract_mesh (gpu_decode.cpp) steps it to the finest level, a progressive extraction
 // (progressive.cpp) meshes the levels between, a recording (recording.cpp) records every step
-// into a host's command buffer. The top step evaluates the level above the coarsest densely
-// with every cell kept, and the coarsest as its child grids, so that every level, the coarsest
-// included, is a FinestLevel. Own jobs run each step in the context's batches (two: the kept
-// list of the level before, then the level's values and keep rule) and read its counts after
-// them; with a plan (recorded jobs) the sizes are the plan's and nothing is read.
+// into a host's command buffer. The top step evaluates the coarsest level on the host (HostTop)
+// and makes it the child grids of the level above, every cell of which is kept, so that every
+// level, the coarsest included, is a FinestLevel. Own jobs run each step in the context's
+// batches (two: the kept list of the level before, then the level's values and keep rule) and
+// read its counts after them; with a plan (recorded jobs) the sizes are the plan's and nothing
+// is read.
 class LevelBuilder {
 public:
     LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry, uint32_t resolution,
@@ -117,11 +131,12 @@ public:
 
 private:
     LevelPush refine_push(uint32_t child_level, uint32_t parent_cells, Count parents) const;
-    nfd_result evaluate_dense_top(Buffers& scratch);
+    nfd_result evaluate_top_on_host();
     nfd_result gather_kept(CarriedGradients* carried);
 
     Job& job_;
     DeviceNetwork& net_;
+    const Network& network_;  // the host's copy, for the coarsest level
     const Plan* plan_;
     const uint32_t resolution_, top_;
     const float step_;
@@ -138,9 +153,17 @@ private:
 // Records the evaluation of a point list of `parents` into `results` (as record_field):
 // refine_points and the field kernel by chunks of points, a bounded points buffer from
 // `scratch`, as many chunks as the list's capacity needs (those past its count launch nothing).
+// With `dense` (the coarsest level's values, or with `gradient` its values and gradients, on the
+// host: HostTop), the list copies them instead.
 nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const PointList& list,
                        const Buffer& results, bool gradient, const LevelPush& push,
-                       Buffers& scratch);
+                       Buffers& scratch, const Buffer* dense = nullptr);
+
+// The value and gradient (4 floats, as the gradient kernel writes them) at every corner of the
+// coarsest level's near cells (grid.h, udf_cell_is_near with cell edge `h`), by the C++
+// evaluator, into a side^3 buffer of `buffers` (zero elsewhere): what DenseGradients copies into
+// the UDF mesher's gradient list.
+nfd_result top_gradients(const HostTop& top, float h, Buffers& buffers, Buffer** out);
 
 // The bindings of extract.glsl's level (kept bits, prefix, cells), and with them its child grids
 // (the level's corners, the new points' masks, offsets and values).

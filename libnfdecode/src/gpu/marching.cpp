@@ -114,6 +114,7 @@ nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& c, Kernel vertic
     input_buffers.release();
     if (!finest.keep) {
         finest.buffers.release();
+        finest.top = HostTop();
         finest.parents.buffers.release();
     }
     vk.destroy(*edges);

@@ -22,6 +22,10 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
 
     // Near children and the points that need a gradient; with `above`, those it lacks (`fresh`).
     Buffers list(vk);
+    // The coarsest level: its gradients from the host, as its values (HostTop).
+    Buffer* top_gradient_values = nullptr;
+    if (finest.top.values)
+        NFD_TRY(top_gradients(finest.top, push.step, list, &top_gradient_values));
     Buffers& kept = carried.carry ? carried.carry->buffers : list;
     Buffer *near, *owned, *offsets, *fresh_owned = nullptr, *fresh_offsets = nullptr;
     NFD_TRY(list.make(VkDeviceSize(k) * 4, &near));
@@ -81,6 +85,7 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     // storage goes (at resolution 1024, ~200 MB for ~2M parents).
     if (!finest.keep) {
         finest.buffers.release();
+        finest.top = HostTop();
         vk.destroy(*finest.parents.corners);
     }
 
@@ -106,7 +111,8 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
                                   {NFD_B_ABOVE_GRADIENTS, *above->gradients}},
                                  &push, parents.count()));
         } else {
-            NFD_TRY(record_list(job, net, parents, gradient_list, *gradients, true, push, scratch));
+            NFD_TRY(record_list(job, net, parents, gradient_list, *gradients, true, push, scratch,
+                                top_gradient_values));
         }
         NFD_TRY(job.submit());
     }

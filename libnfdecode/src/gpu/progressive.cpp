@@ -16,7 +16,8 @@ public:
         : device_(device), geometry_(geometry), resolution_(resolution), job_(device, true),
           mesh_mask_(mesh_mask) {}
 
-    // The network and its pipelines before the first step, so that a step's time is its level's.
+    // The network uploaded and its pipelines started before the first step, which the host
+    // evaluates meanwhile (levels.h, HostTop); the second step waits for them if need be.
     nfd_result prepare() {
         NFD_TRY(job_.init());
         NFD_TRY(device_network(device_, geometry_.network, &net_));
@@ -42,9 +43,11 @@ public:
             ExtractStats st;
             st.points_evaluated = levels_->level().points_evaluated;
             st.seconds_field = seconds_field_;
-            // The list this level makes is carried when the next level is meshed too.
+            // The list this level makes is carried when the next level is meshed too, unless
+            // the host evaluated it (HostTop): the next level's list is the device's, as in a
+            // one-shot decode of that level, whose mesh must be the same to the byte.
             std::unique_ptr<CarriedGradients> carry;
-            if (udf() && !levels_->done() && meshes(l - 1)) {
+            if (udf() && !levels_->done() && meshes(l - 1) && !levels_->level().top.values) {
                 carry.reset(new (std::nothrow) CarriedGradients(*device_.vk));
                 if (!carry) return NFD_ERROR_OUT_OF_MEMORY;
             }

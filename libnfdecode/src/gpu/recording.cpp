@@ -72,7 +72,7 @@ public:
             t.vertices = job_.counter(mesh_.vertex_slot);
             t.triangles = job_.counter(mesh_.triangle_slot);
             t.stats = stats_;
-            t.stats.points_evaluated = levels_->level().points_evaluated;  // the dense top
+            t.stats.points_evaluated = levels_->level().points_evaluated;  // the host top's part
             for (uint32_t slot : levels_->point_slots())
                 t.stats.points_evaluated += job_.counter(slot);
             if (geometry_.field == FieldType::Udf)
