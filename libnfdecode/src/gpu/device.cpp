@@ -198,6 +198,37 @@ nfd_result upload_mc_tables(Device& d) {
     return d.vk->upload(d.mc_tables, 0, table.data(), table.size() * 4);
 }
 
+// lavapipe builds a pipeline's machine code at its first dispatch of a workgroup, not when it is
+// created: the first decode of a context paid for every kernel it met (~5 ms of a first level
+// on 2 cores, bench/RESULTS.md). One dispatch of one workgroup per kernel here, every binding on
+// a zeroed buffer and zero push constants (no items: each returns at once), moves that to the
+// context's creation, before any asset arrives. Other drivers compile at creation; it costs them
+// a submit.
+nfd_result warm_kernels(Device& d) {
+    Context& vk = *d.vk;
+    Buffers buffers(vk);
+    Buffer* zeros;
+    NFD_TRY(buffers.make(1 << 16, &zeros));
+    Batch batch;
+    NFD_TRY(vk.create(&batch));
+    nfd_result r = vk.begin(batch);
+    if (r == NFD_SUCCESS) {
+        vk.fill(batch, *zeros, 0);
+        const uint8_t push[NFD_LEVEL_PUSH_BYTES] = {};
+        for (size_t i = 0; i < kKernelCount && r == NFD_SUCCESS; ++i) {
+            if (is_field_kernel(Kernel(i))) continue;
+            std::vector<Bind> binds;
+            const uint32_t mask = kKernels[i].storage | kKernels[i].uniform;
+            for (uint32_t b = 0; b < 32; ++b)
+                if (mask >> b & 1) binds.push_back({b, *zeros});
+            r = vk.dispatch(batch, d.kernels[i], binds, push, 1);
+        }
+        if (r == NFD_SUCCESS) r = vk.submit(batch);
+    }
+    vk.destroy(batch);
+    return r;
+}
+
 }  // namespace
 
 PipelineDesc kernel_pipeline(Kernel kernel, std::vector<uint32_t> specialization) {
@@ -312,6 +343,7 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
         if (!is_field_kernel(Kernel(i)))
             NFD_TRY(d->vk->create_pipeline(kernel_pipeline(Kernel(i)), &d->kernels[i]));
     NFD_TRY(upload_mc_tables(*d));
+    NFD_TRY(warm_kernels(*d));
     *out = std::move(d);
     return NFD_SUCCESS;
 }
