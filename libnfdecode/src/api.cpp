@@ -364,6 +364,7 @@ nfd_result nfd_context_create(const nfd_context_options* options, nfd_context** 
                 opts.adopt, opts.enable_validation != 0, &ctx->gpu, automatic, &declined,
                 opts.pipeline_cache, opts.pipeline_cache_size);
             if (r == NFD_SUCCESS) {
+                nfd::gpu::set_host_threads(*ctx->gpu, opts.cpu_threads);
                 ctx->kind = NFD_DEVICE_VULKAN;
                 ctx->name = nfd::gpu::device_name(*ctx->gpu);
                 ctx->reason = opts.adopt ? "adopted" : automatic ? "auto: a GPU" : "requested";

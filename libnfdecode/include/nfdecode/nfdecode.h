@@ -201,7 +201,9 @@ typedef struct nfd_context_options {
     const nfd_vulkan_device* adopt;       /* NULL: create a headless device (first discrete GPU,
                                              else integrated, else a CPU implementation such as
                                              lavapipe, which AUTO declines) */
-    uint32_t cpu_threads;                 /* CPU path threads; 0 = hardware concurrency */
+    uint32_t cpu_threads;                 /* threads of the CPU path, and of a Vulkan context's
+                                             host work (colours, the coarsest grid level);
+                                             0 = hardware concurrency */
     int enable_validation;                /* non-zero: enable VK_LAYER_KHRONOS_validation if present */
     /* (0.10) Bytes from nfd_context_get_pipeline_cache of an earlier context, e.g. read back from
      * a file in the user's cache directory: the pipelines they hold are not compiled again. Used

@@ -352,6 +352,8 @@ void destroy_device(Device* device) { delete device; }
 
 const char* device_name(const Device& device) { return device.vk->name().c_str(); }
 
+void set_host_threads(Device& device, unsigned threads) { device.host_threads = threads; }
+
 nfd_result pipeline_cache(const Device& device, std::vector<uint8_t>* out) {
     return device.vk->pipeline_cache(out);
 }

@@ -87,6 +87,7 @@ public:
     // for CPU implementations, whose SIMD lanes want several points per invocation. Tests set
     // NFD_FORCE_SHARED_WEIGHTS to run it on lavapipe.
     bool shared_weight_kernels = false;
+    unsigned host_threads = 0;  // gpu_decode.h, set_host_threads
     // Jobs on several threads share the device: the field pipelines, the networks and their
     // pipeline choices are made under this lock (field.cpp).
     std::mutex mutex;

@@ -36,6 +36,9 @@ nfd_result pipeline_cache(const Device& device, std::vector<uint8_t>* out);
 bool gpu_device_node_present();
 void destroy_device(Device* device);  // also what the unique_ptr's deleter calls
 const char* device_name(const Device& device);
+// The threads of the host work of its decodes (the context's cpu_threads; 0 = hardware
+// concurrency): the coarsest grid level, evaluated by the C++ evaluator (levels.h, HostTop).
+void set_host_threads(Device& device, unsigned threads);
 // The device memory its buffers hold, and the peak since the last reset: what the progressive
 // extraction's bounds of the next step (LevelReport::next_device_bytes) and the queue's device
 // budget are checked against.

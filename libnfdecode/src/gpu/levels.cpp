@@ -75,11 +75,12 @@ nfd_result evaluate_top_vertices(const HostTop& top, const nfd::vector<uint8_t>&
                     top_vertex(top, x, y, z, &xyz[xyz.size() - 3]);
                 }
         if (!gradients) {
-            evaluate_cpu(*top.network, xyz.data(), index.size(), out);
+            evaluate_cpu(*top.network, xyz.data(), index.size(), out, top.threads);
             return NFD_SUCCESS;
         }
         nfd::vector<float> values(index.size()), g(3 * index.size());
-        evaluate_gradient_cpu(*top.network, xyz.data(), index.size(), values.data(), g.data());
+        evaluate_gradient_cpu(*top.network, xyz.data(), index.size(), values.data(), g.data(),
+                              top.threads);
         for (size_t k = 0; k < index.size(); ++k) {
             float* o = out + 4 * size_t(index[k]);
             o[0] = values[k];
@@ -218,6 +219,7 @@ nfd_result LevelBuilder::evaluate_top_on_host() {
     top.side = cells_at_level(resolution_, top_) + 1;
     top.level = top_;
     top.step = step_;
+    top.threads = job_.device.host_threads;
     const uint32_t side = top.side;
     NFD_TRY(level_.buffers.make(VkDeviceSize(side) * side * side * 4, &top.values, Memory::Host));
     NFD_TRY(evaluate_top_vertices(top, {}, false, top.values->as<float>()));

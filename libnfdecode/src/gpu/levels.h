@@ -68,6 +68,7 @@ struct HostTop {
     Buffer* values = nullptr;
     uint32_t side = 0, level = 0;  // vertices per axis; vertex v is fine vertex v << level
     float step = 0;                // fine cell edge
+    unsigned threads = 0;          // the evaluator's (Device::host_threads)
 };
 
 // A level as the meshers see it, the finest or a coarser one meshed as if it were (progressive.h):
