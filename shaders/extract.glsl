@@ -102,10 +102,10 @@ uvec3 owner_cell(uvec3 n, uint s, uint r) {
     return o;
 }
 
-// Point i of a point list: its parent's rank (the last parent whose offset is at most i, by a
-// binary search over the offsets, which are non-decreasing over the whole buffer: parents past
-// the last one own no points) and its child-grid coordinates (that parent's (i - offset)-th owned
-// point in ascending local order, the order child_grid_value() assumes).
+// The child-grid coordinates of point i of a point list: its parent is the last one whose offset
+// is at most i (a binary search over the offsets, which are non-decreasing over the whole buffer:
+// parents past the last one own no points), and it is that parent's (i - offset)-th owned point
+// in ascending local order, the order child_grid_value() assumes.
 uvec3 listed_point(uint i) {
     uint lo = 0u, hi = uint(offsets.length());  // offsets[lo] <= i < offsets[hi] (or hi = end)
     while (hi - lo > 1u) {
