@@ -678,8 +678,8 @@ typedef struct nfd_extraction_level {
  * The extraction borrows both: they must outlive it, and the context must not be used by another
  * call (this extraction's, another's, any nfd_* call taking it) while a step runs. One thread at a
  * time may call an extraction; different threads may call it one after the other.
- * On a Vulkan context the network is uploaded here and its field pipelines start compiling on
- * threads of the context; the first step evaluates the coarsest level with the C++ evaluator
+ * On a Vulkan context the network is uploaded here and its field pipelines start compiling on a
+ * thread of the context; the first step evaluates the coarsest level with the C++ evaluator
  * meanwhile (it needs none of them: a first level is not held up by a slow first compile), and
  * the second waits for them if they are not ready.
  * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (NULL argument, mesh_levels without the final
