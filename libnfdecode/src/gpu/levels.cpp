@@ -47,18 +47,11 @@ nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& paren
     return record_list(job, net, parent, *g, *g->values, false, push, scratch, dense);
 }
 
-// The coordinates of the coarsest level's vertices (HostTop), as grid.h's GridLevel::coord.
-void top_vertex(const HostTop& top, uint32_t x, uint32_t y, uint32_t z, float* xyz) {
-    xyz[0] = -1.0f + float(x << top.level) * top.step;
-    xyz[1] = -1.0f + float(y << top.level) * top.step;
-    xyz[2] = -1.0f + float(z << top.level) * top.step;
-}
-
 // The coarsest level's vertices that `wanted` marks (all when it is empty), evaluated by the C++
 // evaluator into `out` (4 floats a vertex with gradients, else 1).
 nfd_result evaluate_top_vertices(const HostTop& top, const nfd::vector<uint8_t>& wanted,
                                  bool gradients, float* out) {
-    const size_t n = size_t(top.side) * top.side * top.side;
+    const size_t n = top.vertices();
     try {
         nfd::vector<uint32_t> index;
         nfd::vector<float> xyz;
@@ -66,13 +59,13 @@ nfd_result evaluate_top_vertices(const HostTop& top, const nfd::vector<uint8_t>&
             wanted.empty() ? n : size_t(std::count(wanted.begin(), wanted.end(), 1));
         index.reserve(count);
         xyz.reserve(3 * count);
-        for (uint32_t z = 0, i = 0; z < top.side; ++z)
+        for (uint32_t z = 0; z < top.side; ++z)
             for (uint32_t y = 0; y < top.side; ++y)
-                for (uint32_t x = 0; x < top.side; ++x, ++i) {
+                for (uint32_t x = 0; x < top.side; ++x) {
+                    const size_t i = top.index(x, y, z);
                     if (!wanted.empty() && !wanted[i]) continue;
-                    index.push_back(i);
-                    xyz.resize(xyz.size() + 3);
-                    top_vertex(top, x, y, z, &xyz[xyz.size() - 3]);
+                    index.push_back(uint32_t(i));
+                    xyz.insert(xyz.end(), {top.coord(x), top.coord(y), top.coord(z)});
                 }
         if (!gradients) {
             evaluate_cpu(*top.network, xyz.data(), index.size(), out, top.threads);
@@ -148,15 +141,12 @@ nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const
 }
 
 nfd_result top_gradients(const HostTop& top, float h, Buffers& buffers, Buffer** out) {
-    const uint32_t side = top.side, cells = side - 1;
-    const size_t n = size_t(side) * side * side;
+    const uint32_t cells = top.side - 1;
+    const size_t n = top.vertices();
     NFD_TRY(buffers.make(VkDeviceSize(n) * 16, out, Memory::Host));
     float* dense = (*out)->as<float>();
     std::fill_n(dense, 4 * n, 0.0f);
     const float* values = top.values->as<float>();
-    auto vertex = [side](uint32_t x, uint32_t y, uint32_t z) {
-        return (size_t(z) * side + y) * side + x;
-    };
     try {
         nfd::vector<uint8_t> wanted(n, 0);
         for (uint32_t z = 0; z < cells; ++z)
@@ -165,11 +155,11 @@ nfd_result top_gradients(const HostTop& top, float h, Buffers& buffers, Buffer**
                     float f[8];
                     for (int k = 0; k < 8; ++k) {
                         const uint8_t* o = mc::kCornerOffset[k];
-                        f[k] = values[vertex(x + o[0], y + o[1], z + o[2])];
+                        f[k] = values[top.index(x + o[0], y + o[1], z + o[2])];
                     }
                     if (!udf_cell_is_near(f, h)) continue;
                     for (const auto& o : mc::kCornerOffset)
-                        wanted[vertex(x + o[0], y + o[1], z + o[2])] = 1;
+                        wanted[top.index(x + o[0], y + o[1], z + o[2])] = 1;
                 }
         return evaluate_top_vertices(top, wanted, true, dense);
     } catch (const std::bad_alloc&) {
@@ -221,7 +211,7 @@ nfd_result LevelBuilder::evaluate_top_on_host() {
     top.step = step_;
     top.threads = job_.device.host_threads;
     const uint32_t side = top.side;
-    NFD_TRY(level_.buffers.make(VkDeviceSize(side) * side * side * 4, &top.values, Memory::Host));
+    NFD_TRY(level_.buffers.make(VkDeviceSize(top.vertices()) * 4, &top.values, Memory::Host));
     NFD_TRY(evaluate_top_vertices(top, {}, false, top.values->as<float>()));
     // Counted as before: the level above's vertices here, the rest with the child grids.
     const uint32_t above = (side - 1) / 2 + 1;  // 2 v <= the coarsest level's cells per axis
@@ -248,7 +238,7 @@ nfd_result LevelBuilder::evaluate_top_on_host() {
             const uint32_t v[3] = {2 * (p[0] + o[0]), 2 * (p[1] + o[1]), 2 * (p[2] + o[2])};
             // A last cell whose children past the grid are dropped has corners nothing reads.
             const bool exists = v[0] < side && v[1] < side && v[2] < side;
-            corners[8 * c + k] = exists ? values[(size_t(v[2]) * side + v[1]) * side + v[0]] : 0.0f;
+            corners[8 * c + k] = exists ? values[top.index(v[0], v[1], v[2])] : 0.0f;
         }
     }
     for (uint32_t w = 0; w < words; ++w) level.prefix->as<uint32_t>()[w] = 32 * w;

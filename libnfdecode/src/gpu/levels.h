@@ -69,6 +69,13 @@ struct HostTop {
     uint32_t side = 0, level = 0;  // vertices per axis; vertex v is fine vertex v << level
     float step = 0;                // fine cell edge
     unsigned threads = 0;          // the evaluator's (Device::host_threads)
+    // Vertex (x, y, z)'s place in `values` (raster order, x fastest) and unit-frame position, as
+    // grid.h's GridLevel::coord.
+    size_t index(uint32_t x, uint32_t y, uint32_t z) const {
+        return (size_t(z) * side + y) * side + x;
+    }
+    size_t vertices() const { return size_t(side) * side * side; }
+    float coord(uint32_t v) const { return -1.0f + float(v << level) * step; }
 };
 
 // A level as the meshers see it, the finest or a coarser one meshed as if it were (progressive.h):
