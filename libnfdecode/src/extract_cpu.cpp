@@ -9,13 +9,14 @@
 namespace nfd {
 
 uint64_t mesh_bytes_bound(const LevelSize& level) {
-    // march_cells (marching.h): a case per visited cell, a vertex set of their corners with a vertex slot per edge (3 per corner), the indices
-    // reserved at the table's most triangles per cell, positions and normals growing by insert to
-    // under twice the vertices, at most one per grid edge.
+    // march_cells (marching.h): a case and an emitted-triangle mask per visited cell; per emitting
+    // cell (at most every visited one) its index and where its triangles and vertices start; an
+    // owner slot per edge of the level's vertices (3 per vertex); the indices at the table's most
+    // triangles per cell; positions and normals, one vertex per grid edge at most.
     const mc::Tables& t = mc::tables();
     const uint64_t most_triangles = *std::max_element(t.triangle_count, t.triangle_count + 256);
-    return level.cells + VertexSet::bytes_bound(level.cells_per_axis + 1, level.blocks) +
-           12 * level.vertices + 12 * most_triangles * level.cells + 2 * 2 * 12 * level.edges;
+    return 2 * level.cells + 12 * (level.cells + 1) + 12 * level.vertices +
+           12 * most_triangles * level.cells + 2 * 12 * level.edges;
 }
 
 nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshData* mesh,

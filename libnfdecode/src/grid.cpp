@@ -111,7 +111,7 @@ nfd::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, 
         uint32_t c[3];
         unpack_coords(level.cells[i], c);
         float f[8];
-        for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
+        level.corners(c, f);
         kept[i] = cell_may_contain_surface(f, keep_threshold(grid.field, level.cell_size));
         if (!kept[i]) continue;
         ++parents;
@@ -305,7 +305,7 @@ void GridBuilder::evaluate_udf_gradients() {
         uint32_t c[3];
         unpack_coords(packed, c);
         float f[8];
-        for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
+        level.corners(c, f);
         if (!udf_cell_is_near(f, level.cell_size)) continue;
         for (const auto& o : mc::kCornerOffset) wanted.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
     }

@@ -102,6 +102,27 @@ public:
         const uint64_t below = b.words[z & 7] & ((uint64_t(1) << ((x & 7) + 8 * (y & 7))) - 1);
         return b.prefix[z & 7] + popcount64(below);
     }
+    // The ranks of the eight corners of the cell whose lowest corner is (x, y, z), in
+    // mc::kCornerOffset order; all eight must be in the set. A cell's four corners at one z lie
+    // in one block unless x or y is at a block's last vertex, and there they are bits p, p + 1,
+    // p + 8 and p + 9 of one word, all set: two popcounts give the four ranks.
+    void cell_ranks(uint32_t x, uint32_t y, uint32_t z, uint32_t r[8]) const {
+        if ((x & 7) == 7 || (y & 7) == 7) {
+            for (int k = 0; k < 8; ++k) r[k] = rank(x + (k & 1), y + (k >> 1 & 1), z + (k >> 2));
+            return;
+        }
+        const uint32_t p = (x & 7) + 8 * (y & 7);
+        for (uint32_t dz = 0; dz < 2; ++dz) {
+            const Block& b = blocks_[table_[block_index(x, y, z + dz)]];
+            const uint64_t word = b.words[(z + dz) & 7];
+            const uint32_t low = b.prefix[(z + dz) & 7] + popcount64(word & ((uint64_t(1) << p) - 1));
+            const uint32_t high = low + popcount64(word >> p & 0xFF);  // bits p..p+7 come before p+8
+            r[4 * dz + 0] = low;
+            r[4 * dz + 1] = low + 1;
+            r[4 * dz + 2] = high;
+            r[4 * dz + 3] = high + 1;
+        }
+    }
     // An upper bound of the bytes a set of `side` vertices per axis in at most `blocks` blocks
     // allocates (the block table, and the blocks at their largest capacity).
     static uint64_t bytes_bound(uint32_t side, uint64_t blocks);
@@ -140,10 +161,11 @@ struct GridLevel {
     // near cells and the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
     VertexSet gradient_vertices;
     nfd::vector<float> gradients;
-    // The value at a corner of a cell of this level, mc::kCornerOffset numbering.
-    float corner(const uint32_t cell[3], int corner_index) const {
-        const uint8_t* o = mc::kCornerOffset[corner_index];
-        return values[vertices.rank(cell[0] + o[0], cell[1] + o[1], cell[2] + o[2])];
+    // The values at the eight corners of a cell of this level, mc::kCornerOffset order.
+    void corners(const uint32_t cell[3], float f[8]) const {
+        uint32_t r[8];
+        vertices.cell_ranks(cell[0], cell[1], cell[2], r);
+        for (int k = 0; k < 8; ++k) f[k] = values[r[k]];
     }
     // -1 + v * h equals the fine grid's -1 + (v << l) * step in f32: both products are the same
     // real number times a power of two, rounded once.

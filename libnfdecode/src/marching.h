@@ -3,6 +3,7 @@
 // differ only in how a cell gets its case, which edges may carry a vertex, and where it sits.
 #pragma once
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "grid.h"
@@ -22,85 +23,165 @@ struct CrossedEdge {
     float fa, fb;
 };
 
+namespace marching_detail {
+
+static_assert(mc::kMaxTrianglesPerCase <= 8, "a cell's emitted triangles are one bit each of a byte");
+constexpr size_t kCellGrain = 4096;       // emitting cells per parallel slice at least
+constexpr uint32_t kPlaced = 1u << 31;    // edge_owner entry: the edge's vertex, not its owner
+
+// fn(e) for the table edge of every corner of the triangles of case `index` whose bit is set in
+// `emitted`, in table order: the order in which the triangles' indices are written.
+template <class Fn>
+void for_each_emitted_edge(int index, uint8_t emitted, Fn&& fn) {
+    const mc::Tables& t = mc::tables();
+    for (int tri = 0; tri < t.triangle_count[index]; ++tri)
+        if (emitted >> tri & 1)
+            for (int j = 0; j < 3; ++j) fn(int(t.triangles[index][3 * tri + j]));
+}
+
+inline CrossedEdge crossed_edge(const uint32_t c[3], int e, const float f[8]) {
+    const int a = mc::kEdgeCorners[e][0], b = mc::kEdgeCorners[e][1];
+    const uint8_t* o = mc::kCornerOffset[a];
+    return {{c[0] + o[0], c[1] + o[1], c[2] + o[2]}, e / 4, f[a], f[b]};
+}
+
+// A grid edge's slot in the welding table: the level's rank of its lower end (`corner_ranks` of
+// the cell, VertexSet::cell_ranks), times 3, plus its axis. At most 3 * 1025^3 < 2^32.
+inline uint32_t edge_key(const uint32_t corner_ranks[8], int e) {
+    return corner_ranks[mc::kEdgeCorners[e][0]] * 3 + uint32_t(e / 4);
+}
+
+inline void atomic_min(uint32_t* slot, uint32_t value) {
+    uint32_t seen = __atomic_load_n(slot, __ATOMIC_RELAXED);
+    while (value < seen &&
+           !__atomic_compare_exchange_n(slot, &seen, value, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
+    }
+}
+
+// Whether keys[p] is the first occurrence of its key in keys[0..p]: a cell's corners number 3 * 5.
+inline bool first_occurrence(const uint32_t* keys, size_t p) {
+    for (size_t q = 0; q < p; ++q)
+        if (keys[q] == keys[p]) return false;
+    return true;
+}
+
+}  // namespace marching_detail
+
 // The cells of `level` (the finest, or a coarser one meshed as if it were: progressive.h).
 // classify(cell, f, &case_index) -> bool: whether the cell is meshed, and its case (bit c: corner
 // c inside). edge_valid(edge) -> bool: whether a triangle may use the edge (all three edges of a
 // triangle must be valid). place(edge, u, n): the vertex in the unit frame and its normal.
 // Vertices and normals go to `mesh` in the unit frame; returns the number of cells that emitted
-// a triangle. mesh_bytes_bound (extract.h) bounds what it allocates. `threads` (as evaluate_cpu's)
-// run the first pass, so classify must be safe to call concurrently; the output does not depend
-// on them.
+// a triangle. mesh_bytes_bound (extract.h) bounds what it allocates. Every pass runs on `threads`
+// (as evaluate_cpu's), so the three callbacks must be safe to call concurrently; the output does
+// not depend on them, and is the one a single loop over the cells would give (each vertex made at
+// its edge's first use): std::length_error past 2^31 emitting cells or vertices.
 template <class Classify, class EdgeValid, class Place>
 uint64_t march_cells(const GridLevel& level, unsigned threads, Classify&& classify,
                      EdgeValid&& edge_valid, Place&& place, MeshData* mesh) {
+    using namespace marching_detail;
     const mc::Tables& t = mc::tables();
-    // Pass 1, over slices of the cells at once: each cell's case, 0 where it has no triangle (case
-    // 0 has none). It reads eight corners of every visited cell, of which about one in four has
-    // triangles; welding then needs a slot per grid edge of those cells only (a few percent of the
-    // band's vertices), not of the whole finest level.
-    nfd::vector<uint8_t> cases(level.cells.size());
-    parallel_for(level.cells.size(), 16384, threads, [&](size_t begin, size_t end) {
+    // Pass 1, over the visited cells: each one's case and the triangles it emits (bit tri). It
+    // reads eight corners of every visited cell, of which about one in four emits.
+    const size_t visited = level.cells.size();
+    nfd::vector<uint8_t> cases(visited), emitted(visited);
+    parallel_for(visited, 16384, threads, [&](size_t begin, size_t end) {
         for (size_t i = begin; i < end; ++i) {
             uint32_t c[3];
             unpack_coords(level.cells[i], c);
             float f[8];
-            for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
+            level.corners(c, f);
             int index = 0;
-            const bool meshed = classify(c, f, &index) && t.triangle_count[index] != 0;
-            cases[i] = meshed ? uint8_t(index) : uint8_t(0);
+            uint8_t mask = 0;
+            if (classify(c, f, &index))
+                for (int tri = 0; tri < t.triangle_count[index]; ++tri) {
+                    bool valid = true;
+                    for (int j = 0; j < 3 && valid; ++j)
+                        valid = edge_valid(crossed_edge(c, t.triangles[index][3 * tri + j], f));
+                    mask |= uint8_t(valid) << tri;
+                }
+            cases[i] = uint8_t(index);
+            emitted[i] = mask;
         }
     });
-    VertexSet corners(level.cells_per_axis + 1);
-    size_t max_triangles = 0;  // exact for SDF, an upper bound where edge_valid drops some
-    for (size_t i = 0; i < cases.size(); ++i) {
-        if (!cases[i]) continue;
-        uint32_t c[3];
-        unpack_coords(level.cells[i], c);
-        for (const auto& o : mc::kCornerOffset) corners.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
-        max_triangles += t.triangle_count[cases[i]];
-    }
-    corners.finish();
-    mesh->indices.reserve(3 * max_triangles);
 
-    // Pass 2: triangles in cell order, one vertex per grid edge (corner rank * 3 + axis).
-    constexpr uint32_t kNone = ~0u;
-    nfd::vector<uint32_t> edge_vertex(size_t(corners.size()) * 3, kNone);
-    uint64_t emitting = 0;
-    for (size_t i = 0; i < cases.size(); ++i) {
-        if (!cases[i]) continue;
-        uint32_t c[3];
-        unpack_coords(level.cells[i], c);
-        float f[8];
-        for (int k = 0; k < 8; ++k) f[k] = level.corner(c, k);
-        const int index = cases[i];
-        bool emitted = false;
-        for (int tri = 0; tri < t.triangle_count[index]; ++tri) {
-            CrossedEdge edges[3];
-            bool valid = true;
-            for (int j = 0; j < 3; ++j) {
-                const int e = t.triangles[index][3 * tri + j];
-                const int a = mc::kEdgeCorners[e][0], b = mc::kEdgeCorners[e][1];
-                const uint8_t* o = mc::kCornerOffset[a];
-                edges[j] = {{c[0] + o[0], c[1] + o[1], c[2] + o[2]}, e / 4, f[a], f[b]};
-                valid = valid && edge_valid(edges[j]);
-            }
-            if (!valid) continue;
-            emitted = true;
-            for (const CrossedEdge& edge : edges) {
-                const size_t key = size_t(corners.rank(edge.v[0], edge.v[1], edge.v[2])) * 3;
-                uint32_t& slot = edge_vertex[key + size_t(edge.axis)];
-                if (slot == kNone) {
-                    float u[3], n[3];
-                    place(edge, u, n);
-                    slot = uint32_t(mesh->positions.size() / 3);
-                    mesh->positions.insert(mesh->positions.end(), u, u + 3);
-                    mesh->normals.insert(mesh->normals.end(), n, n + 3);
-                }
-                mesh->indices.push_back(slot);
-            }
-        }
-        emitting += emitted;
+    // The emitting cells in order, and where each one's triangles start.
+    size_t emitting = 0;
+    for (uint8_t mask : emitted) emitting += mask != 0;
+    if (emitting >= kPlaced) throw std::length_error("march_cells: too many cells");
+    nfd::vector<uint32_t> cell_of(emitting), first_triangle(emitting + 1);
+    for (size_t i = 0, j = 0; i < visited; ++i) {
+        if (!emitted[i]) continue;
+        cell_of[j] = uint32_t(i);
+        first_triangle[j + 1] = first_triangle[j] + popcount64(emitted[i]);
+        ++j;
     }
+    mesh->indices.resize(size_t(3) * first_triangle[emitting]);
+    uint32_t* const keys = mesh->indices.data();  // edge keys first, vertex indices at the end
+
+    // Pass 2: each emitting cell writes the keys of its triangles' edges, and an edge's owner is
+    // the first cell to use it: the one that makes its vertex in a single loop over the cells.
+    nfd::vector<uint32_t> edge_owner(size_t(level.vertices.size()) * 3, ~0u);
+    parallel_for(emitting, kCellGrain, threads, [&](size_t begin, size_t end) {
+        for (size_t j = begin; j < end; ++j) {
+            uint32_t c[3], r[8];
+            unpack_coords(level.cells[cell_of[j]], c);
+            level.vertices.cell_ranks(c[0], c[1], c[2], r);
+            uint32_t* key = keys + size_t(3) * first_triangle[j];
+            for_each_emitted_edge(cases[cell_of[j]], emitted[cell_of[j]], [&](int e) {
+                *key = edge_key(r, e);
+                atomic_min(&edge_owner[*key++], uint32_t(j));
+            });
+        }
+    });
+
+    // Pass 3: the vertices each cell makes (its owned edges, once each); their prefix sums number
+    // them in first-use order.
+    nfd::vector<uint32_t> first_vertex(emitting + 1);
+    parallel_for(emitting, kCellGrain, threads, [&](size_t begin, size_t end) {
+        for (size_t j = begin; j < end; ++j) {
+            const uint32_t* cell_keys = keys + size_t(3) * first_triangle[j];
+            uint32_t made = 0;
+            for (size_t p = 0, n = 3 * size_t(first_triangle[j + 1] - first_triangle[j]); p < n; ++p)
+                made += edge_owner[cell_keys[p]] == j && first_occurrence(cell_keys, p);
+            first_vertex[j + 1] = made;
+        }
+    });
+    for (size_t j = 0; j < emitting; ++j) {
+        if (first_vertex[j] + uint64_t(first_vertex[j + 1]) >= kPlaced)
+            throw std::length_error("march_cells: too many vertices");
+        first_vertex[j + 1] += first_vertex[j];
+    }
+    const size_t vertex_count = first_vertex[emitting];
+    mesh->positions.resize(3 * vertex_count);
+    mesh->normals.resize(3 * vertex_count);
+
+    // Pass 4: each cell places its vertices; the owner entry becomes the vertex (kPlaced set), so
+    // a repeated key in the cell is no longer its own. Other cells read entries meanwhile, hence
+    // the atomics.
+    parallel_for(emitting, kCellGrain, threads, [&](size_t begin, size_t end) {
+        for (size_t j = begin; j < end; ++j) {
+            uint32_t vertex = first_vertex[j];
+            if (vertex == first_vertex[j + 1]) continue;
+            uint32_t c[3];
+            unpack_coords(level.cells[cell_of[j]], c);
+            float f[8];
+            level.corners(c, f);
+            const uint32_t* key = keys + size_t(3) * first_triangle[j];
+            for_each_emitted_edge(cases[cell_of[j]], emitted[cell_of[j]], [&](int e) {
+                uint32_t* entry = &edge_owner[*key++];
+                if (__atomic_load_n(entry, __ATOMIC_RELAXED) != j) return;
+                place(crossed_edge(c, e, f), &mesh->positions[3 * size_t(vertex)],
+                      &mesh->normals[3 * size_t(vertex)]);
+                __atomic_store_n(entry, vertex++ | kPlaced, __ATOMIC_RELAXED);
+            });
+        }
+    });
+
+    // Pass 5: keys become vertex indices.
+    parallel_for(mesh->indices.size(), 16 * kCellGrain, threads, [&](size_t begin, size_t end) {
+        for (size_t p = begin; p < end; ++p) keys[p] = edge_owner[keys[p]] & ~kPlaced;
+    });
     return emitting;
 }
 

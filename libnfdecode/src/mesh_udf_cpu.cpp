@@ -48,14 +48,13 @@ nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
             int nearest = 0;
             for (int k = 1; k < 8; ++k)
                 if (f[k] < f[nearest]) nearest = k;
-            const uint8_t* o = mc::kCornerOffset[nearest];
+            uint32_t r[8];
+            level.gradient_vertices.cell_ranks(c[0], c[1], c[2], r);
             float n[3];
-            if (!canonical_direction(gradient(c[0] + o[0], c[1] + o[1], c[2] + o[2]), n))
+            if (!canonical_direction(level.gradients.data() + size_t(3) * r[nearest], n))
                 return false;  // step 2
-            for (int k = 0; k < 8; ++k) {  // step 3
-                const uint8_t* ok = mc::kCornerOffset[k];
-                *index |= int(dot3(gradient(c[0] + ok[0], c[1] + ok[1], c[2] + ok[2]), n) < 0.0f) << k;
-            }
+            for (int k = 0; k < 8; ++k)  // step 3
+                *index |= int(dot3(level.gradients.data() + size_t(3) * r[k], n) < 0.0f) << k;
             return true;
         },
         [&](const CrossedEdge& e) { return e.fa + e.fb <= max_edge_sum; },  // step 5
