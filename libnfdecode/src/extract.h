@@ -33,7 +33,7 @@ struct ExtractStats {
 // or 0 where neither was. All in units of 1 / cell. Where the gradient vanishes: the direction of
 // the edge from its inside to its outside end.
 // `level` is the grid's finest, or a coarser one meshed as if it were (progressive.h). `threads` as
-// evaluate_cpu's classify the cells; the mesh does not depend on them.
+// evaluate_cpu's run every pass (marching.h); the mesh does not depend on them.
 nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,
                         uint64_t* active_cells);
 
