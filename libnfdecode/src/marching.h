@@ -58,7 +58,7 @@ inline void atomic_min(uint32_t* slot, uint32_t value) {
     }
 }
 
-// Whether keys[p] is the first occurrence of its key in keys[0..p]: a cell's corners number 3 * 5.
+// Whether keys[p] is the first occurrence of its key in keys[0..p]: a cell writes at most 3 * 5 keys.
 inline bool first_occurrence(const uint32_t* keys, size_t p) {
     for (size_t q = 0; q < p; ++q)
         if (keys[q] == keys[p]) return false;
