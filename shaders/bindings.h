@@ -58,7 +58,7 @@
 #define NFD_B_CHILD_CELLS 10       // the child level's sorted kept cells
 #define NFD_B_CHILD_CORNERS 11     // their corner values
 // Marching cubes over the children of the level-1 parents (mc.glsl).
-#define NFD_B_MC_TABLES 12         // mc_tables.h: triangles, triangle counts, edge corners
+#define NFD_B_MC_TABLES 12         // mc_tables.h, in mc.glsl's layout
 #define NFD_B_CASES 13             // per parent, uvec4: cube case and emitted-triangle mask
                                    // of each child (8 bits each)
 #define NFD_B_EDGE_MASKS 14        // per parent, uvec2: the owned edges (of 54) with a vertex

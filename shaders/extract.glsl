@@ -38,10 +38,9 @@ layout(push_constant) uniform LevelPush {
                         // count_slot and first their number: item_count()
     uint child_level;   // l: child-grid point v is fine vertex v << l
     float step;         // fine cell edge, 2.0f / resolution
-    float threshold;    // refine_cells: the activity threshold of a child cell; UDF: of a near
-                        // cell (grid.h, udf_near_threshold)
+    float threshold;    // refine_cells: the activity threshold of a child cell
     float scale;        // mc_vertices, udf_vertices
-    float edge_limit;   // UDF: the largest f_a + f_b of a valid edge (extract.h, step 5)
+    float edge_limit;   // UDF: the largest f_a + f_b of a valid edge (grid.h, udf_edge_limit)
     uint first;         // refine_points: the first point of its chunk
     uint count_slot;    // the counter with the items' total (counters.glsl), or NFD_NO_COUNTER
 } push;

@@ -17,7 +17,7 @@
 #define NFD_MC_GLSL
 
 // mc_tables.h as uploaded by device.cpp: triangles[256][16] (edge ids, -1 padded), then
-// triangle_count[256], then kEdgeCorners[12][2].
+// triangle_count[256], then kEdgeCorners[12][2], then holds_triangle[128].
 layout(std430, binding = NFD_B_MC_TABLES) readonly buffer Tables { int mc_tables[]; };
 // Byte i of cases[k] (i = 0..7 in .xy) is child i's cube case, byte 8 + i (.zw) the mask of its
 // table triangles that are emitted.
@@ -30,6 +30,10 @@ void set_case_byte(inout uvec4 c, uint i, uint value) { c[i >> 2] |= value << (8
 int mc_triangle_edge(uint cube_case, uint i) { return mc_tables[16u * cube_case + i]; }
 uint mc_triangle_count(uint cube_case) { return uint(mc_tables[4096u + cube_case]); }
 uint mc_edge_start_corner(uint e) { return uint(mc_tables[4096u + 256u + 2u * e]); }
+// Whether the edges in the 12-bit mask include all three edges of some triangle of the table.
+bool mc_holds_triangle(uint edge_mask) {
+    return (uint(mc_tables[4096u + 256u + 24u + edge_mask / 32u]) >> (edge_mask % 32u) & 1u) != 0u;
+}
 
 uvec3 unit_axis(uint a) { return uvec3(a == 0u ? 1u : 0u, a == 1u ? 1u : 0u, a == 2u ? 1u : 0u); }
 

@@ -1,5 +1,6 @@
 // UDF, step 1 (udf.glsl): per parent, which of its existing children are near cells: all corners
-// finite and the smallest at most push.threshold (grid.h, udf_cell_is_near).
+// finite and valid edges (f_a + f_b <= push.edge_limit, step 5) that include the three edges of
+// some triangle of the table (grid.h, udf_cell_is_near).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -17,13 +18,19 @@ void main() {
     for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
         if (!child_cell_exists(2u * p + d)) continue;
-        bool finite = true, near = false;
+        float f[8];
+        bool finite = true;
         for (uint c = 0u; c < 8u; ++c) {
-            float f = grid[local_index(d + corner_offset(c))];
-            finite = finite && !isnan(f) && !isinf(f);
-            near = near || f <= push.threshold;
+            f[c] = grid[local_index(d + corner_offset(c))];
+            finite = finite && !isnan(f[c]) && !isinf(f[c]);
         }
-        if (finite && near) mask |= 1u << child;
+        uint valid = 0u;
+        for (uint e = 0u; e < 12u; ++e) {
+            uint a = mc_edge_start_corner(e), b = a + (1u << (e / 4u));
+            precise float sum = f[a] + f[b];
+            if (sum <= push.edge_limit) valid |= 1u << e;
+        }
+        if (finite && mc_holds_triangle(valid)) mask |= 1u << child;
     }
     near_masks[k] = mask;
 }

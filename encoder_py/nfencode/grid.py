@@ -20,7 +20,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import InputError
-from .mc_tables import CORNER_OFFSET
+from .mc_tables import CORNER_OFFSET, EDGE_CORNERS, HOLDS_TRIANGLE
 
 FieldFn = Callable[[np.ndarray], np.ndarray]
 """Field values at (N, 3) float32 unit-frame points: (N,)."""
@@ -33,7 +33,7 @@ MIN_COARSE = 32  # refinement stops before a level coarser than this (grid.h, re
 SDF_KEEP_MARGIN = np.float32(1.0)  # kSdfKeepMargin
 UDF_KEEP_MARGIN = np.float32(2.0)  # kUdfKeepMargin
 HALF_DIAGONAL = np.float32(0.8660254)  # sqrt(3) / 2 as the f32 constant of grid.h
-UDF_NEAR_FACTOR = np.float32(1.0)
+UDF_EDGE_FACTOR = np.float32(1.5)  # kUdfEdgeFactor
 
 
 def cells_at_level(resolution: int, level: int) -> int:
@@ -77,15 +77,18 @@ def cell_may_contain_surface(corner_values: np.ndarray, threshold: np.float32) -
     return (negative & positive) | (min_abs <= threshold)
 
 
-def udf_near_threshold(h: np.float32) -> np.float32:
-    return UDF_NEAR_FACTOR * h * HALF_DIAGONAL
+def udf_edge_limit(h: np.float32) -> np.float32:
+    """The largest f_a + f_b of a valid edge of a finest cell of edge h (grid.h, udf_edge_limit)."""
+    return UDF_EDGE_FACTOR * h
 
 
 def udf_cell_is_near(corner_values: np.ndarray, h: np.float32) -> np.ndarray:
-    """A finest cell of a UDF may carry triangles: all corners finite, the smallest within
-    udf_near_threshold(h)."""
+    """A finest cell of a UDF may carry triangles: all corners finite, and its valid edges
+    (f_a + f_b <= udf_edge_limit(h)) include the three edges of some triangle of the table."""
     finite = np.isfinite(corner_values).all(axis=1)
-    return finite & (corner_values.min(axis=1, initial=np.float32(np.inf)) <= udf_near_threshold(h))
+    sums = corner_values[:, EDGE_CORNERS[:, 0]] + corner_values[:, EDGE_CORNERS[:, 1]]
+    valid = ((sums <= udf_edge_limit(h)) << np.arange(12)).sum(axis=1)
+    return finite & HOLDS_TRIANGLE[valid]
 
 
 @dataclass

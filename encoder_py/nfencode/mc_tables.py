@@ -131,3 +131,18 @@ def generate() -> tuple[np.ndarray, np.ndarray]:
 
 
 TRIANGLES, TRIANGLE_COUNT = generate()
+
+
+def holds_triangle(triangles: np.ndarray, triangle_count: np.ndarray) -> np.ndarray:
+    """(4096,) bool over 12-bit edge masks: whether the edges in the mask include all three edges of
+    some triangle of the table (mc_tables.h, Tables::holds_triangle)."""
+    masks = np.arange(4096, dtype=np.int64)
+    holds = np.zeros(4096, dtype=bool)
+    for index in range(256):
+        for edges in triangles[index, : 3 * triangle_count[index]].reshape(-1, 3):
+            triangle = int((1 << edges).sum())
+            holds |= (masks & triangle) == triangle
+    return holds
+
+
+HOLDS_TRIANGLE = holds_triangle(TRIANGLES, TRIANGLE_COUNT)

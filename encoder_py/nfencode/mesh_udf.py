@@ -8,7 +8,7 @@ since corners on opposite sides of the surface have opposite gradient directions
      or not finite;
   3. corner c is inside when dot(g_c, n) < 0;
   4. a crossed edge a-b gets its vertex at t = f_a / (f_a + f_b) (0.5 when the sum is 0);
-  5. a triangle is emitted only when its three edges are valid: f_a + f_b <= UDF_EDGE_FACTOR * h;
+  5. a triangle is emitted only when its three edges are valid: f_a + f_b <= grid.udf_edge_limit(h);
   6. the vertex normal is canonical(g_a - g_b) normalised, else the edge axis;
   7. order as for the SDF mesher.
 All arithmetic in f32, in the order of mesh_udf_cpu.cpp.
@@ -18,10 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .grid import SparseGrid, udf_cell_is_near
+from .grid import SparseGrid, udf_cell_is_near, udf_edge_limit
 from .marching import CrossedEdges, UnitMesh, edge_points, march_cells
-
-UDF_EDGE_FACTOR = np.float32(1.5)
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -43,7 +41,7 @@ def mesh_udf(grid: SparseGrid) -> UnitMesh:
     level, gradients = grid.finest, grid.gradients
     if gradients is None:
         raise ValueError("the UDF mesher needs a grid built with gradients")
-    max_edge_sum = UDF_EDGE_FACTOR * grid.step
+    max_edge_sum = udf_edge_limit(grid.step)
 
     def classify(corner_values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         near = np.nonzero(udf_cell_is_near(corner_values, grid.step))[0]

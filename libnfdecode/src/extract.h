@@ -42,8 +42,9 @@ nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
 // the gradient: corners on opposite sides of the surface have opposite gradient directions. Every
 // step below depends on one cell or one grid edge only, so cells run independently (GPU) and the
 // three implementations agree:
-//  1. Near cells: finest cells with min corner value <= udf_near_threshold(h) (grid.h). Only they
-//     can carry triangles; the grid holds the analytic gradient g at all their corners.
+//  1. Near cells: finest cells whose valid edges (step 5) could hold a triangle of the table
+//     (grid.h, udf_cell_is_near). Only they can carry triangles; the grid holds the analytic
+//     gradient g at all their corners.
 //  2. Cell orientation n: the gradient at the corner with the smallest value (lowest corner index
 //     on ties), flipped so that its largest-magnitude component (lowest axis on ties) is > 0. A
 //     cell whose n is zero or not finite produces nothing.
@@ -53,8 +54,8 @@ nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
 //  4. Vertices: on a crossed edge a-b (pseudo-signs differ) at t = f_a / (f_a + f_b) from a (0.5
 //     when the sum is 0): the minimum of the V-shaped |distance| along the edge. t depends on the
 //     edge only, so neighbouring cells weld to the same vertex (keyed by grid edge, as for SDF).
-//  5. Face filter: an edge is *valid* when f_a + f_b <= kUdfEdgeFactor * h (a true distance field
-//     crossing the edge has f_a + f_b <= h; the factor covers gradient norms up to 1.5). A triangle
+//  5. Face filter: an edge is *valid* when f_a + f_b <= udf_edge_limit(h) (grid.h: a true distance
+//     field crossing the edge has f_a + f_b <= h; the factor covers gradient norms up to 1.5). A triangle
 //     is emitted only when its three edges are valid: this removes the faces that the pseudo-signs
 //     put where there is no surface (past an open boundary, where it bounds the overshoot to about
 //     half a cell; across the medial axis). Validity depends on the edge only, so the filter is the
@@ -67,7 +68,6 @@ nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
 //     component > 0); the edge axis where that is zero or not finite. UDF meshes have no inside:
 //     winding and normals agree with each other cell by cell, not globally.
 //  7. Order: triangles in cell order then table order, vertices numbered by first use, as for SDF.
-constexpr float kUdfEdgeFactor = 1.5f;
 // The level must hold its gradients (GridBuilder::evaluate_udf_gradients), else
 // NFD_ERROR_INTERNAL. `threads` as for mesh_sdf_cpu.
 nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,

@@ -246,12 +246,14 @@ bool cell_may_contain_surface(const float corner_values[8], float threshold) {
 
 bool udf_cell_is_near(const float corner_values[8], float h) {
     // A non-finite corner has no usable gradient or crossing: the cell is not meshed.
-    float lowest = INFINITY;
-    for (int k = 0; k < 8; ++k) {
+    for (int k = 0; k < 8; ++k)
         if (!std::isfinite(corner_values[k])) return false;
-        lowest = std::min(lowest, corner_values[k]);
-    }
-    return lowest <= udf_near_threshold(h);
+    const float limit = udf_edge_limit(h);
+    uint32_t valid = 0;
+    for (int e = 0; e < 12; ++e)
+        valid |= uint32_t(corner_values[mc::kEdgeCorners[e][0]] + corner_values[mc::kEdgeCorners[e][1]] <=
+                          limit) << e;
+    return mc::tables().holds_triangle[valid / 32] >> (valid % 32) & 1;
 }
 
 // ---- the builder ---------------------------------------------------------------------------

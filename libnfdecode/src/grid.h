@@ -173,8 +173,8 @@ struct GridLevel {
 };
 
 struct GridOptions {
-    // Also evaluate the field gradient (unit frame) at the corners of the finest level's cells
-    // with min corner value <= udf_near_threshold(step): what the UDF mesher needs.
+    // Also evaluate the field gradient (unit frame) at the corners of the finest level's near
+    // cells (udf_cell_is_near): what the UDF mesher needs.
     bool udf_gradients = false;
     // Non-zero: the bound of what the build holds (each step's next_*_bytes_bound added up, plus
     // `bytes_per_voxel` for each finest voxel: what the caller copies them into) must stay within
@@ -183,11 +183,15 @@ struct GridOptions {
     uint32_t bytes_per_voxel = 0;
 };
 
-// A finest-level cell of a UDF is *near* (may carry triangles) when its smallest corner value is
-// at most kUdfNearFactor * h * sqrt(3)/2: a true distance field whose surface meets the cell has a
-// corner within the half-diagonal; the factor covers a learned field that does not quite reach 0.
-constexpr float kUdfNearFactor = 1.0f;
-inline float udf_near_threshold(float h) { return kUdfNearFactor * h * kHalfDiagonal; }
+// The UDF mesher's edge filter (extract.h, step 5): an edge of a finest cell of edge h is *valid*
+// when f_a + f_b <= udf_edge_limit(h) (f32, in that order). A true distance field crossing the edge
+// has f_a + f_b <= h; the factor covers gradient norms up to 1.5.
+constexpr float kUdfEdgeFactor = 1.5f;
+inline float udf_edge_limit(float h) { return kUdfEdgeFactor * h; }
+// A finest-level cell of a UDF is *near* (may carry triangles) when its corners are finite and its
+// valid edges include the three edges of some triangle of the table (mc::Tables::holds_triangle):
+// an emitted triangle needs three valid edges, so no other cell can emit one whatever its pseudo-
+// signs, and only near cells need gradients. Every such cell has a corner within 0.75 h.
 bool udf_cell_is_near(const float corner_values[8], float h);
 
 struct GridStats {

@@ -133,6 +133,18 @@ Tables generate() {
         for (int8_t& e : row) e = -1;
     const Faces faces;
     for (int index = 0; index < 256; ++index) build_case(index, faces, t);
+    for (uint32_t& word : t.holds_triangle) word = 0;
+    for (int index = 0; index < 256; ++index)
+        for (int k = 0; k < t.triangle_count[index]; ++k) {
+            const int8_t* e = &t.triangles[index][3 * k];
+            const uint32_t triangle = 1u << e[0] | 1u << e[1] | 1u << e[2];
+            const uint32_t others = 0xFFFu & ~triangle;
+            for (uint32_t s = others;; s = (s - 1) & others) {  // every superset of the triangle
+                const uint32_t m = triangle | s;
+                t.holds_triangle[m / 32] |= 1u << (m % 32);
+                if (s == 0) break;
+            }
+        }
     return t;
 }
 

@@ -35,6 +35,10 @@ struct Tables {
     // Edge ids, three per triangle, terminated by -1 (and padded with -1 to 16).
     int8_t triangles[256][16];
     uint8_t triangle_count[256];
+    // Bit m (word m / 32, bit m % 32) of the 12-bit edge masks: set when the edges in m include
+    // all three edges of some triangle of the table, i.e. when a cell whose usable edges are m
+    // can emit a triangle in some case (the UDF mesher's near cells, grid.h).
+    uint32_t holds_triangle[4096 / 32];
 };
 
 // Built on first use (thread-safe), then immutable.

@@ -40,7 +40,7 @@ nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
         ++w[e.axis];
         *gb = gradient(w[0], w[1], w[2]);
     };
-    const float max_edge_sum = kUdfEdgeFactor * level.cell_size;
+    const float max_edge_sum = udf_edge_limit(level.cell_size);
     *active_cells = march_cells(
         level, threads,
         [&](const uint32_t* c, const float* f, int* index) {

@@ -16,9 +16,9 @@ from nfencode.grid import (
     keep_threshold,
     refinement_levels,
     udf_cell_is_near,
-    udf_near_threshold,
+    udf_edge_limit,
 )
-from nfencode.mc_tables import CORNER_OFFSET
+from nfencode.mc_tables import CORNER_OFFSET, EDGE_CORNERS, HOLDS_TRIANGLE, TRIANGLE_COUNT, TRIANGLES
 
 
 @pytest.mark.parametrize(
@@ -53,9 +53,35 @@ def test_keep_rule_thresholds_are_f32() -> None:
         [np.nan] * 8,
     ], dtype=np.float32)
     np.testing.assert_array_equal(cell_may_contain_surface(cells, threshold), [True, False, True, True, False])
-    near = udf_near_threshold(h)
-    udf = np.array([[near] * 8, [np.nextafter(near, np.float32(1.0))] * 8, [np.inf] + [0.0] * 7], dtype=np.float32)
-    np.testing.assert_array_equal(udf_cell_is_near(udf, h), [True, False, False])  # non-finite: not meshed
+
+
+def test_near_cells_are_those_whose_valid_edges_hold_a_triangle() -> None:
+    h = np.float32(2.0) / np.float32(64)
+    half = udf_edge_limit(h) / np.float32(2.0)  # every edge sum at the limit: valid
+    above = np.nextafter(half, np.float32(1.0))
+    far = np.float32(2.0) * h
+    corner_cut = np.full(8, far, dtype=np.float32)
+    corner_cut[0] = np.float32(0.0)  # edges 0, 4, 8 (corner 0's) valid when far <= the limit
+    corner_cut[[1, 2, 4]] = half
+    cells = np.array([
+        [half] * 8,
+        [above] * 8,  # one ulp beyond on every edge: no valid edge
+        [np.inf] + [0.0] * 7,  # non-finite: not meshed
+        corner_cut,  # the three edges at corner 0, a triangle of the table
+        np.where(np.arange(8) == 4, far, corner_cut),  # only edges 0 and 4: no triangle
+    ], dtype=np.float32)
+    np.testing.assert_array_equal(udf_cell_is_near(cells, h), [True, False, False, True, False])
+
+
+def test_holds_triangle_is_the_supersets_of_the_table_triangles() -> None:
+    triangles = {frozenset(TRIANGLES[c, 3 * t : 3 * t + 3].tolist())
+                 for c in range(256) for t in range(TRIANGLE_COUNT[c])}
+    assert frozenset({0, 4, 8}) in triangles and len(triangles) > 100
+    rng = np.random.default_rng(0)
+    for mask in rng.integers(0, 4096, 300).tolist() + [0, 4095, 0b100010001]:
+        edges = {e for e in range(12) if mask >> e & 1}
+        assert HOLDS_TRIANGLE[mask] == any(t <= edges for t in triangles), mask
+    assert [EDGE_CORNERS[e].tolist() for e in (0, 4, 8)] == [[0, 1], [0, 2], [0, 4]]  # corner 0's edges
 
 
 def sphere(points: np.ndarray) -> np.ndarray:

@@ -143,7 +143,8 @@ constexpr KernelDesc kKernels[] = {
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) | B(NFD_B_NORMALS),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // UDF (udf.glsl).
-    {Kernel::UdfNear, shaders::udf_near, kChildGrid | B(NFD_B_VALUES) | B(NFD_B_NEAR_MASKS), 0,
+    {Kernel::UdfNear, shaders::udf_near,
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfGradientCount, shaders::udf_gradient_count, kGradientCount, 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE, 0},
@@ -187,13 +188,14 @@ static_assert(rows_bind_their_counters(), "a kernel with counters has them in it
 // The marching-cubes tables, exactly as the CPU reference uses them (mc.glsl's layout).
 nfd_result upload_mc_tables(Device& d) {
     const mc::Tables& t = mc::tables();
-    std::vector<int32_t> table(256 * 16 + 256 + 24);
+    std::vector<int32_t> table(256 * 16 + 256 + 24 + 4096 / 32);
     for (int c = 0; c < 256; ++c) {
         for (int i = 0; i < 16; ++i) table[16 * c + i] = t.triangles[c][i];
         table[4096 + c] = t.triangle_count[c];
     }
     for (int e = 0; e < 12; ++e)
         for (int j = 0; j < 2; ++j) table[4096 + 256 + 2 * e + j] = mc::kEdgeCorners[e][j];
+    for (int w = 0; w < 4096 / 32; ++w) table[4096 + 256 + 24 + w] = int32_t(t.holds_triangle[w]);
     NFD_TRY(d.vk->create_buffer(table.size() * 4, &d.mc_tables));
     return d.vk->upload(d.mc_tables, 0, table.data(), table.size() * 4);
 }

@@ -14,8 +14,7 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     const uint32_t k = finest.parents.capacity;
     const Level& parents = finest.parents;
     LevelPush push = finest.push;
-    push.threshold = udf_near_threshold(push.step);
-    push.edge_limit = kUdfEdgeFactor * push.step;
+    push.edge_limit = udf_edge_limit(push.step);
     const CarriedGradients* above =
         carried.above && carried.above->corners ? carried.above : nullptr;
     if (above && !job.own) return NFD_ERROR_INTERNAL;  // no such caller: recordings are one-shot
@@ -36,7 +35,8 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         NFD_TRY(list.make(VkDeviceSize(k) * 4, &fresh_offsets));
     }
     std::vector<Bind> near_bindings = child_grid_bindings(parents, finest.grid);
-    near_bindings.push_back({NFD_B_NEAR_MASKS, *near});
+    near_bindings.insert(near_bindings.end(),
+                         {{NFD_B_MC_TABLES, job.device.mc_tables}, {NFD_B_NEAR_MASKS, *near}});
     std::vector<Bind> count_bindings = level_bindings(parents);
     // Without `above` the carried variant's two roles are bound to the list's masks, unused.
     count_bindings.insert(count_bindings.end(),
