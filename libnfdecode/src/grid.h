@@ -93,6 +93,9 @@ public:
 
     // Building: insert every vertex, then finish() once; the set is read-only afterwards.
     void insert(uint32_t x, uint32_t y, uint32_t z);
+    // The eight corners of the cell whose lowest corner is (x, y, z): where they share a block
+    // (x and y not at a block's last vertex), two words of it, four bits each.
+    void insert_cell(uint32_t x, uint32_t y, uint32_t z);
     void finish();
 
     uint32_t size() const { return size_; }
@@ -127,7 +130,17 @@ public:
     // allocates (the block table, and the blocks at their largest capacity).
     static uint64_t bytes_bound(uint32_t side, uint64_t blocks);
     // The rank of (x, y, z) if it is on the grid and in the set; coordinates may be out of range.
-    bool find(int64_t x, int64_t y, int64_t z, uint32_t* rank) const;
+    // Inline: the SDF mesher's normals make eight finds per vertex.
+    bool find(int64_t x, int64_t y, int64_t z, uint32_t* out_rank) const {
+        if (x < 0 || y < 0 || z < 0 || x >= side_ || y >= side_ || z >= side_) return false;
+        const uint32_t slot = table_[block_index(uint32_t(x), uint32_t(y), uint32_t(z))];
+        if (slot == kNoBlock) return false;
+        const Block& b = blocks_[slot];
+        const uint32_t bit = uint32_t(x & 7) + 8 * uint32_t(y & 7);
+        if (!(b.words[z & 7] >> bit & 1)) return false;
+        *out_rank = b.prefix[z & 7] + popcount64(b.words[z & 7] & ((uint64_t(1) << bit) - 1));
+        return true;
+    }
     // fn(rank, x, y, z) for every vertex, in rank order.
     template <class Fn>
     void for_each(Fn&& fn) const;
@@ -139,6 +152,7 @@ private:
         uint32_t prefix[8];  // rank of the first vertex of each word
         uint32_t index;      // linear block index in the block table; blocks_ is sorted by it
     };
+    Block& block_for_insert(uint32_t x, uint32_t y, uint32_t z);
     uint32_t block_index(uint32_t x, uint32_t y, uint32_t z) const {
         return ((z >> 3) * blocks_per_axis_ + (y >> 3)) * blocks_per_axis_ + (x >> 3);
     }

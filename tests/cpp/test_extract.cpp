@@ -119,6 +119,69 @@ TEST(Extract, CellKeepTest) {
     EXPECT_FALSE(cell_may_contain_surface(f, keep));
 }
 
+// The UDF near test (grid.h): finite corners whose valid edges hold a triangle of the table.
+TEST(Extract, UdfNearCellsAreThoseWhoseValidEdgesHoldATriangle) {
+    const mc::Tables& t = mc::tables();
+    for (uint32_t m = 0; m < 4096; ++m) {  // holds_triangle against a search over the table
+        bool holds = false;
+        for (int c = 0; c < 256 && !holds; ++c)
+            for (int k = 0; k < t.triangle_count[c] && !holds; ++k) {
+                const int8_t* e = &t.triangles[c][3 * k];
+                holds = (m >> e[0] & 1) && (m >> e[1] & 1) && (m >> e[2] & 1);
+            }
+        ASSERT_EQ(bool(t.holds_triangle[m / 32] >> (m % 32) & 1), holds) << m;
+    }
+    const float h = 0.01f, half = udf_edge_limit(h) / 2.0f, far = 2.0f * h;
+    float f[8];
+    std::fill(f, f + 8, half);
+    EXPECT_TRUE(udf_cell_is_near(f, h));  // every edge sum at the limit
+    std::fill(f, f + 8, std::nextafter(half, 1.0f));
+    EXPECT_FALSE(udf_cell_is_near(f, h));  // one ulp beyond on every edge
+    // Corner 0 at the surface, its three neighbours within the limit, the rest far: the three
+    // edges at corner 0 (0, 4, 8) are valid, a triangle of the table.
+    std::fill(f, f + 8, far);
+    f[0] = 0.0f;
+    f[1] = f[2] = f[4] = half;
+    EXPECT_TRUE(udf_cell_is_near(f, h));
+    f[4] = far;  // edges 0 and 4 alone hold no triangle, though corner 0 is on the surface
+    EXPECT_FALSE(udf_cell_is_near(f, h));
+    std::fill(f, f + 8, 0.0f);
+    f[6] = INFINITY;
+    EXPECT_FALSE(udf_cell_is_near(f, h));  // a non-finite corner: never meshed
+}
+
+// insert_cell gives the set of eight single inserts, at block edges too; find and rank agree.
+TEST(Extract, VertexSetCellInsertsAndFinds) {
+    const uint32_t side = 41;
+    VertexSet cells(side), singles(side);
+    uint32_t seed = 12345;
+    for (int k = 0; k < 400; ++k) {
+        uint32_t c[3];
+        for (uint32_t& x : c) x = (seed = seed * 1664525u + 1013904223u) >> 8 & 63;
+        if (k % 3 == 0) c[k % 2] = 8 * (c[k % 2] % 5) + 7;  // at a block's last vertex
+        for (uint32_t& x : c) x %= side - 1;
+        cells.insert_cell(c[0], c[1], c[2]);
+        for (const auto& o : mc::kCornerOffset) singles.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+    }
+    cells.finish();
+    singles.finish();
+    ASSERT_EQ(cells.size(), singles.size());
+    std::vector<uint32_t> in(size_t(side) * side * side, ~0u);
+    singles.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        in[(size_t(z) * side + y) * side + x] = r;
+        ASSERT_EQ(cells.rank(x, y, z), r);
+    });
+    for (int64_t z = -1; z <= side; ++z)
+        for (int64_t y = -1; y <= side; ++y)
+            for (int64_t x = -1; x <= side; ++x) {
+                uint32_t r = ~0u;
+                const bool on = x >= 0 && y >= 0 && z >= 0 && x < side && y < side && z < side;
+                const uint32_t expected = on ? in[(size_t(z) * side + y) * side + x] : ~0u;
+                ASSERT_EQ(cells.find(x, y, z, &r), expected != ~0u) << x << " " << y << " " << z;
+                if (expected != ~0u) ASSERT_EQ(r, expected);
+            }
+}
+
 // ---- closed field --------------------------------------------------------------------------
 
 struct Extracted {
