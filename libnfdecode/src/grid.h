@@ -126,6 +126,18 @@ public:
             r[4 * dz + 3] = high + 1;
         }
     }
+    // The ranks of the 3^3 vertices (x + i, y + j, z + k), i, j, k < 3, at r[9k + 3j + i]: the
+    // corners of the eight cells of a 2^3 group at even (x, y, z); all 27 must be in the set.
+    // A row's three vertices are consecutive bits of one word unless x + 2 starts the next block.
+    void sibling_ranks(uint32_t x, uint32_t y, uint32_t z, uint32_t r[27]) const {
+        for (uint32_t k = 0; k < 3; ++k)
+            for (uint32_t j = 0; j < 3; ++j) {
+                uint32_t* row = r + 9 * k + 3 * j;
+                row[0] = rank(x, y + j, z + k);
+                row[1] = row[0] + 1;
+                row[2] = (x & 7) == 6 ? rank(x + 2, y + j, z + k) : row[0] + 2;
+            }
+    }
     // An upper bound of the bytes a set of `side` vertices per axis in at most `blocks` blocks
     // allocates (the block table, and the blocks at their largest capacity).
     static uint64_t bytes_bound(uint32_t side, uint64_t blocks);
@@ -180,6 +192,12 @@ struct GridLevel {
         uint32_t r[8];
         vertices.cell_ranks(cell[0], cell[1], cell[2], r);
         for (int k = 0; k < 8; ++k) f[k] = values[r[k]];
+    }
+    // The values at the 27 corners of the 2^3 cells at even `cell` (VertexSet::sibling_ranks).
+    void sibling_values(const uint32_t cell[3], float v[27]) const {
+        uint32_t r[27];
+        vertices.sibling_ranks(cell[0], cell[1], cell[2], r);
+        for (int k = 0; k < 27; ++k) v[k] = values[r[k]];
     }
     // -1 + v * h equals the fine grid's -1 + (v << l) * step in f32: both products are the same
     // real number times a power of two, rounded once.

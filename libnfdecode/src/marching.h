@@ -15,12 +15,16 @@
 
 namespace nfd {
 
-// A crossed grid edge: from vertex v (coordinates of the level meshed) along `axis`, with the corner
-// values at its two ends.
+// A crossed grid edge, seen from one of its cells: from vertex v (coordinates of the level meshed)
+// along `axis`, with the corner values at its two ends, and that cell's lowest corner and eight
+// corner values (mc::kCornerOffset order), which hold one neighbour of each end across each other
+// axis.
 struct CrossedEdge {
     uint32_t v[3];
     int axis;
     float fa, fb;
+    const uint32_t* cell;
+    const float* cell_values;
 };
 
 namespace marching_detail {
@@ -42,7 +46,19 @@ void for_each_emitted_edge(int index, uint8_t emitted, Fn&& fn) {
 inline CrossedEdge crossed_edge(const uint32_t c[3], int e, const float f[8]) {
     const int a = mc::kEdgeCorners[e][0], b = mc::kEdgeCorners[e][1];
     const uint8_t* o = mc::kCornerOffset[a];
-    return {{c[0] + o[0], c[1] + o[1], c[2] + o[2]}, e / 4, f[a], f[b]};
+    return {{c[0] + o[0], c[1] + o[1], c[2] + o[2]}, e / 4, f[a], f[b], c, f};
+}
+
+// Whether cells[0..8) are the eight children of one parent in mc::kCornerOffset order, as the
+// levels below the coarsest list them (grid.h) unless the domain's end dropped some.
+inline bool is_sibling_group(const uint32_t* cells) {
+    const uint32_t base = cells[0];
+    if (base & (1u | 1u << 11 | 1u << 22)) return false;  // an odd coordinate: not a first child
+    for (int k = 1; k < 8; ++k) {
+        const uint8_t* o = mc::kCornerOffset[k];
+        if (cells[k] != base + pack_coords(o[0], o[1], o[2])) return false;
+    }
+    return true;
 }
 
 // A grid edge's slot in the welding table: the level's rank of its lower end (`corner_ranks` of
@@ -81,27 +97,46 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, Classify&& classi
                      EdgeValid&& edge_valid, Place&& place, MeshData* mesh) {
     using namespace marching_detail;
     const mc::Tables& t = mc::tables();
-    // Pass 1, over the visited cells: each one's case and the triangles it emits (bit tri). It
-    // reads eight corners of every visited cell, of which about one in four emits.
+    // Pass 1, over the visited cells: each one's case and the triangles it emits (bit tri). About
+    // one visited cell in four emits; eight siblings read their 27 corners once.
     const size_t visited = level.cells.size();
     nfd::vector<uint8_t> cases(visited), emitted(visited);
+    auto visit = [&](size_t i, const uint32_t c[3], const float f[8]) {
+        int index = 0;
+        uint8_t mask = 0;
+        if (classify(c, f, &index))
+            for (int tri = 0; tri < t.triangle_count[index]; ++tri) {
+                bool valid = true;
+                for (int j = 0; j < 3 && valid; ++j)
+                    valid = edge_valid(crossed_edge(c, t.triangles[index][3 * tri + j], f));
+                mask |= uint8_t(valid) << tri;
+            }
+        cases[i] = uint8_t(index);
+        emitted[i] = mask;
+    };
     parallel_for(visited, 16384, threads, [&](size_t begin, size_t end) {
-        for (size_t i = begin; i < end; ++i) {
+        for (size_t i = begin; i < end;) {
             uint32_t c[3];
             unpack_coords(level.cells[i], c);
-            float f[8];
-            level.corners(c, f);
-            int index = 0;
-            uint8_t mask = 0;
-            if (classify(c, f, &index))
-                for (int tri = 0; tri < t.triangle_count[index]; ++tri) {
-                    bool valid = true;
-                    for (int j = 0; j < 3 && valid; ++j)
-                        valid = edge_valid(crossed_edge(c, t.triangles[index][3 * tri + j], f));
-                    mask |= uint8_t(valid) << tri;
+            if (i + 8 <= end && is_sibling_group(&level.cells[i])) {
+                float v[27];
+                level.sibling_values(c, v);
+                for (int k = 0; k < 8; ++k) {
+                    const uint8_t* o = mc::kCornerOffset[k];
+                    const uint32_t ck[3] = {c[0] + o[0], c[1] + o[1], c[2] + o[2]};
+                    float f[8];
+                    for (int j = 0; j < 8; ++j) {
+                        const uint8_t* q = mc::kCornerOffset[j];
+                        f[j] = v[9 * (o[2] + q[2]) + 3 * (o[1] + q[1]) + o[0] + q[0]];
+                    }
+                    visit(i + k, ck, f);
                 }
-            cases[i] = uint8_t(index);
-            emitted[i] = mask;
+                i += 8;
+            } else {
+                float f[8];
+                level.corners(c, f);
+                visit(i++, c, f);
+            }
         }
     });
 

@@ -10,20 +10,17 @@ namespace {
 
 // Derivative along axis b at vertex w (value fw) in units of 1 / cell: central where both
 // neighbours were evaluated, one-sided where one was (the domain boundary, the edge of the band).
-float grid_derivative(const GridLevel& level, int64_t w[3], float fw, int b) {
+// One neighbour is a corner of the cell the vertex is placed from (`in_cell`, on the `in_cell_hi`
+// side); only the other is looked up.
+float grid_derivative(const GridLevel& level, int64_t w[3], float fw, int b, float in_cell,
+                      bool in_cell_hi) {
     uint32_t r;
-    float hi = 0.0f, lo = 0.0f;
-    ++w[b];
-    const bool has_hi = level.vertices.find(w[0], w[1], w[2], &r);
-    if (has_hi) hi = level.values[r];
-    w[b] -= 2;
-    const bool has_lo = level.vertices.find(w[0], w[1], w[2], &r);
-    if (has_lo) lo = level.values[r];
-    ++w[b];
-    if (has_hi && has_lo) return 0.5f * (hi - lo);
-    if (has_hi) return hi - fw;
-    if (has_lo) return fw - lo;
-    return 0.0f;
+    w[b] += in_cell_hi ? -1 : 1;
+    const bool has_other = level.vertices.find(w[0], w[1], w[2], &r);
+    w[b] -= in_cell_hi ? -1 : 1;
+    if (!has_other) return in_cell_hi ? in_cell - fw : fw - in_cell;
+    const float other = level.values[r];
+    return in_cell_hi ? 0.5f * (in_cell - other) : 0.5f * (other - in_cell);
 }
 
 // extract.h's vertex normal on a crossed edge, crossed at t. The four cells around a crossed edge
@@ -32,12 +29,17 @@ float grid_derivative(const GridLevel& level, int64_t w[3], float fw, int b) {
 void edge_normal(const GridLevel& level, const CrossedEdge& e, float t, float n[3]) {
     float g[3];
     g[e.axis] = e.fb - e.fa;
+    int corner_a = 0;  // the edge's lower end as a corner of its cell
+    for (int a = 0; a < 3; ++a) corner_a |= int(e.v[a] - e.cell[a]) << a;
+    const int corner_b = corner_a | 1 << e.axis;
     for (int b = 0; b < 3; ++b) {
         if (b == e.axis) continue;
+        const bool hi = (corner_a >> b & 1) == 0;  // the cell's neighbour lies above the edge
+        const int across = 1 << b;
         int64_t w[3] = {e.v[0], e.v[1], e.v[2]};
-        const float d0 = grid_derivative(level, w, e.fa, b);
+        const float d0 = grid_derivative(level, w, e.fa, b, e.cell_values[corner_a ^ across], hi);
         ++w[e.axis];
-        const float d1 = grid_derivative(level, w, e.fb, b);
+        const float d1 = grid_derivative(level, w, e.fb, b, e.cell_values[corner_b ^ across], hi);
         g[b] = d0 + t * (d1 - d0);
     }
     const float len = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);

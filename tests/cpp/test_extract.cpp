@@ -150,18 +150,30 @@ TEST(Extract, UdfNearCellsAreThoseWhoseValidEdgesHoldATriangle) {
     EXPECT_FALSE(udf_cell_is_near(f, h));  // a non-finite corner: never meshed
 }
 
-// insert_cell gives the set of eight single inserts, at block edges too; find and rank agree.
+// insert_cell gives the set of eight single inserts, at block edges too; find, rank and
+// sibling_ranks agree.
 TEST(Extract, VertexSetCellInsertsAndFinds) {
     const uint32_t side = 41;
     VertexSet cells(side), singles(side);
     uint32_t seed = 12345;
+    std::vector<std::array<uint32_t, 3>> groups;  // even corners of 2^3 groups of inserted cells
     for (int k = 0; k < 400; ++k) {
         uint32_t c[3];
         for (uint32_t& x : c) x = (seed = seed * 1664525u + 1013904223u) >> 8 & 63;
         if (k % 3 == 0) c[k % 2] = 8 * (c[k % 2] % 5) + 7;  // at a block's last vertex
-        for (uint32_t& x : c) x %= side - 1;
-        cells.insert_cell(c[0], c[1], c[2]);
-        for (const auto& o : mc::kCornerOffset) singles.insert(c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+        if (k % 5 == 0) c[2 - k % 3] = 8 * (c[2 - k % 3] % 5) + 6;  // a group across blocks
+        for (uint32_t& x : c) x %= side - 2;
+        const bool group = k % 4 == 0;
+        if (group) {
+            for (uint32_t& x : c) x &= ~1u;
+            groups.push_back({c[0], c[1], c[2]});
+        }
+        for (const auto& g : mc::kCornerOffset) {
+            const uint32_t x = c[0] + g[0], y = c[1] + g[1], z = c[2] + g[2];
+            cells.insert_cell(x, y, z);
+            for (const auto& o : mc::kCornerOffset) singles.insert(x + o[0], y + o[1], z + o[2]);
+            if (!group) break;
+        }
     }
     cells.finish();
     singles.finish();
@@ -180,6 +192,12 @@ TEST(Extract, VertexSetCellInsertsAndFinds) {
                 ASSERT_EQ(cells.find(x, y, z, &r), expected != ~0u) << x << " " << y << " " << z;
                 if (expected != ~0u) ASSERT_EQ(r, expected);
             }
+    for (const auto& c : groups) {
+        uint32_t r[27];
+        cells.sibling_ranks(c[0], c[1], c[2], r);
+        for (uint32_t k = 0; k < 27; ++k)
+            ASSERT_EQ(r[k], cells.rank(c[0] + k % 3, c[1] + k / 3 % 3, c[2] + k / 9)) << k;
+    }
 }
 
 // ---- closed field --------------------------------------------------------------------------
