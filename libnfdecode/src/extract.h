@@ -54,16 +54,17 @@ nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
 //  4. Vertices: on a crossed edge a-b (pseudo-signs differ) at t = f_a / (f_a + f_b) from a (0.5
 //     when the sum is 0): the minimum of the V-shaped |distance| along the edge. t depends on the
 //     edge only, so neighbouring cells weld to the same vertex (keyed by grid edge, as for SDF).
-//  5. Face filter: an edge is *valid* when f_a + f_b <= udf_edge_limit(h) (grid.h: a true distance
-//     field crossing the edge has f_a + f_b <= h; the factor covers gradient norms up to 1.5). A triangle
-//     is emitted only when its three edges are valid: this removes the faces that the pseudo-signs
-//     put where there is no surface (past an open boundary, where it bounds the overshoot to about
-//     half a cell; across the medial axis). Validity depends on the edge only, so the filter is the
-//     same in both cells of an edge. Measured and rejected: also requiring dot(g_a, g_b) < 0 — a
-//     learned UDF's valley is blunt and its gradients near the floor turn tangential, so that test
-//     dropped a third of the candidate faces, most of them on the surface (T-shirt w24 at 256: CD
-//     0.0127 with it, 0.0114 without; largest floating fragment 0.6% vs 0.15% of the area), and its
-//     sign sat within f32 rounding of zero (bench/RESULTS.md, "UDF extractor: variants measured").
+//  5. Face filter: an edge is *valid* when f_a + f_b <= udf_edge_limit(h) (grid.h: a true
+//     distance field crossing the edge has f_a + f_b <= h; the factor covers gradient norms up to
+//     1.5). A triangle is emitted only when its three edges are valid: this removes the faces that
+//     the pseudo-signs put where there is no surface (past an open boundary, where it bounds the
+//     overshoot to about half a cell; across the medial axis). Validity depends on the edge only,
+//     so the filter is the same in both cells of an edge. Measured and rejected: also requiring
+//     dot(g_a, g_b) < 0 — a learned UDF's valley is blunt and its gradients near the floor turn
+//     tangential, so that test dropped a third of the candidate faces, most of them on the surface
+//     (T-shirt w24 at 256: CD 0.0127 with it, 0.0114 without; largest floating fragment 0.6% vs
+//     0.15% of the area), and its sign sat within f32 rounding of zero (bench/RESULTS.md, "UDF
+//     extractor: variants measured").
 //  6. Normals: per vertex (edge), normalize(g_a - g_b) flipped by the rule of step 2 (largest
 //     component > 0); the edge axis where that is zero or not finite. UDF meshes have no inside:
 //     winding and normals agree with each other cell by cell, not globally.

@@ -257,9 +257,11 @@ bool udf_cell_is_near(const float corner_values[8], float h) {
         if (!std::isfinite(corner_values[k])) return false;
     const float limit = udf_edge_limit(h);
     uint32_t valid = 0;
-    for (int e = 0; e < 12; ++e)
-        valid |= uint32_t(corner_values[mc::kEdgeCorners[e][0]] + corner_values[mc::kEdgeCorners[e][1]] <=
-                          limit) << e;
+    for (int e = 0; e < 12; ++e) {
+        const uint8_t* ends = mc::kEdgeCorners[e];
+        const float sum = corner_values[ends[0]] + corner_values[ends[1]];
+        valid |= uint32_t(sum <= limit) << e;
+    }
     return mc::tables().holds_triangle[valid / 32] >> (valid % 32) & 1;
 }
 

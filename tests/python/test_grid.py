@@ -18,7 +18,8 @@ from nfencode.grid import (
     udf_cell_is_near,
     udf_edge_limit,
 )
-from nfencode.mc_tables import CORNER_OFFSET, EDGE_CORNERS, HOLDS_TRIANGLE, TRIANGLE_COUNT, TRIANGLES
+from nfencode.mc_tables import (CORNER_OFFSET, EDGE_CORNERS, HOLDS_TRIANGLE, TRIANGLE_COUNT,
+                                TRIANGLES)
 
 
 @pytest.mark.parametrize(
@@ -81,7 +82,8 @@ def test_holds_triangle_is_the_supersets_of_the_table_triangles() -> None:
     for mask in rng.integers(0, 4096, 300).tolist() + [0, 4095, 0b100010001]:
         edges = {e for e in range(12) if mask >> e & 1}
         assert HOLDS_TRIANGLE[mask] == any(t <= edges for t in triangles), mask
-    assert [EDGE_CORNERS[e].tolist() for e in (0, 4, 8)] == [[0, 1], [0, 2], [0, 4]]  # corner 0's edges
+    # The three edges at corner 0, used above.
+    assert [EDGE_CORNERS[e].tolist() for e in (0, 4, 8)] == [[0, 1], [0, 2], [0, 4]]
 
 
 def sphere(points: np.ndarray) -> np.ndarray:
