@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (tests/fuzz/README.md: clang, ASan + UBSan, the parser's CRC checks
-# off) into build-fuzz/ and runs each for SECONDS (default 30) from its committed corpus
-# (tests/fuzz/corpus/<target>, read only; new inputs go to build-fuzz/corpus/<target>). Fails on
-# any crash, abort, leak, timeout or sanitizer report, and prints the executions per target.
+# off; line tables only, as scripts/sanitize.sh) into build-fuzz/ and runs each for SECONDS
+# (default 30) from its committed corpus (tests/fuzz/corpus/<target>, read only; new inputs go to
+# build-fuzz/corpus/<target>). Fails on any crash, abort, leak, timeout or sanitizer report, and
+# prints the executions per target.
 #     scripts/fuzz.sh [SECONDS [TARGET...]]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,6 +13,7 @@ targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(fuzz_asset fuzz_decode fuzz_stream)
 command -v clang++ >/dev/null || { echo "clang++ not found (Debian: clang libclang-rt-14-dev)" >&2; exit 1; }
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" \
   -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DNFD_BUILD_FUZZERS=ON \
   -DNFD_WITH_VULKAN=OFF -DNFD_BUILD_SAMPLES=OFF -DNFD_BUILD_TESTS=ON >/dev/null
 cmake --build build-fuzz -j"${NFD_FUZZ_JOBS:-2}" --target "${targets[@]}"
