@@ -1,7 +1,8 @@
-// The keep rule against the dense grid (issue 11, item 2): per SDF file and resolution, the sparse
+// The sparse grid's schedule against the dense grid (issue 11, item 2; named for the keep rule,
+// which SDF levels followed before 0.11's surface following): per SDF file and resolution, the sparse
 // coarse-to-fine extraction of the CPU path (its evaluations, active cells and triangles) beside
 // marching cubes' sign changes over every cell of the dense (r+1)^3 grid. The sparse mesh is the
-// dense one exactly when both find the same active cells and triangles: a cell the keep rule
+// dense one exactly when both find the same active cells and triangles: a cell the schedule
 // dropped that the surface crosses shows as fewer. Prints a markdown table; exits 1 on a loss.
 //   keep_rule [--resolutions 128,256,512] FILE.nfc...
 // It calls libnfdecode's internals, not its C API: the dense grid must be evaluated at the very f32

@@ -3,13 +3,20 @@
 Grid of `resolution` cells per axis over the unit frame [-1, 1]^3; vertex i sits at
 -1 + 2 i / resolution, computed in f32 as libnfdecode does. Level l (0 = finest) has
 ceil(resolution / 2^l) cells per axis; the coarsest level, refinement_levels() up, is visited
-whole in raster order (x fastest). A cell is kept when its corner values change sign or
-min |f| <= keep_threshold(udf, h) = margin * h * sqrt(3)/2 (f32 arithmetic; the margin is
-SDF_KEEP_MARGIN or UDF_KEEP_MARGIN, chosen in grid.h); the kept cells pass their children,
-in parent order and mc_tables.CORNER_OFFSET order within a parent, to the next level, dropping
-children that start at or past the last cell. Vertices with all-even indices are copied from the
-parent level, the others evaluated. Values are stored in f32, as the C++ grid stores them, so that
-every decision downstream is taken on the same numbers.
+whole in raster order (x fastest). Below it (grid.h has the rules and their reasons):
+
+* UDF, the keep rule: a cell is kept when min |f| <= keep_threshold(True, h) = margin * h *
+  sqrt(3)/2 (f32 arithmetic); the kept cells pass their children, in parent order and
+  mc_tables.CORNER_OFFSET order within a parent, to the next level, dropping children that start
+  at or past the last cell.
+* SDF, surface following (libnfdecode/src/grid_follow.cpp): a level visits the cells seeded at
+  the crossed edges of the sign-change cells above, flooded across faces with a sign change
+  inside the region of those cells and their 26 neighbours, plus every child of the isolated cells
+  above (no sign change, kept by the keep rule, no sign-change neighbour); in visit_order().
+
+Vertices with all-even indices are copied from the parent level where it has them, the others
+evaluated. Values are stored in f32, as the C++ grid stores them, so that every decision downstream
+is taken on the same numbers.
 """
 
 from __future__ import annotations
@@ -167,12 +174,147 @@ def _evaluate_level(
 
 
 def _children(level: GridLevel, step: np.float32, child_cells: int, udf: bool) -> np.ndarray:
-    """The children of the cells that may contain the surface, in parent order, each parent's in
-    CORNER_OFFSET order, dropping those that start at or past the last cell."""
+    """The keep rule: the children of the cells that may contain the surface, in parent order,
+    each parent's in CORNER_OFFSET order, dropping those that start at or past the last cell."""
     threshold = keep_threshold(udf, step * np.float32(1 << level.level))
     kept = level.cells[cell_may_contain_surface(level.corner_values(), threshold)]
     children = (2 * kept[:, None, :] + CORNER_OFFSET[None, :, :]).reshape(-1, 3)
     return children[(children < child_cells).all(axis=1)]
+
+
+def _sign_change(corner_values: np.ndarray) -> np.ndarray:
+    """Cells whose corners include f < 0 and not f < 0 (NaN counts as not negative)."""
+    negative = corner_values < 0
+    return negative.any(axis=-1) & ~negative.all(axis=-1)
+
+
+def cell_keys(cells: np.ndarray, n: int) -> np.ndarray:
+    """Raster index (x fastest) of cell coordinates on a grid of n cells per axis."""
+    return vertex_keys(cells, n)
+
+
+def visit_order(cells: np.ndarray, side: int) -> np.ndarray:
+    """grid_follow.cpp's order of a level's cells (FloodStore::for_each_visited): by 8^3 block
+    of a grid of `side` vertices per axis in raster order, inside a block by 2^3 group in raster
+    order, inside a group in CORNER_OFFSET order. The sort key of each cell."""
+    per_axis = (side + 7) // 8
+    block = ((cells[:, 2] >> 3) * per_axis + (cells[:, 1] >> 3)) * per_axis + (cells[:, 0] >> 3)
+    local = cells & 7
+    group = (local[:, 2] >> 1) * 16 + (local[:, 1] >> 1) * 4 + (local[:, 0] >> 1)
+    child = (cells[:, 0] & 1) | (cells[:, 1] & 1) << 1 | (cells[:, 2] & 1) << 2
+    return (block * 64 + group) * 8 + child
+
+
+_AROUND = np.array([(x, y, z) for z in (-1, 0, 1) for y in (-1, 0, 1) for x in (-1, 0, 1)])
+_FACES = [(axis, side, np.array([k for k in range(8) if CORNER_OFFSET[k][axis] == side]))
+          for axis in range(3) for side in (0, 1)]
+
+
+def _follow_region(level: GridLevel, step: np.float32) -> tuple[np.ndarray, np.ndarray]:
+    """grid_follow.cpp's follow_region: the sorted cell keys of the region (the sign-change cells
+    of `level` and their 26 neighbours) and its isolated cells."""
+    n = level.cells_per_axis
+    f = level.corner_values()
+    active = _sign_change(f)
+    around = (level.cells[active][:, None, :] + _AROUND[None]).reshape(-1, 3)
+    region = np.unique(cell_keys(around[((around >= 0) & (around < n)).all(axis=1)], n))
+    h = step * np.float32(1 << level.level)
+    candidates = ~active & cell_may_contain_surface(f, keep_threshold(False, h))
+    isolated = level.cells[candidates]
+    return region, isolated[~np.isin(cell_keys(isolated, n), region)]
+
+
+class _Values:
+    """A level's vertex values as the flood fetches them: sorted keys and their values."""
+
+    def __init__(self, side: int) -> None:
+        self.side = side
+        self.keys = np.zeros(0, dtype=np.int64)
+        self.values = np.zeros(0, dtype=np.float32)
+
+    def missing(self, keys: np.ndarray) -> np.ndarray:
+        keys = np.unique(keys)
+        return keys[~np.isin(keys, self.keys)]
+
+    def add(self, keys: np.ndarray, values: np.ndarray) -> None:
+        keys, values = np.concatenate([self.keys, keys]), np.concatenate([self.values, values])
+        order = np.argsort(keys, kind="stable")
+        self.keys, self.values = keys[order], values[order]
+
+    def at(self, keys: np.ndarray) -> np.ndarray:
+        return self.values[np.searchsorted(self.keys, keys)]
+
+
+def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: GridLevel,
+                    region: np.ndarray, isolated: np.ndarray) -> tuple[GridLevel, int]:
+    """grid_follow.cpp's follow_surface: level `level` below `parent`, and its new evaluations."""
+    n = cells_at_level(resolution, level)
+    side = n + 1
+    known = _Values(side)
+    evaluated = 0
+
+    def fetch(keys: np.ndarray) -> None:
+        nonlocal evaluated
+        keys = known.missing(keys)
+        vertices = np.stack([keys % side, keys // side % side, keys // (side * side)], axis=1)
+        values = np.empty(len(keys), dtype=np.float32)
+        copy = (vertices % 2 == 0).all(axis=1)
+        index, found = parent.find(vertices[copy] // 2)
+        copied = np.flatnonzero(copy)[found]
+        values[copied] = parent.values[index[found]]
+        todo = np.ones(len(keys), dtype=bool)
+        todo[copied] = False
+        values[todo] = field_fn(grid_coordinates(vertices[todo] << level, resolution))
+        evaluated += int(todo.sum())
+        known.add(keys, values)
+
+    # Seeds: one child per crossed edge of each sign-change parent, from its midpoint's sign.
+    f = parent.corner_values()
+    active = _sign_change(f)
+    cells, f = parent.cells[active], f[active]
+    seeds = []
+    for a, b in EDGE_CORNERS.tolist():
+        axis = int(np.argmax(CORNER_OFFSET[b] - CORNER_OFFSET[a]))
+        crossed = (f[:, a] < 0) != (f[:, b] < 0)
+        middle = 2 * (cells[crossed] + CORNER_OFFSET[a])
+        middle[:, axis] += 1
+        on_grid = (middle <= n).all(axis=1)
+        fetch(vertex_keys(middle[on_grid], side))
+        child = 2 * cells[crossed][on_grid] + CORNER_OFFSET[a]
+        upper = (f[crossed][on_grid, a] < 0) == (known.at(vertex_keys(middle[on_grid], side)) < 0)
+        child[:, axis] = 2 * cells[crossed][on_grid, axis] + upper
+        seeds.append(child)
+    seeds.append((2 * isolated[:, None, :] + CORNER_OFFSET[None]).reshape(-1, 3))
+    frontier = np.concatenate(seeds)
+    frontier = frontier[(frontier < n).all(axis=1)]
+    visited = np.unique(cell_keys(frontier, n))
+    frontier = np.stack([visited % n, visited // n % n, visited // (n * n)], axis=1)
+
+    # The flood, a wave at a time, inside the region.
+    while len(frontier):
+        corners = vertex_keys(frontier[:, None, :] + CORNER_OFFSET[None], side)
+        fetch(corners.ravel())
+        values = known.at(corners)
+        crossing = _sign_change(values)
+        grown = []
+        for axis, face, corner_ids in _FACES:
+            through = crossing & _sign_change(values[:, corner_ids])
+            neighbour = frontier[through].copy()
+            neighbour[:, axis] += 1 if face else -1
+            neighbour = neighbour[((neighbour >= 0) & (neighbour < n)).all(axis=1)]
+            grown.append(neighbour[np.isin(cell_keys(neighbour // 2, (n + 1) // 2), region)])
+        keys = np.unique(cell_keys(np.concatenate(grown), n))
+        keys = keys[~np.isin(keys, visited)]
+        visited = np.union1d(visited, keys)
+        frontier = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
+
+    cells = np.stack([visited % n, visited // n % n, visited // (n * n)], axis=1)
+    cells = cells[np.argsort(visit_order(cells, side), kind="stable")]
+    corner_keys = vertex_keys(cells[:, None, :] + CORNER_OFFSET[None, :, :], side)
+    keys, inverse = np.unique(corner_keys.ravel(), return_inverse=True)
+    vertices = np.stack([keys % side, keys // side % side, keys // (side * side)], axis=1)
+    grid_level = GridLevel(level, n, cells, keys, vertices, inverse.reshape(-1, 8), known.at(keys))
+    return grid_level, evaluated
 
 
 def _udf_gradients(gradient_fn: GradientFn, grid: SparseGrid) -> tuple[np.ndarray, int]:
@@ -189,7 +331,7 @@ def _udf_gradients(gradient_fn: GradientFn, grid: SparseGrid) -> tuple[np.ndarra
 def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | None = None) -> SparseGrid:
     """The sparse grid of `field_fn` at `resolution` (MIN_RESOLUTION..MAX_RESOLUTION); with
     `udf_gradient` the field is a UDF (its keep margin) and the gradients at the corners of the
-    finest near cells are evaluated too."""
+    finest near cells are evaluated too. An SDF's levels follow the surface."""
     if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
         raise InputError(f"resolution {resolution} outside {MIN_RESOLUTION}..{MAX_RESOLUTION}")
     top = refinement_levels(resolution)
@@ -200,9 +342,13 @@ def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | No
     level, evaluated = _evaluate_level(field_fn, resolution, top, cells, None)
     levels = [level]
     for lower in range(top - 1, -1, -1):
-        cells = _children(levels[0], grid_step(resolution), cells_at_level(resolution, lower),
-                          udf_gradient is not None)
-        level, new = _evaluate_level(field_fn, resolution, lower, cells, levels[0])
+        if udf_gradient is None:
+            region, isolated = _follow_region(levels[0], grid_step(resolution))
+            level, new = _follow_surface(field_fn, resolution, lower, levels[0], region, isolated)
+        else:
+            cells = _children(levels[0], grid_step(resolution), cells_at_level(resolution, lower),
+                              udf_gradient is not None)
+            level, new = _evaluate_level(field_fn, resolution, lower, cells, levels[0])
         levels.insert(0, level)
         evaluated += new
     grid = SparseGrid(resolution, levels, evaluated)

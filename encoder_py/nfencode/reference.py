@@ -3,7 +3,7 @@
 
 This module must not import torch: it is the oracle the C++ decoder and the golden vectors are
 checked against, and it is what `nfc decode` runs. Extraction runs libnfdecode's algorithm step for
-step (grid.h, extract.h): the same levels and keep rule (grid), the same generated table
+step (grid.h, extract.h): the same levels and schedules (grid), the same generated table
 (mc_tables), the same welding, vertex order and normals (mesh_sdf, mesh_udf), in f32 where C++
 computes in f32, so that both produce the same topology. Only the network is evaluated in f64 (and
 rounded to f32 on the grid); C++ accumulates in f32, ~1e-7 away.

@@ -1,88 +1,27 @@
 // CPU reference of the sparse grid (grid.h). Each level keeps the list of cells it visits; their
-// corners are collected in a blocked VertexSet, evaluated once, and the cells that may contain the
-// surface pass their eight children to the next level. The GPU path (gpu/) mirrors this.
+// corners are collected in a blocked VertexSet, evaluated once. For a UDF the cells that may
+// contain the surface pass their eight children to the next level, as the GPU path (gpu/) does;
+// an SDF's levels below the coarsest follow the surface (grid_follow.cpp).
 #include "grid.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
+#include "grid_eval.h"
 #include "mc_tables.h"
 
 namespace nfd {
 namespace {
 
 constexpr uint32_t kMinCoarse = 32;
-constexpr size_t kEvalChunk = size_t(1) << 20;  // points per evaluate call: bounds scratch
-
-// Evaluates points as they are pushed, kEvalChunk at a time, so that scratch memory does not
-// grow with the level: push(slot, xyz) queues a point, and `store(slot, value, gradient)` takes
-// its result at the next flush (gradient null unless `gradients`).
-template <class Store>
-class ChunkedEvaluator {
-public:
-    ChunkedEvaluator(const Network& net, bool gradients, unsigned threads, Store store)
-        : net_(net), gradients_(gradients), threads_(threads), store_(std::move(store)) {}
-    void push(uint32_t slot, const float xyz[3]) {
-        if (slots_.empty()) reserve();
-        slots_.push_back(slot);
-        xyz_.insert(xyz_.end(), xyz, xyz + 3);
-        if (slots_.size() == kEvalChunk) flush();
-    }
-    // Evaluates what is queued; returns the number of points evaluated since construction.
-    uint64_t finish() {
-        flush();
-        return total_;
-    }
-
-private:
-    void reserve() {
-        slots_.reserve(kEvalChunk);
-        xyz_.reserve(3 * kEvalChunk);
-    }
-    void flush() {
-        const size_t n = slots_.size();
-        if (n == 0) return;
-        values_.resize(n);
-        grad_.resize(gradients_ ? 3 * n : 0);
-        if (gradients_)
-            evaluate_gradient_cpu(net_, xyz_.data(), n, values_.data(), grad_.data(), threads_);
-        else
-            evaluate_cpu(net_, xyz_.data(), n, values_.data(), threads_);
-        for (size_t k = 0; k < n; ++k) store_(slots_[k], values_[k], gradients_ ? &grad_[3 * k] : nullptr);
-        total_ += n;
-        slots_.clear();
-        xyz_.clear();
-    }
-    const Network& net_;
-    const bool gradients_;
-    const unsigned threads_;
-    Store store_;
-    nfd::vector<uint32_t> slots_;
-    nfd::vector<float> xyz_, values_, grad_;
-    uint64_t total_ = 0;
-};
-
-template <class Store>
-ChunkedEvaluator<Store> make_evaluator(const Network& net, bool gradients, unsigned threads,
-                                       Store store) {
-    return ChunkedEvaluator<Store>(net, gradients, threads, std::move(store));
-}
 
 // Collects and evaluates the corners of `cells`. Vertices with all-even coordinates were corners
 // of the parent level (every child's even corners are its parent's corners) and are copied, not
 // re-evaluated: one evaluation in eight saved.
 void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel* parent,
                     unsigned threads, GridLevel* out, uint64_t* evaluated) {
-    out->vertices = VertexSet(out->cells_per_axis + 1);
-    for (uint32_t packed : out->cells) {
-        uint32_t c[3];
-        unpack_coords(packed, c);
-        out->vertices.insert_cell(c[0], c[1], c[2]);
-    }
-    out->vertices.finish();
-    out->values.assign(out->vertices.size(), 0.0f);
-
+    out->collect_corners();
     const uint32_t l = out->level;
     auto evaluator = make_evaluator(net, false, threads, [out](uint32_t r, float value, const float*) {
         out->values[r] = value;
@@ -103,39 +42,17 @@ void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel*
 // touch, marked in a bitmap of the child level's block table.
 nfd::vector<uint8_t> keep_cells(const SparseGrid& grid, const GridLevel& level, LevelSize* next) {
     const uint32_t child_cells = cells_at_level(grid.resolution, level.level - 1);
-    const uint32_t blocks_per_axis = (child_cells + 1 + 7) / 8;
-    nfd::vector<uint64_t> touched((uint64_t(blocks_per_axis) * blocks_per_axis * blocks_per_axis + 63) / 64);
     nfd::vector<uint8_t> kept(level.cells.size());
-    uint64_t count = 0, parents = 0;
+    ChildLevelSize size(child_cells);
     for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];
         unpack_coords(level.cells[i], c);
         float f[8];
         level.corners(c, f);
         kept[i] = cell_may_contain_surface(f, keep_threshold(grid.field, level.cell_size));
-        if (!kept[i]) continue;
-        ++parents;
-        for (const auto& o : mc::kCornerOffset)
-            count += 2 * c[0] + o[0] < child_cells && 2 * c[1] + o[1] < child_cells &&
-                     2 * c[2] + o[2] < child_cells;
-        uint32_t lo[3], hi[3];
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = 2 * c[a] >> 3;
-            hi[a] = std::min(2 * c[a] + 2, child_cells) >> 3;
-        }
-        for (uint32_t z = lo[2]; z <= hi[2]; ++z)
-            for (uint32_t y = lo[1]; y <= hi[1]; ++y)
-                for (uint32_t x = lo[0]; x <= hi[0]; ++x) {
-                    const uint64_t b = (uint64_t(z) * blocks_per_axis + y) * blocks_per_axis + x;
-                    touched[b >> 6] |= uint64_t(1) << (b & 63);
-                }
+        if (kept[i]) size.add_parent(c);
     }
-    next->cells_per_axis = child_cells;
-    next->cells = count;
-    next->vertices = std::min<uint64_t>(27 * parents, uint64_t(child_cells + 1) * (child_cells + 1) * (child_cells + 1));
-    next->edges = std::min<uint64_t>(54 * parents, 3 * next->vertices);
-    next->blocks = 0;
-    for (uint64_t w : touched) next->blocks += popcount64(w);
+    *next = size.size();
     return kept;
 }
 
@@ -157,14 +74,6 @@ nfd::vector<uint32_t> children_of(const SparseGrid& grid, const GridLevel& level
         }
     }
     return children;
-}
-
-// The points one ChunkedEvaluator over `points` points holds: its queue and results at a chunk.
-uint64_t evaluator_bytes(const Network& net, uint64_t points, bool gradients, unsigned threads) {
-    if (points == 0) return 0;
-    // slots_ and xyz_ are reserved at a full chunk; values_ and grad_ at the largest flush.
-    const uint64_t flush = std::min<uint64_t>(points, kEvalChunk);
-    return kEvalChunk * 16 + flush * (gradients ? 16 : 4) + evaluate_scratch_bytes(net, gradients, threads);
 }
 
 }  // namespace
@@ -223,7 +132,58 @@ uint64_t VertexSet::bytes_bound(uint32_t side, uint64_t blocks) {
     return 4 * blocks_per_axis * blocks_per_axis * blocks_per_axis + 2 * sizeof(Block) * blocks;
 }
 
+// ---- GridLevel -----------------------------------------------------------------------------
+
+void GridLevel::collect_corners() {
+    vertices = VertexSet(cells_per_axis + 1);
+    for (uint32_t packed : cells) {
+        uint32_t c[3];
+        unpack_coords(packed, c);
+        vertices.insert_cell(c[0], c[1], c[2]);
+    }
+    vertices.finish();
+    values.assign(vertices.size(), 0.0f);
+}
+
 // ---- levels and rules ---------------------------------------------------------------------
+
+ChildLevelSize::ChildLevelSize(uint32_t child_cells)
+    : child_cells_(child_cells), blocks_per_axis_((child_cells + 1 + 7) / 8),
+      touched_((uint64_t(blocks_per_axis_) * blocks_per_axis_ * blocks_per_axis_ + 63) / 64) {}
+
+void ChildLevelSize::add_parent(const uint32_t c[3]) {
+    ++parents_;
+    for (const auto& o : mc::kCornerOffset)
+        cells_ += 2 * c[0] + o[0] < child_cells_ && 2 * c[1] + o[1] < child_cells_ &&
+                  2 * c[2] + o[2] < child_cells_;
+    uint32_t lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = 2 * c[a] >> 3;
+        hi[a] = std::min(2 * c[a] + 2, child_cells_) >> 3;
+    }
+    for (uint32_t z = lo[2]; z <= hi[2]; ++z)
+        for (uint32_t y = lo[1]; y <= hi[1]; ++y)
+            for (uint32_t x = lo[0]; x <= hi[0]; ++x) {
+                const uint64_t b = (uint64_t(z) * blocks_per_axis_ + y) * blocks_per_axis_ + x;
+                touched_[b >> 6] |= uint64_t(1) << (b & 63);
+            }
+}
+
+LevelSize ChildLevelSize::size() const {
+    LevelSize s;
+    const uint64_t side = child_cells_ + 1;
+    s.cells_per_axis = child_cells_;
+    s.cells = cells_;
+    s.vertices = std::min<uint64_t>(27 * parents_, side * side * side);
+    s.edges = std::min<uint64_t>(54 * parents_, 3 * s.vertices);
+    for (uint64_t w : touched_) s.blocks += popcount64(w);
+    return s;
+}
+
+uint64_t ChildLevelSize::bytes(uint32_t child_cells) {
+    const uint64_t blocks_per_axis = (child_cells + 1 + 7) / 8;
+    return 8 * ((blocks_per_axis * blocks_per_axis * blocks_per_axis + 63) / 64);
+}
 
 uint32_t cells_at_level(uint32_t resolution, uint32_t level) {
     return (resolution + (1u << level) - 1) >> level;
@@ -267,8 +227,9 @@ bool udf_cell_is_near(const float corner_values[8], float h) {
 
 // ---- the builder ---------------------------------------------------------------------------
 
-GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads)
-    : network_(geometry.network), threads_(threads) {
+GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band)
+    : network_(geometry.network), threads_(threads),
+      follow_(geometry.field == FieldType::Sdf && !band) {
     grid_.resolution = resolution;
     grid_.step = 2.0f / float(resolution);
     grid_.field = geometry.field;
@@ -284,18 +245,24 @@ void GridBuilder::step() {
     level.cells_per_axis = cells_at_level(grid_.resolution, l);
     level.cell_size = grid_.step * float(1u << l);
     const GridLevel* parent = stepped_ ? &grid_.levels[l + 1] : nullptr;
-    if (parent) {
-        level.cells = children_of(grid_, *parent, kept_, next_.cells);
-        kept_ = nfd::vector<uint8_t>();
+    if (parent && follow_) {
+        follow_surface(network_, grid_, *parent, region_, threads_, &level, &grid_.stats.points_evaluated);
+        region_ = FollowRegion();
     } else {
-        const uint32_t n = level.cells_per_axis;
-        level.cells.reserve(size_t(n) * n * n);
-        for (uint32_t z = 0; z < n; ++z)
-            for (uint32_t y = 0; y < n; ++y)
-                for (uint32_t x = 0; x < n; ++x) level.cells.push_back(pack_coords(x, y, z));
+        if (parent) {
+            level.cells = children_of(grid_, *parent, kept_, next_.cells);
+            kept_ = nfd::vector<uint8_t>();
+        } else {
+            const uint32_t n = level.cells_per_axis;
+            level.cells.reserve(size_t(n) * n * n);
+            for (uint32_t z = 0; z < n; ++z)
+                for (uint32_t y = 0; y < n; ++y)
+                    for (uint32_t x = 0; x < n; ++x) level.cells.push_back(pack_coords(x, y, z));
+        }
+        evaluate_level(network_, grid_, parent, threads_, &level, &grid_.stats.points_evaluated);
     }
-    evaluate_level(network_, grid_, parent, threads_, &level, &grid_.stats.points_evaluated);
-    if (l > 0) kept_ = keep_cells(grid_, level, &next_);
+    if (l > 0 && follow_) follow_region(grid_, level, &region_, &next_);
+    if (l > 0 && !follow_) kept_ = keep_cells(grid_, level, &next_);
     current_ = l;
     stepped_ = true;
     grid_.stats.seconds +=
@@ -361,15 +328,19 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
     if (done()) return 0;
     const LevelSize next = next_level_size();
     const uint32_t level = stepped_ ? current_ - 1 : current_;
-    // Its cells, its vertex set and values, the evaluator; unless it is the finest, the keep
-    // rule's verdicts on it and the bitmap of the blocks of the level after (keep_cells).
+    // Its cells, its vertex set and values, the evaluator; an SDF's flood below the coarsest
+    // level; unless it is the finest, what decides the level after: the keep rule's verdicts on
+    // it and the bitmap of the blocks of the level after (keep_cells), or the region.
+    const uint64_t flood = follow_ && stepped_ ? follow_surface_bytes_bound(next) : 0;
     uint64_t refine = 0;
-    if (level > 0) {
-        const uint64_t blocks_per_axis = (cells_at_level(grid_.resolution, level - 1) + 8) / 8;
-        refine = next.cells + 8 * ((blocks_per_axis * blocks_per_axis * blocks_per_axis + 63) / 64);
+    if (level > 0 && follow_) {
+        refine = follow_region_bytes_bound(next, cells_at_level(grid_.resolution, level - 1));
+    } else if (level > 0) {
+        refine = next.cells + ChildLevelSize::bytes(cells_at_level(grid_.resolution, level - 1));
     }
     return 4 * next.cells + VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) +
-           4 * next.vertices + evaluator_bytes(network_, next.vertices, false, threads_) + refine;
+           4 * next.vertices + evaluator_bytes(network_, next.vertices, false, threads_) + flood +
+           refine;
 }
 
 uint64_t GridBuilder::next_gradients_bytes_bound() const {
@@ -383,7 +354,7 @@ nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const G
                           SparseGrid* out, unsigned threads) {
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
         return NFD_ERROR_LIMIT_EXCEEDED;
-    GridBuilder builder(geometry, resolution, threads);
+    GridBuilder builder(geometry, resolution, threads, options.band);
     const uint64_t limit = options.max_host_bytes;
     uint64_t held = 0;
     auto reserve = [&](uint64_t bytes) {

@@ -1,6 +1,9 @@
 // The sparse grid: the product of coarse-to-fine field sampling, shared by every output (the SDF
 // mesher, the UDF mesher, the VDB narrow band, progressive levels). The CPU reference builds it in
-// grid.cpp; the GPU path (gpu/) visits the same cells with the same rule.
+// grid.cpp and grid_follow.cpp. The GPU path (gpu/) visits the same cells with the same rule for a
+// UDF; for an SDF it still applies the keep rule (per-parent child grids, a fixed number of
+// dispatches per level, where surface following grows a level in waves), which finds the same
+// sign-change cells, hence the same mesh, with about 2.5 times the evaluations.
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -27,24 +30,49 @@ uint32_t coarse_resolution(uint32_t resolution);  // ceil(resolution / 2^refinem
 // d* = 0.1, since the keep test below only rejects cells whose half-diagonal is well under d*.
 uint32_t refinement_levels(uint32_t resolution);
 
-// The keep rule. A cell of edge length h (unit frame) is kept for refinement when its corner
-// values change sign or when min |f| over its corners <= keep_threshold(field, h) =
-// margin * h * sqrt(3) / 2 (f32, in that order): a surface point inside the cell is within
-// h*sqrt(3)/2 of its nearest corner, so a field whose mean slope along that segment is at most
-// the margin cannot hide a surface from the test. A UDF never changes sign, so for it the rule is
-// the distance test alone. NaN corners fail every comparison: such cells are dropped rather than
-// meshed from garbage.
-// - SDF: margin 1, a distance field's slope. Learned fields reach gradient norms of 1.3-2 in
-//   spots near the surface, but the cells a looser margin adds are ones the surface does not
-//   cross: on 10 shapes at 128, 256 and 512 a margin of 1 gives the mesh of margin 2 byte for
-//   byte, as does 0.25 at 256, and the dense grid's (bench/RESULTS.md, "0.8: the keep rule ...").
-//   It evaluates 29-36% fewer points than 2.
-// - UDF: margin 2. Its mesher needs the near cells too (udf_cell_is_near), which lie beside the
-//   surface, and fields learned from point clouds are steeper: margin 1 loses near cells of the
-//   milk cloud at 512, and 1.5 saves only 3% of the points.
+// Which cells each level visits. The coarsest level: all of them. Below it, two schedules:
+//
+// - UDF, and an SDF's band (GridBuilder's `band`): the keep rule. A cell of edge length h (unit
+//   frame) is kept for refinement, and its eight children visited, when min |f| over its corners
+//   <= keep_threshold(field, h) = margin * h * sqrt(3) / 2 (f32, in that order), or (SDF) its
+//   corners change sign: a surface point inside the cell is within h*sqrt(3)/2 of its nearest
+//   corner, so a field whose mean slope along that segment is at most the margin cannot hide a
+//   surface from the test. NaN corners fail every comparison: such cells are dropped rather than
+//   meshed from garbage. SDF margin 1, a distance field's slope. UDF margin 2: the UDF mesher needs
+//   the near cells too (udf_cell_is_near), which lie beside the surface, and fields learned from
+//   point clouds are steeper: margin 1 loses near cells of the milk cloud at 512, and 1.5 saves
+//   only 3% of the points.
+//
+// - SDF: surface following (grid_follow.cpp). A level visits the cells with a sign change (a
+//   corner f < 0 and one not: NaN counts as not negative, as in the mesher's case index) and
+//   evaluates only their corners, about 1.75 per cell, where the keep rule evaluated every child
+//   of a band about twice as thick (bench/RESULTS.md, "0.11: ..."). From the level above:
+//   1. Seeds: each crossed edge (one end negative) of a cell with a sign change gets its midpoint
+//      evaluated; the half that the sign change falls in is an edge of one child of that cell,
+//      which has a sign change.
+//   2. Flood: each visited cell with a sign change visits the neighbours behind its faces whose
+//      four corners change sign (those have a sign change too), wave after wave, inside the
+//      region: the children of the level above's cells with a sign change and of their 26
+//      neighbours. So a level's size is bounded before it is evaluated (LevelSize), and the surface
+//      may leave the coarser level's sign-change cells by one cell, as it does where it clips a
+//      corner of a coarse cell without changing the sign of its corners.
+//   3. Isolated cells: a cell of the level above without a sign change that the keep rule (margin
+//      1) keeps and that has no sign-change cell among its 26 neighbours has all its children
+//      visited (and flooded from): a small closed component inside one coarse cell, away from the
+//      rest of the surface, is found where the field's slope is at most 1, as the keep rule
+//      found it.
+//   What the schedule gives up is the keep rule's band: a component of the surface that crosses
+//   no crossed edge of the level above and lies within one cell of its sign-change cells, or a
+//   thin sheet that runs farther than one coarse cell from them between its vertices, is not
+//   found. Learned distance fields of shapes have few such spots: on 10 shapes at 128, 256 and
+//   512 and the golden vectors none was missed (bench/keep_rule.cpp: every mesh is the dense
+//   grid's). Fields that are no shape's distance field do: random SIRENs, whose surfaces fill a
+//   quarter of the cells in small pieces, lose 7-40% of the dense grid's sign-change cells (the
+//   band: 0-3%). GridBuilder's `band` keeps the keep rule for an SDF.
 constexpr float kSdfKeepMargin = 1.0f;
 constexpr float kUdfKeepMargin = 2.0f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
+// The keep rule's threshold (SDF: for isolated cells, step 3 above).
 inline float keep_threshold(FieldType field, float h) {
     return (field == FieldType::Udf ? kUdfKeepMargin : kSdfKeepMargin) * h * kHalfDiagonal;
 }
@@ -58,6 +86,23 @@ struct LevelSize {
     uint64_t vertices = 0;  // corners of the cells: 27 per parent (its children's 3^3 grid)
     uint64_t edges = 0;     // grid edges between them: 54 per parent
     uint64_t blocks = 0;    // 8^3-vertex blocks (VertexSet) they touch: exact
+};
+
+// LevelSize of a level made of the children of some cells of the level above (those of the keep
+// rule, or a surface-following region), counted parent by parent: the children inside the grid
+// and the vertex blocks their 3^3 corner grids touch, marked in a bitmap of the child level's
+// block table (bytes() bytes).
+class ChildLevelSize {
+public:
+    explicit ChildLevelSize(uint32_t child_cells);  // the child level's cells per axis
+    void add_parent(const uint32_t cell[3]);
+    LevelSize size() const;
+    static uint64_t bytes(uint32_t child_cells);
+
+private:
+    uint32_t child_cells_, blocks_per_axis_;
+    uint64_t cells_ = 0, parents_ = 0;
+    nfd::vector<uint64_t> touched_;
 };
 
 // Cell and vertex coordinates of any level are <= 1024: 11 bits each, x lowest.
@@ -187,6 +232,8 @@ struct GridLevel {
     // near cells and the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
     VertexSet gradient_vertices;
     nfd::vector<float> gradients;
+    // vertices := the corners of `cells`; values sized to match, zero.
+    void collect_corners();
     // The values at the eight corners of a cell of this level, mc::kCornerOffset order.
     void corners(const uint32_t cell[3], float f[8]) const {
         uint32_t r[8];
@@ -205,6 +252,8 @@ struct GridLevel {
 };
 
 struct GridOptions {
+    // GridBuilder's `band` (build_grid_cpu serves nfd_grid_extract, whose product is the band).
+    bool band = true;
     // Also evaluate the field gradient (unit frame) at the corners of the finest level's near
     // cells (udf_cell_is_near): what the UDF mesher needs.
     bool udf_gradients = false;
@@ -243,13 +292,34 @@ struct SparseGrid {
     float coord(uint32_t fine_index) const { return -1.0f + float(fine_index) * step; }
 };
 
+// Surface following (SDF levels below the coarsest, above): what a level's flood may enter.
+struct FollowRegion {
+    VertexSet parents;                 // the cells above with a sign change and their 26 neighbours
+    nfd::vector<uint32_t> refine_all;  // the isolated cells above (step 3), packed
+    uint64_t child_blocks = 0;         // the vertex blocks the level below may touch
+};
+// The region below `level` (level.level > 0), and the size of the level it bounds.
+void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
+                   LevelSize* next);
+// Visits and evaluates level `out` (level, cells_per_axis and cell_size set) below `parent`.
+void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
+                    const FollowRegion& region, unsigned threads, GridLevel* out,
+                    uint64_t* evaluated);
+// What follow_region on a level of size `level` allocates, and what follow_surface allocates
+// for a level of size `next` beyond its cells, vertex set, values and evaluator.
+uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells);
+uint64_t follow_surface_bytes_bound(const LevelSize& next);
+
 // CPU reference of the coarse-to-fine evaluation, one level per step(): build_grid_cpu steps it
 // to the finest level; a progressive extraction (progressive.h) meshes the levels on the way.
 // A level's new corners are evaluated once; the corners it shares with its parent are copied.
 class GridBuilder {
 public:
     // `resolution` within NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION; `threads` as for evaluate_cpu.
-    GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads);
+    // `band`: an SDF's levels too by the keep rule, for a band of values several cells deep on
+    // each side of the surface (nfd_grid_extract's product), instead of surface following (the
+    // meshers', which need only the sign-change cells).
+    GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band = false);
     // Evaluates the next level (the coarse one first: all its cells; then the children of the
     // kept cells of the level before), then, unless it is the finest, the keep rule on its cells.
     void step();
@@ -272,11 +342,13 @@ public:
 private:
     const Network& network_;
     const unsigned threads_;
+    const bool follow_;  // surface following: an SDF without `band`
     SparseGrid grid_;
     uint32_t current_ = 0;
     bool stepped_ = false;
-    nfd::vector<uint8_t> kept_;  // of the current level's cells, the keep rule's verdicts
-    LevelSize next_;             // of the next level, from the verdicts
+    nfd::vector<uint8_t> kept_;  // keep rule: of the current level's cells, its verdicts
+    FollowRegion region_;        // SDF: where the next level's flood may go
+    LevelSize next_;             // of the next level, from the verdicts or the region
 };
 
 // Coarse-to-fine evaluation to the finest level, with GridOptions. NFD_ERROR_LIMIT_EXCEEDED

@@ -4,7 +4,7 @@
 //
 // Level l of a decode at resolution r has cells_at_level(r, l) cells of edge h = 2^l * 2 / r. When
 // 2^l divides r, its cells, corner values and f32 vertex positions are those of the finest level of
-// a one-shot decode at r / 2^l (the same keep rule in h, the same refinement below it, and
+// a one-shot decode at r / 2^l (the same schedule in h, the same refinement below it, and
 // -1 + v * h equal to -1 + (v << l) * 2 / r: grid.h, GridLevel::coord), so its mesh is byte for
 // byte that decode's. When 2^l does not divide r (r = 130: levels 33, 65, 130) the level is no
 // one-shot's finest level: its last cells reach past u = 1 (grid.h), and its mesh is marching cubes

@@ -356,6 +356,21 @@ TEST(Extract, SparseVisitsEverySignChangeOfTheDenseGrid) {
     }
 }
 
+// Surface following (grid.h) on the learned golden SDFs: the mesh of the keep rule's band (the
+// GPU path's schedule, and nfd_grid_extract's) from far fewer evaluations.
+TEST(Extract, SurfaceFollowingFindsTheBandsMeshFromFewerEvaluations) {
+    for (const char* name : {"bunny_sdf_w16", "armadillo_sdf_w24_L8"}) {
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        MeshData follow, band;
+        ExtractStats f, b;
+        ASSERT_EQ(extract_mesh_cpu(g, 128, &follow, &f), NFD_SUCCESS);
+        ASSERT_EQ(extract_mesh_cpu(g, 128, &band, &b, 0, /*band=*/true), NFD_SUCCESS);
+        EXPECT_EQ(f.active_cells, b.active_cells) << name;
+        EXPECT_EQ(follow.triangle_count(), band.triangle_count()) << name;
+        EXPECT_LT(f.points_evaluated * 2, b.points_evaluated) << name;
+    }
+}
+
 TEST(Extract, PositionsAreMappedToTheOriginalFrame) {
     const float center[3] = {10.0f, -2.0f, 0.5f};
     const Extracted unit = extract(closed_blob(), 32);

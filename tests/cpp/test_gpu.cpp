@@ -194,7 +194,8 @@ struct MeshPair {
 
 MeshPair extract_both(gpu::Device& device, const Geometry& g, uint32_t resolution) {
     MeshPair m;
-    EXPECT_EQ(extract_mesh_cpu(g, resolution, &m.cpu, &m.cpu_stats), NFD_SUCCESS);
+    // The CPU twin of the GPU's schedule: an SDF's levels by the keep rule too (grid.h).
+    EXPECT_EQ(extract_mesh_cpu(g, resolution, &m.cpu, &m.cpu_stats, 0, /*band=*/true), NFD_SUCCESS);
     EXPECT_EQ(gpu::extract_mesh(device, g, resolution, &m.gpu, &m.gpu_stats), NFD_SUCCESS);
     return m;
 }

@@ -17,6 +17,7 @@ from nfencode.grid import (
     refinement_levels,
     udf_cell_is_near,
     udf_edge_limit,
+    visit_order,
 )
 from nfencode.mc_tables import (CORNER_OFFSET, EDGE_CORNERS, HOLDS_TRIANGLE, TRIANGLE_COUNT,
                                 TRIANGLES)
@@ -90,19 +91,20 @@ def sphere(points: np.ndarray) -> np.ndarray:
     return np.linalg.norm(points.astype(np.float64) - [0.05, -0.1, 0.02], axis=1) - 0.5
 
 
-def test_levels_visit_children_of_kept_cells_in_order() -> None:
+def test_udf_levels_visit_children_of_kept_cells_in_order() -> None:
     """Written out cell by cell: the coarse level in raster order (x fastest), then per kept parent
     its children in CORNER_OFFSET order, dropping those past the last cell. At resolution 99 level 1
     has 50 cells; the last one reaches past u = 1 and its children at fine index 99 are dropped."""
     resolution = 99
-    grid = build_grid(lambda p: p[:, 0].astype(np.float64) - 0.97, resolution)  # a plane near u = 1
+    grid = build_grid(lambda p: np.abs(p[:, 0].astype(np.float64) - 0.97), resolution,
+                      lambda p: np.zeros((len(p), 3)))  # a plane near u = 1, as a UDF
     coarse, fine = grid.levels[1], grid.levels[0]
     n = coarse.cells_per_axis
     assert n == 50 and coarse.cells.tolist() == [[x, y, z] for z in range(n) for y in range(n) for x in range(n)]
     h = grid.step * np.float32(2)
     expected, dropped = [], 0
     for cell, values in zip(coarse.cells.tolist(), coarse.corner_values()):
-        if cell_may_contain_surface(values[None], keep_threshold(False, h))[0]:
+        if cell_may_contain_surface(values[None], keep_threshold(True, h))[0]:
             for offset in CORNER_OFFSET.tolist():
                 child = [2 * c + o for c, o in zip(cell, offset)]
                 if max(child) < resolution:
@@ -111,6 +113,46 @@ def test_levels_visit_children_of_kept_cells_in_order() -> None:
                     dropped += 1
     assert fine.cells.tolist() == expected
     assert dropped > 0 and fine.cells.max() == resolution - 1
+
+
+def dense_sign_change_cells(field, resolution: int) -> np.ndarray:
+    """The cells of the dense grid whose corners change sign, (N, 3), in visit_order."""
+    axis = np.arange(resolution + 1)
+    z, y, x = np.meshgrid(axis, axis, axis, indexing="ij")
+    vertices = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    values = field(grid_coordinates(vertices, resolution)).astype(np.float32)
+    negative = (values < 0).reshape(resolution + 1, resolution + 1, resolution + 1)
+    r = resolution
+    corners = np.stack([negative[o[2]:r + o[2], o[1]:r + o[1], o[0]:r + o[0]] for o in CORNER_OFFSET], axis=-1)
+    zz, yy, xx = np.nonzero(corners.any(axis=-1) & ~corners.all(axis=-1))
+    cells = np.stack([xx, yy, zz], axis=1)
+    return cells[np.argsort(visit_order(cells, resolution + 1), kind="stable")]
+
+
+@pytest.mark.parametrize("resolution", [99, 128])
+def test_sdf_levels_visit_the_sign_change_cells_in_visit_order(resolution: int) -> None:
+    """Surface following: each level below the coarsest visits exactly the cells whose corners
+    change sign, in visit_order, here a plane near u = 1 (at 99 the last cell of level 1 reaches
+    past u = 1) and a sphere."""
+    for field in (lambda p: p[:, 0].astype(np.float64) - 0.97, sphere):
+        grid = build_grid(field, resolution)
+        assert grid.finest.cells.tolist() == dense_sign_change_cells(field, resolution).tolist()
+
+
+def test_a_component_inside_one_coarse_cell_is_found_by_the_isolated_cell_rule() -> None:
+    """A sphere of radius 0.02 centred in a coarse cell of the grid at 256 (cells 0.0625 wide)
+    crosses no coarse edge, so no seed finds it; the coarse cell has no sign change and no
+    neighbour with one, and the keep rule keeps it: all its children are visited, and the flood
+    goes on from the one with a sign change."""
+    resolution = 256
+    centre = grid_coordinates(np.array([4 * 8 + 4, 5 * 8 + 4, 6 * 8 + 4]), resolution)
+
+    def small_sphere(points: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(points.astype(np.float64) - centre, axis=1) - 0.02
+
+    grid = build_grid(small_sphere, resolution)
+    expected = dense_sign_change_cells(small_sphere, resolution)
+    assert len(expected) > 100 and grid.finest.cells.tolist() == expected.tolist()
 
 
 def test_each_vertex_is_evaluated_once_and_even_ones_are_copied() -> None:
