@@ -372,14 +372,14 @@ def cmd_decode(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     f, _ = _read_nfc_file(args.file)
     if args.points is not None:
-        mesh = extract_unit_mesh(f, args.resolution)
+        mesh = extract_unit_mesh(f, args.resolution, args.sample_band)
         if len(mesh.faces) == 0:
             raise NfcError(f"{args.file}: the decoded field has no surface, no points to sample")
         points, colors = decode_points(f, mesh, args.points, args.seed)
         save_points(output, points, None if colors is None else color_bytes(colors), frame_offset(f))
         what = f"{args.points} points"
     else:
-        mesh = extract_mesh(f, args.resolution)
+        mesh = extract_mesh(f, args.resolution, band=args.sample_band)
         colors = mesh.colors
         save_mesh(output, mesh.vertices, mesh.faces, mesh.normals, None if colors is None else color_bytes(colors),
                   frame_offset(f))
@@ -476,6 +476,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resolution", type=int, default=256, help="marching cubes grid cells per axis (8..1024)")
     p.add_argument("--points", type=int, default=None, help="write this many surface points instead of the mesh")
     p.add_argument("--seed", type=int, default=0, help="seed of the point sampling")
+    p.add_argument("--sample-band", action="store_true",
+                   help="sample an SDF on the band around its surface, not only where it crosses cells "
+                        "(nfc-decode --sample-band): more evaluations, also finds small voids inside the solid")
     p.set_defaults(run=cmd_decode)
 
     p = sub.add_parser("eval", help="Chamfer distance (and colour PSNR when both are coloured) between a "

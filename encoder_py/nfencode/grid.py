@@ -5,8 +5,9 @@ Grid of `resolution` cells per axis over the unit frame [-1, 1]^3; vertex i sits
 ceil(resolution / 2^l) cells per axis; the coarsest level, refinement_levels() up, is visited
 whole in raster order (x fastest). Below it (grid.h has the rules and their reasons):
 
-* UDF, the keep rule: a cell is kept when min |f| <= keep_threshold(True, h) = margin * h *
-  sqrt(3)/2 (f32 arithmetic); the kept cells pass their children, in parent order and
+* UDF (and an SDF sampled on its band, build_grid's `band`), the keep rule: a cell is kept when
+  its corners change sign (SDF) or min |f| <= keep_threshold(udf, h) = margin * h * sqrt(3)/2
+  (f32 arithmetic); the kept cells pass their children, in parent order and
   mc_tables.CORNER_OFFSET order within a parent, to the next level, dropping children that start
   at or past the last cell.
 * SDF, surface following (libnfdecode/src/grid_follow.cpp): a level visits the cells seeded at
@@ -328,10 +329,12 @@ def _udf_gradients(gradient_fn: GradientFn, grid: SparseGrid) -> tuple[np.ndarra
     return gradients, int(wanted.sum())
 
 
-def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | None = None) -> SparseGrid:
+def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | None = None,
+               band: bool = False) -> SparseGrid:
     """The sparse grid of `field_fn` at `resolution` (MIN_RESOLUTION..MAX_RESOLUTION); with
     `udf_gradient` the field is a UDF (its keep margin) and the gradients at the corners of the
-    finest near cells are evaluated too. An SDF's levels follow the surface."""
+    finest near cells are evaluated too. An SDF's levels follow the surface, or with `band` the
+    keep rule (nfd_mesh_options.sample_band)."""
     if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
         raise InputError(f"resolution {resolution} outside {MIN_RESOLUTION}..{MAX_RESOLUTION}")
     top = refinement_levels(resolution)
@@ -342,7 +345,7 @@ def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | No
     level, evaluated = _evaluate_level(field_fn, resolution, top, cells, None)
     levels = [level]
     for lower in range(top - 1, -1, -1):
-        if udf_gradient is None:
+        if udf_gradient is None and not band:
             region, isolated = _follow_region(levels[0], grid_step(resolution))
             level, new = _follow_surface(field_fn, resolution, lower, levels[0], region, isolated)
         else:

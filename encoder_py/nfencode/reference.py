@@ -183,25 +183,28 @@ def gradient_function(file: NfcFile) -> GradientFn:
 
 
 def extract_mesh_from_field(
-    field_fn: FieldFn, resolution: int = 256, udf_gradient: GradientFn | None = None
+    field_fn: FieldFn, resolution: int = 256, udf_gradient: GradientFn | None = None,
+    band: bool = False,
 ) -> ExtractedMesh:
     """The surface of a field over [-1, 1]^3, in the unit frame, as libnfdecode extracts it.
 
     Without `udf_gradient` the field is signed (negative inside) and its zero level set is meshed
     by marching cubes (mesh_sdf). With it the field is unsigned, `udf_gradient` is its gradient, and
     the pseudo-signed mesher (mesh_udf) runs. Either way the coarse-to-fine grid (grid.build_grid)
-    evaluates the field only near the surface.
+    evaluates the field only near the surface (an SDF's only where it crosses cells, unless `band`:
+    nfd_mesh_options.sample_band).
     """
-    grid = build_grid(field_fn, resolution, udf_gradient)
+    grid = build_grid(field_fn, resolution, udf_gradient, band)
     mesh = mesh_sdf(grid) if udf_gradient is None else mesh_udf(grid)
     return ExtractedMesh(mesh.vertices, mesh.faces, mesh.normals, grid.points_evaluated,
                          grid.gradients_evaluated, mesh.active_cells)
 
 
-def extract_unit_mesh(file: NfcFile, resolution: int = 256) -> ExtractedMesh:
-    """Mesh of an SDF or UDF file in its unit frame, as the extractor produces it (no colours)."""
+def extract_unit_mesh(file: NfcFile, resolution: int = 256, band: bool = False) -> ExtractedMesh:
+    """Mesh of an SDF or UDF file in its unit frame, as the extractor produces it (no colours);
+    `band` as for extract_mesh_from_field."""
     udf_gradient = None if file.geometry.field_type == FIELD_SDF else gradient_function(file)
-    return extract_mesh_from_field(field_function(file), resolution, udf_gradient)
+    return extract_mesh_from_field(field_function(file), resolution, udf_gradient, band)
 
 
 def frame_of(g: GeometryChunk) -> tuple[np.ndarray, float]:
@@ -234,12 +237,12 @@ def _colors_at(file: NfcFile, unit_points: np.ndarray, color: bool) -> np.ndarra
     return evaluate_color(dequantize(file.color.network), unit_points)
 
 
-def extract_mesh(file: NfcFile, resolution: int = 256, color: bool = True) -> ExtractedMesh:
+def extract_mesh(file: NfcFile, resolution: int = 256, color: bool = True, band: bool = False) -> ExtractedMesh:
     """Mesh of an SDF or UDF file in the original coordinates, relative to frame_offset(file) (as
     emitted_positions places them). With
     `color` and a colour chunk, `colors` holds the colour at each vertex, evaluated at the unit-frame
-    vertex the extractor produced."""
-    mesh = extract_unit_mesh(file, resolution)
+    vertex the extractor produced. `band` as for extract_mesh_from_field."""
+    mesh = extract_unit_mesh(file, resolution, band)
     return mesh._replace(vertices=emitted_positions(file, mesh.vertices),
                          colors=_colors_at(file, mesh.vertices, color))
 

@@ -635,7 +635,7 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
         if (limit.host || limit.device) {
             // Limited: level by level as a queue job runs, each step's bound checked first.
             r = run_bounded(nfd::ExtractWork(g, colour, resolution, 1u, device_of(*context),
-                                             context->cpu_threads, limit),
+                                             context->cpu_threads, limit, opts.sample_band != 0),
                             &mesh->data, &mesh->stats);
         } else {
 #if NFD_WITH_VULKAN
@@ -644,7 +644,7 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
             else
 #endif
                 r = nfd::extract_mesh_cpu(g, resolution, &mesh->data, &mesh->stats,
-                                          context->cpu_threads);
+                                          context->cpu_threads, opts.sample_band != 0);
             if (r == NFD_SUCCESS && colour)
                 r = nfd::colour_mesh(*colour, device_of(*context), context->cpu_threads, &mesh->data);
         }
@@ -776,7 +776,8 @@ nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
         } else
 #endif
             extraction->impl =
-                nfd::make_extraction_cpu(g, resolution, mask, context->cpu_threads);
+                nfd::make_extraction_cpu(g, resolution, mask, context->cpu_threads,
+                                         opts.sample_band != 0);
         *out_extraction = extraction.release();
         return NFD_SUCCESS;
     });
@@ -938,7 +939,8 @@ std::unique_ptr<nfd::ExtractWork> job_work(nfd_context& ctx, const nfd::ParsedFi
     return std::make_unique<nfd::ExtractWork>(
         file.geometry, nfd::colour_field(file, request.mesh.skip_colour != 0), request.resolution,
         request.mask, device_of(ctx), ctx.cpu_threads,
-        nfd::MemoryBytes{request.mesh.max_host_bytes, request.mesh.max_device_bytes});
+        nfd::MemoryBytes{request.mesh.max_host_bytes, request.mesh.max_device_bytes},
+        request.mesh.sample_band != 0);
 }
 
 std::unique_ptr<nfd_job> job_handle(const nfd_job::Request& request,

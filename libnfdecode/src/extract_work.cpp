@@ -51,9 +51,9 @@ MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, b
 
 ExtractWork::ExtractWork(const Geometry& geometry, std::optional<ColourField> colour,
                          uint32_t resolution, uint32_t mesh_mask, gpu::Device* device,
-                         unsigned cpu_threads, MemoryBytes limit)
+                         unsigned cpu_threads, MemoryBytes limit, bool band)
     : geometry_(geometry), colour_(std::move(colour)), resolution_(resolution), top_(refinement_levels(resolution)),
-      mesh_mask_(mesh_mask), device_(device), cpu_threads_(cpu_threads), limit_(limit) {
+      mesh_mask_(mesh_mask), device_(device), cpu_threads_(cpu_threads), limit_(limit), band_(band) {
     restart();
 }
 
@@ -75,7 +75,7 @@ nfd_result ExtractWork::step(StepResult* out) {
             if (r != NFD_SUCCESS) return r;
         } else
 #endif
-            extraction_ = make_extraction_cpu(geometry_, resolution_, mesh_mask_, cpu_threads_);
+            extraction_ = make_extraction_cpu(geometry_, resolution_, mesh_mask_, cpu_threads_, band_);
     }
     MeshResult mesh;
     LevelReport report;

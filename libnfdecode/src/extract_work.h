@@ -29,6 +29,7 @@ MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, b
 // `mesh_mask`: bit l meshes grid level l (0 = the finest, always meshed). `device` null: the CPU
 // path with `cpu_threads`. `limit`: a step whose reservation (below) exceeds a non-zero field
 // fails with NFD_ERROR_LIMIT_EXCEEDED before it allocates (nfd_mesh_options.max_*_bytes).
+// `band`: nfd_mesh_options.sample_band (the CPU path's GridBuilder `band`).
 //
 // The reservation of a step is what the job may hold when the step starts plus the extraction's
 // bound of what the step allocates (LevelReport: a true bound, not measured). What it holds at a
@@ -42,7 +43,7 @@ class ExtractWork final : public JobWork {
 public:
     ExtractWork(const Geometry& geometry, std::optional<ColourField> colour, uint32_t resolution,
                 uint32_t mesh_mask, gpu::Device* device, unsigned cpu_threads,
-                MemoryBytes limit = {});
+                MemoryBytes limit = {}, bool band = false);
     MemoryBytes next_step_bytes() const override { return held_ + next_; }
     nfd_result step(StepResult* out) override;
     void restart() override;
@@ -55,6 +56,7 @@ private:
     gpu::Device* device_;
     const unsigned cpu_threads_;
     const MemoryBytes limit_;
+    const bool band_;
     std::unique_ptr<Extraction> extraction_;  // made by the first step
     MemoryBytes held_, next_;
     uint32_t levels_done_ = 0;  // ladder levels completed, the most over restarts

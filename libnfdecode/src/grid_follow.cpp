@@ -194,9 +194,8 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
                     uint64_t* evaluated) {
     const uint32_t n = out->cells_per_axis, l = out->level;
     FloodStore store(n + 1, region.child_blocks);
-    auto evaluator = make_evaluator(net, false, threads, [&store](uint32_t slot, float value, const float*) {
-        store.value(slot) = value;
-    });
+    auto store_value = [&store](uint32_t slot, float value, const float*) { store.value(slot) = value; };
+    auto evaluator = make_evaluator(net, false, threads, store_value);
     // The value of vertex (x, y, z) at slot s, just claimed: a corner of the parent level is
     // copied, any other queued.
     auto fetch = [&](uint32_t s, uint32_t x, uint32_t y, uint32_t z) {
@@ -220,39 +219,51 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // Seeds: the midpoint of each crossed edge of a parent with a sign change tells which half
     // the surface crosses; the parent's child holding that half has a sign change. A parent
     // edge is shared by up to four parents, which evaluate its midpoint once and agree.
+    struct CrossedParentEdge {
+        uint32_t cell[3];       // the parent
+        const uint8_t* lower;   // its corner at the edge's lower end (mc::kCornerOffset)
+        float f_lower;          // the value there
+        int axis;
+        uint32_t middle[3];     // the midpoint, a vertex of this level
+        uint32_t slot;          // the midpoint's
+    };
     auto for_each_crossed_edge = [&](auto&& fn) {
         for (uint32_t packed : parent.cells) {
-            uint32_t c[3];
-            unpack_coords(packed, c);
+            CrossedParentEdge e;
+            unpack_coords(packed, e.cell);
             float f[8];
-            parent.corners(c, f);
+            parent.corners(e.cell, f);
             if (!has_sign_change(f)) continue;
-            for (int e = 0; e < 12; ++e) {
-                const uint8_t a = mc::kEdgeCorners[e][0], b = mc::kEdgeCorners[e][1];
+            for (int k = 0; k < 12; ++k) {
+                const uint8_t a = mc::kEdgeCorners[k][0], b = mc::kEdgeCorners[k][1];
                 if ((f[a] < 0.0f) == (f[b] < 0.0f)) continue;
-                const uint8_t* o = mc::kCornerOffset[a];
-                const int axis = e / 4;
-                uint32_t m[3] = {2 * (c[0] + o[0]), 2 * (c[1] + o[1]), 2 * (c[2] + o[2])};
-                ++m[axis];
+                e.lower = mc::kCornerOffset[a];
+                e.f_lower = f[a];
+                e.axis = k / 4;
+                for (int i = 0; i < 3; ++i) e.middle[i] = 2 * (e.cell[i] + e.lower[i]);
+                ++e.middle[e.axis];
                 // Past the level's last vertex (an odd cell count): the half's cells are dropped.
-                if (m[0] <= n && m[1] <= n && m[2] <= n)
-                    fn(c, f[a], axis, o, store.slot(m[0], m[1], m[2]), m);
+                if (e.middle[0] > n || e.middle[1] > n || e.middle[2] > n) continue;
+                e.slot = store.slot(e.middle[0], e.middle[1], e.middle[2]);
+                fn(e);
             }
         }
     };
-    for_each_crossed_edge([&](const uint32_t*, float, int, const uint8_t*, uint32_t s, const uint32_t m[3]) {
-        if (store.claim_known(s)) fetch(s, m[0], m[1], m[2]);
+    for_each_crossed_edge([&](const CrossedParentEdge& e) {
+        if (store.claim_known(e.slot)) fetch(e.slot, e.middle[0], e.middle[1], e.middle[2]);
     });
     evaluator.finish();
-    for_each_crossed_edge([&](const uint32_t c[3], float fa, int axis, const uint8_t* o, uint32_t s, const uint32_t*) {
-        uint32_t child[3] = {2 * c[0] + o[0], 2 * c[1] + o[1], 2 * c[2] + o[2]};
-        child[axis] = 2 * c[axis] + ((fa < 0.0f) == (store.value(s) < 0.0f));  // the upper half?
+    for_each_crossed_edge([&](const CrossedParentEdge& e) {
+        uint32_t child[3];
+        for (int i = 0; i < 3; ++i) child[i] = 2 * e.cell[i] + e.lower[i];
+        child[e.axis] = 2 * e.cell[e.axis] + ((e.f_lower < 0.0f) == (store.value(e.slot) < 0.0f));
         visit(child[0], child[1], child[2]);
     });
     for (uint32_t packed : region.refine_all) {
         uint32_t c[3];
         unpack_coords(packed, c);
-        for (const auto& o : mc::kCornerOffset) visit(2 * c[0] + o[0], 2 * c[1] + o[1], 2 * c[2] + o[2]);
+        for (const auto& o : mc::kCornerOffset)
+            visit(2 * c[0] + o[0], 2 * c[1] + o[1], 2 * c[2] + o[2]);
     }
 
     // The flood, a wave at a time: the wave's corners evaluated together, then the neighbours
@@ -288,7 +299,8 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
                 } else if (nb[axis]-- == 0) {
                     continue;
                 }
-                if (region.parents.find(nb[0] / 2, nb[1] / 2, nb[2] / 2, &r)) visit(nb[0], nb[1], nb[2]);
+                if (region.parents.find(nb[0] / 2, nb[1] / 2, nb[2] / 2, &r))
+                    visit(nb[0], nb[1], nb[2]);
             }
         }
     }
@@ -297,7 +309,8 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     wave = nfd::vector<uint32_t>();
 
     out->cells.reserve(visited);
-    store.for_each_visited([&](uint32_t x, uint32_t y, uint32_t z) { out->cells.push_back(pack_coords(x, y, z)); });
+    store.for_each_visited(
+        [&](uint32_t x, uint32_t y, uint32_t z) { out->cells.push_back(pack_coords(x, y, z)); });
     out->collect_corners();
     out->vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
         out->values[r] = store.value(store.slot(x, y, z));

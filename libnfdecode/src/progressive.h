@@ -38,9 +38,10 @@ public:
     virtual nfd_result step(MeshData* mesh, ExtractStats* stats, LevelReport* report) = 0;
 };
 
-// The CPU path. `resolution` within the caps; `threads` as for evaluate_cpu. The geometry must
-// outlive the extraction.
+// The CPU path. `resolution` within the caps; `threads` as for evaluate_cpu; `band` as for
+// GridBuilder. The geometry must outlive the extraction.
 std::unique_ptr<Extraction> make_extraction_cpu(const Geometry& geometry, uint32_t resolution,
-                                                uint32_t mesh_mask, unsigned threads);
+                                                uint32_t mesh_mask, unsigned threads,
+                                                bool band = false);
 
 }  // namespace nfd

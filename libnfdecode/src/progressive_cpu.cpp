@@ -9,8 +9,8 @@ namespace {
 class CpuExtraction final : public Extraction {
 public:
     CpuExtraction(const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask,
-                  unsigned threads)
-        : geometry_(geometry), builder_(geometry, resolution, threads), mesh_mask_(mesh_mask) {}
+                  unsigned threads, bool band)
+        : geometry_(geometry), builder_(geometry, resolution, threads, band), mesh_mask_(mesh_mask) {}
 
     nfd_result step(MeshData* mesh, ExtractStats* stats, LevelReport* report) override {
         if (builder_.done()) return NFD_ERROR_INTERNAL;
@@ -53,8 +53,8 @@ private:
 }  // namespace
 
 std::unique_ptr<Extraction> make_extraction_cpu(const Geometry& geometry, uint32_t resolution,
-                                                uint32_t mesh_mask, unsigned threads) {
-    return std::make_unique<CpuExtraction>(geometry, resolution, mesh_mask, threads);
+                                                uint32_t mesh_mask, unsigned threads, bool band) {
+    return std::make_unique<CpuExtraction>(geometry, resolution, mesh_mask, threads, band);
 }
 
 }  // namespace nfd

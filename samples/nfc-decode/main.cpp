@@ -2,8 +2,8 @@
 // API only.
 //
 //   nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N] [--no-colour]
-//              [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]] [--stats]
-//              [--pipeline-cache FILE]
+//              [--sample-band] [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]]
+//              [--stats] [--pipeline-cache FILE]
 //   nfc-decode IN.nfc -o OUT.{glb,ply} --levels R1,R2,... [--write-levels] [--stats[=json]]
 //
 // Errors are one line on stderr ("nfc-decode: error: ...") and a non-zero exit status: 2 for a
@@ -31,7 +31,7 @@ namespace {
 
 const char kUsage[] =
     "usage: nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N] [--no-colour]\n"
-    "                  [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]]\n"
+    "                  [--sample-band] [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]]\n"
     "                  [--stats] [--pipeline-cache FILE]\n"
     "  OUT             .glb or .ply: the surface mesh; .vdb: the distance on a narrow band\n"
     "                  around it (OpenVDB)\n"
@@ -39,6 +39,9 @@ const char kUsage[] =
     "  --points N      write N points sampled uniformly on the surface (PLY) instead of the mesh\n"
     "  --no-colour     geometry only (a file with colour otherwise writes it: PLY red/green/blue,\n"
     "                  glTF COLOR_0, a VDB colour grid)\n"
+    "  --sample-band   sample an SDF on the band around its surface, not only where it crosses\n"
+    "                  cells: ~2.5x the field evaluations, also finds small voids inside the solid\n"
+    "                  (nfd_mesh_options.sample_band; the Vulkan path and .vdb always do)\n"
     "  --device D      auto (a GPU, else the CPU path; default), vulkan (lavapipe too), or cpu\n"
     "  --stream-chunk N\n"
     "                  feed the file to nfd_stream N bytes at a time, never holding it whole;\n"
@@ -71,6 +74,7 @@ struct Options {
     uint32_t resolution = 0;
     size_t points = 0;
     bool no_colour = false;
+    bool sample_band = false;
     nfd_device_kind device = NFD_DEVICE_AUTO;
     size_t stream_chunk = 0;  // 0: read the whole file, then nfd_asset_create
     double bandwidth = 0;     // bytes per second; 0: as fast as the file reads
@@ -144,6 +148,8 @@ Options parse_args(int argc, char** argv) {
                 parse_count("--resolution", value(), NFD_MIN_RESOLUTION, NFD_MAX_RESOLUTION));
         } else if (arg == "--points") {
             o.points = size_t(parse_count("--points", value(), 1, 100000000ull));
+        } else if (arg == "--sample-band") {
+            o.sample_band = true;
         } else if (arg == "--no-colour" || arg == "--no-color") {
             o.no_colour = true;
         } else if (arg == "--device") {
@@ -256,6 +262,7 @@ void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
     mo.struct_size = sizeof mo;
     mo.resolution = o.resolution;
     mo.skip_colour = o.no_colour;
+    mo.sample_band = o.sample_band;
     check(nfd_mesh_extract(h->context, h->asset, &mo, &h->mesh),
           o.input + ": meshing the " + field_name(info));
     nfd_mesh_data data;
@@ -435,6 +442,7 @@ void decode_progressive(const Options& o, Handles* h) {
     eo.resolution = o.resolution;
     eo.mesh_levels = nfc_cli::ladder_mask(o.levels);
     eo.skip_colour = o.no_colour;
+    eo.sample_band = o.sample_band;
     struct Extraction {
         nfd_extraction* handle = nullptr;
         std::vector<nfd_mesh*> meshes;

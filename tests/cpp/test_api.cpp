@@ -296,6 +296,62 @@ TEST_F(Api, MeshOptionsDefaultsAndLimits) {
     EXPECT_EQ(nfd_mesh_get_stats(nullptr, &stats), NFD_ERROR_INVALID_ARGUMENT);
 }
 
+// nfd_mesh_options.sample_band (0.11) on a learned SDF, CPU path: the band finds the mesh that
+// following the surface finds (the same triangles here) from more than twice the evaluations, the
+// same way through the one-shot, the memory-limited and the progressive paths.
+TEST(ApiSampleBand, BandAndSurfaceFollowingGiveTheSameMesh) {
+    nfd_context_options co = {};
+    co.device = NFD_DEVICE_CPU;
+    nfd_context* ctx = nullptr;
+    ASSERT_EQ(nfd_context_create(&co, &ctx), NFD_SUCCESS);
+    const Bytes bytes = read_bytes(golden_path("bunny_sdf_w16", ".nfc"));
+    nfd_asset* asset = nullptr;
+    ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &asset), NFD_SUCCESS);
+    auto decode = [&](int band, uint64_t limit, nfd_decode_stats* stats) {
+        nfd_mesh_options mo = {};
+        mo.struct_size = sizeof mo;
+        mo.resolution = 128;
+        mo.sample_band = band;
+        mo.max_host_bytes = limit;
+        nfd_mesh* mesh = nullptr;
+        EXPECT_EQ(nfd_mesh_extract(ctx, asset, &mo, &mesh), NFD_SUCCESS);
+        nfd_mesh_get_stats(mesh, stats);
+        nfd_mesh_data d;
+        nfd_mesh_get_data(mesh, &d);
+        const size_t triangles = d.triangle_count;
+        nfd_mesh_destroy(mesh);
+        return triangles;
+    };
+    nfd_decode_stats follow, band, band_limited;
+    const size_t triangles = decode(0, 0, &follow);
+    EXPECT_EQ(decode(1, 0, &band), triangles);
+    EXPECT_EQ(decode(1, uint64_t(1) << 33, &band_limited), triangles);
+    EXPECT_EQ(band.active_cells, follow.active_cells);
+    EXPECT_GT(band.points_evaluated, 2 * follow.points_evaluated);
+    EXPECT_EQ(band_limited.points_evaluated, band.points_evaluated);
+
+    nfd_extraction_options eo = {};
+    eo.struct_size = sizeof eo;
+    eo.resolution = 128;
+    eo.sample_band = 1;
+    nfd_extraction* ex = nullptr;
+    ASSERT_EQ(nfd_extraction_create(ctx, asset, &eo, &ex), NFD_SUCCESS);
+    uint64_t points = 0;
+    for (bool done = false; !done;) {
+        nfd_extraction_level info{};
+        info.struct_size = sizeof info;
+        nfd_mesh* mesh = nullptr;
+        ASSERT_EQ(nfd_extraction_step(ex, &mesh, &info), NFD_SUCCESS);
+        points += info.points_evaluated;
+        done = info.done != 0;
+        nfd_mesh_destroy(mesh);
+    }
+    EXPECT_EQ(points, band.points_evaluated);
+    nfd_extraction_destroy(ex);
+    nfd_asset_destroy(asset);
+    nfd_context_destroy(ctx);
+}
+
 // A UDF golden vector meshes through the API and samples points like an SDF.
 TEST_F(Api, UdfIsMeshedAndSampled) {
     const Bytes b = read_bytes(golden_path("tshirt_udf_w16", ".nfc"));

@@ -71,6 +71,25 @@ TEST(Cli, DecodesToGlbAndPlyWithStats) {
     for (const std::string& p : {in, glb, ply}) std::remove(p.c_str());
 }
 
+// --sample-band: the same mesh of a closed field from more field evaluations (--stats' count).
+TEST(Cli, SampleBandGivesTheSameMeshFromMoreEvaluations) {
+    const std::string in = temp_file("band.nfc", geom_file(closed_blob()));
+    auto evaluated = [](const std::string& out) {
+        const size_t at = out.find("points evaluated");
+        EXPECT_NE(at, std::string::npos) << out;
+        const size_t open = out.rfind('(', at);
+        return std::stoull(out.substr(open + 1, at - open - 1));
+    };
+    const CliRun follow = run_cli(in + " -o " + in + ".f.ply --resolution 128 --device cpu --stats");
+    const CliRun band =
+        run_cli(in + " -o " + in + ".b.ply --resolution 128 --device cpu --stats --sample-band");
+    ASSERT_EQ(follow.status, 0) << follow.err;
+    ASSERT_EQ(band.status, 0) << band.err;
+    EXPECT_GT(2 * evaluated(band.out), 3 * evaluated(follow.out));
+    EXPECT_EQ(read_ply(in + ".f.ply").triangle_count(), read_ply(in + ".b.ply").triangle_count());
+    for (const std::string& p : {in, in + ".f.ply", in + ".b.ply"}) std::remove(p.c_str());
+}
+
 // A file with colour: --points carries the colour of every point (the field's at the point), the
 // mesh PLY its vertices', streamed or not; --no-colour drops it.
 TEST(Cli, PointsAndMeshesCarryColour) {

@@ -139,6 +139,24 @@ def test_sdf_levels_visit_the_sign_change_cells_in_visit_order(resolution: int) 
         assert grid.finest.cells.tolist() == dense_sign_change_cells(field, resolution).tolist()
 
 
+def test_band_visits_children_of_kept_cells_and_finds_the_same_cells() -> None:
+    """build_grid's `band` (nfd_mesh_options.sample_band): an SDF by the keep rule, written out as
+    for the UDF above; its sign-change cells are those surface following visits."""
+    resolution = 99
+    field = lambda p: p[:, 0].astype(np.float64) - 0.97  # noqa: E731
+    grid = build_grid(field, resolution, band=True)
+    coarse, fine = grid.levels[1], grid.levels[0]
+    h = grid.step * np.float32(2)
+    kept = coarse.cells[cell_may_contain_surface(coarse.corner_values(), keep_threshold(False, h))]
+    children = (2 * kept[:, None, :] + CORNER_OFFSET[None]).reshape(-1, 3)
+    assert fine.cells.tolist() == children[(children < resolution).all(axis=1)].tolist()
+    negative = fine.corner_values() < 0
+    crossing = fine.cells[negative.any(axis=1) & ~negative.all(axis=1)]
+    followed = build_grid(field, resolution)
+    assert sorted(crossing.tolist()) == sorted(followed.finest.cells.tolist())
+    assert grid.points_evaluated > followed.points_evaluated
+
+
 def test_a_component_inside_one_coarse_cell_is_found_by_the_isolated_cell_rule() -> None:
     """A sphere of radius 0.02 centred in a coarse cell of the grid at 256 (cells 0.0625 wide)
     crosses no coarse edge, so no seed finds it; the coarse cell has no sign change and no

@@ -54,8 +54,8 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 10
-#define NFD_VERSION_PATCH 2
+#define NFD_VERSION_MINOR 11
+#define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
@@ -528,6 +528,15 @@ typedef struct nfd_mesh_options {
      * (their job fails with that code), beside the queue's budget. */
     uint64_t max_host_bytes;
     uint64_t max_device_bytes;
+    /* 0.11: non-zero: an SDF is sampled on the band around its surface (every child of every
+     * cell whose corners change sign or come within its half-diagonal of zero, as nfd_grid_extract
+     * samples), as all SDF decodes were before 0.11. Zero (the default): the CPU path samples only
+     * the cells the surface crosses, found level by level from the coarser level's crossings: about
+     * 2.5 times fewer field evaluations at 256-512, the same mesh on real shapes but for small
+     * voids inside the solid that touch no crossing of the coarser level (bench/RESULTS.md,
+     * "0.11"); on fields that are no shape's distance field (random networks) it misses more. The
+     * Vulkan path samples the band either way. No effect on a UDF. */
+    int sample_band;
 } nfd_mesh_options;
 
 typedef struct nfd_mesh_data {
@@ -652,6 +661,7 @@ typedef struct nfd_extraction_options {
     uint32_t mesh_levels; /* bit i: mesh ladder level i (bit 0: the coarsest); 0 = every level.
                              Must include the final level; no bit past the ladder */
     int skip_colour;      /* 0.4: as nfd_mesh_options.skip_colour */
+    int sample_band;      /* 0.11: as nfd_mesh_options.sample_band */
 } nfd_extraction_options;
 
 /* What a step did, and what the next one will allocate. */
@@ -748,8 +758,10 @@ typedef struct nfd_grid_voxels {
     nfd_field_type field_type;
 } nfd_grid_voxels;
 
-/* Samples the field coarse-to-fine with the levels and keep rule of nfd_mesh_extract and keeps
- * the finest level; SDF and UDF assets alike. options may be NULL. The grid refers to neither the
+/* Samples the field coarse-to-fine with the levels of nfd_mesh_extract and its keep rule (a cell
+ * is refined when its corners change sign or come within its half-diagonal of zero, twice that
+ * for a UDF), and keeps the finest level; SDF and UDF assets alike. (Since 0.11 an SDF mesh on
+ * the CPU samples fewer points: only the cells the surface crosses, not the band.) options may be NULL. The grid refers to neither the
  * context nor the asset: both may be destroyed first. In this version the grid is computed on the
  * CPU (the context's cpu_threads), whatever the context's device. The grid keeps 16 bytes per
  * voxel: memory follows the band, not resolution^3.
