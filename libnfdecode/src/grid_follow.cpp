@@ -76,6 +76,11 @@ public:
             if (upper >> bit & 1) fn(k + 4);
         }
     }
+    // Whether cell (x, y, z) was visited; makes no block.
+    bool visited(uint32_t x, uint32_t y, uint32_t z) const {
+        const uint32_t b = table_[((z >> 3) * per_axis_ + (y >> 3)) * per_axis_ + (x >> 3)];
+        return b != kNoBlock && bits_[b].visited[z & 7] >> ((x & 7) + 8 * (y & 7)) & 1;
+    }
     // Marks vertex `s` known, or the cell at it visited; false if it was already.
     bool claim_known(uint32_t s) { return claim(bits_[s >> 9].known, s); }
     bool claim_visited(uint32_t s) { return claim(bits_[s >> 9].visited, s); }
@@ -299,7 +304,9 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
                 } else if (nb[axis]-- == 0) {
                     continue;
                 }
-                if (region.parents.find(nb[0] / 2, nb[1] / 2, nb[2] / 2, &r))
+                // Most neighbours were visited already: that test first, the region's after.
+                if (nb[axis] < n && !store.visited(nb[0], nb[1], nb[2]) &&
+                    region.parents.find(nb[0] / 2, nb[1] / 2, nb[2] / 2, &r))
                     visit(nb[0], nb[1], nb[2]);
             }
         }
