@@ -301,8 +301,9 @@ void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
     if (o.stats) {
         std::printf("field       %9.2f ms  (%llu points evaluated)\n", stats.seconds_field * 1e3,
                     static_cast<unsigned long long>(stats.points_evaluated));
-        std::printf("mesh        %9.2f ms  (%llu active cells)\n", stats.seconds_mesh * 1e3,
-                    static_cast<unsigned long long>(stats.active_cells));
+        std::printf("mesh        %9.2f ms  (%llu active cells, %.2f points evaluated per cell)\n",
+                    stats.seconds_mesh * 1e3, static_cast<unsigned long long>(stats.active_cells),
+                    stats.active_cells ? double(stats.points_evaluated) / double(stats.active_cells) : 0.0);
         if (o.points)
             std::printf("sample      %9.2f ms  (%zu points%s)\n", ms_sample, o.points,
                         info.has_colour && !o.no_colour ? ", with colour" : "");
