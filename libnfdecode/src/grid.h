@@ -1,9 +1,10 @@
 // The sparse grid: the product of coarse-to-fine field sampling, shared by every output (the SDF
 // mesher, the UDF mesher, the VDB narrow band, progressive levels). The CPU reference builds it in
 // grid.cpp and grid_follow.cpp. The GPU path (gpu/) visits the same cells with the same rule for a
-// UDF; for an SDF it still applies the keep rule (per-parent child grids, a fixed number of
-// dispatches per level, where surface following grows a level in waves), which finds the same
-// sign-change cells, hence the same mesh, with about 2.5 times the evaluations.
+// UDF; for an SDF it still applies the keep rule, the CPU's `band` (per-parent child grids, a
+// fixed number of dispatches per level, where surface following grows a level in waves), which
+// finds the sign-change cells surface following finds and the voids below, from about 2.5 times
+// the evaluations.
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -65,10 +66,12 @@ uint32_t refinement_levels(uint32_t resolution);
 //   no crossed edge of the level above and lies within one cell of its sign-change cells, or a
 //   thin sheet that runs farther than one coarse cell from them between its vertices, is not
 //   found. Learned distance fields of shapes have few such spots: on 10 shapes at 128, 256 and
-//   512 and the golden vectors none was missed (bench/keep_rule.cpp: every mesh is the dense
-//   grid's). Fields that are no shape's distance field do: random SIRENs, whose surfaces fill a
-//   quarter of the cells in small pieces, lose 7-40% of the dense grid's sign-change cells (the
-//   band: 0-3%). GridBuilder's `band` keeps the keep rule for an SDF.
+//   512 and the golden vectors, 8 meshes are the dense grid's; dragon and suzanne lose 0.1-0.2%
+//   of its cells, on small voids inside the solid where the fit hovers at zero
+//   (bench/keep_rule.cpp, bench/lost_cells.py). Fields that are no shape's distance field lose
+//   more: random SIRENs, whose surfaces fill a quarter of the cells in small pieces, lose 7-40%
+//   of the dense grid's sign-change cells (the band: 0-3%). GridBuilder's `band`
+//   (nfd_mesh_options.sample_band) keeps the keep rule for an SDF.
 constexpr float kSdfKeepMargin = 1.0f;
 constexpr float kUdfKeepMargin = 2.0f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
@@ -321,7 +324,8 @@ public:
     // meshers', which need only the sign-change cells).
     GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band = false);
     // Evaluates the next level (the coarse one first: all its cells; then the children of the
-    // kept cells of the level before), then, unless it is the finest, the keep rule on its cells.
+    // kept cells of the level before, or the cells surface following finds), then, unless it is
+    // the finest, what decides the level after: the keep rule on its cells, or the region.
     void step();
     bool done() const { return stepped_ && current_ == 0; }
     uint32_t current() const { return current_; }  // the level the last step() evaluated
