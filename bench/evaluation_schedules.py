@@ -198,11 +198,13 @@ def follow_surface(field: Field, resolution: int) -> tuple[int, np.ndarray]:
     return evaluations, active
 
 
-def dense_active(field: Field) -> int:
+def sign_change_cells(field: Field) -> np.ndarray:
+    """(N, 3) x, y, z of the dense grid's cells whose corners include f < 0 and f >= 0."""
     r = field.shape[0] - 1
     corners = np.stack([field[o[2]:r + o[2], o[1]:r + o[1], o[0]:r + o[0]]
                         for o in CORNER_OFFSET], axis=-1)
-    return int(sign_change(corners).sum())
+    z, y, x = np.nonzero(sign_change(corners))
+    return np.stack([x, y, z], axis=1)
 
 
 def main() -> None:
@@ -215,7 +217,7 @@ def main() -> None:
     for path in args.files:
         t0 = time.time()
         field = dense_field(path, args.resolution)
-        dense = dense_active(field)
+        dense = len(sign_change_cells(field))
         runs = [("keep rule", lambda: refine(field, args.resolution, "", 0.0))]
         runs += [(f"cone {L}", lambda L=L: refine(field, args.resolution, "cone", L))
                  for L in (1.0, 1.5)]

@@ -19,18 +19,9 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from evaluation_schedules import dense_field
+from evaluation_schedules import dense_field, sign_change_cells
 from nfencode import bitstream, grid, reference
 from nfencode.mc_tables import CORNER_OFFSET
-
-
-def sign_change_cells(field: np.ndarray) -> np.ndarray:
-    """(N, 3) x, y, z of the dense grid's cells whose corners include f < 0 and not f < 0."""
-    r = field.shape[0] - 1
-    negative = field < 0
-    corners = np.stack([negative[o[2]:r + o[2], o[1]:r + o[1], o[0]:r + o[0]] for o in CORNER_OFFSET], axis=-1)
-    z, y, x = np.nonzero(corners.any(axis=-1) & ~corners.all(axis=-1))
-    return np.stack([x, y, z], axis=1)
 
 
 def classify(field: np.ndarray, lost: np.ndarray) -> tuple[int, int, float]:

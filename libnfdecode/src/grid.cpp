@@ -246,7 +246,8 @@ void GridBuilder::step() {
     level.cell_size = grid_.step * float(1u << l);
     const GridLevel* parent = stepped_ ? &grid_.levels[l + 1] : nullptr;
     if (parent && follow_) {
-        follow_surface(network_, grid_, *parent, region_, threads_, &level, &grid_.stats.points_evaluated);
+        follow_surface(network_, grid_, *parent, region_, next_.blocks, threads_, &level,
+                       &grid_.stats.points_evaluated);
         region_ = FollowRegion();
     } else {
         if (parent) {

@@ -299,15 +299,15 @@ struct SparseGrid {
 struct FollowRegion {
     VertexSet parents;                 // the cells above with a sign change and their 26 neighbours
     nfd::vector<uint32_t> refine_all;  // the isolated cells above (step 3), packed
-    uint64_t child_blocks = 0;         // the vertex blocks the level below may touch
 };
 // The region below `level` (level.level > 0), and the size of the level it bounds.
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
                    LevelSize* next);
-// Visits and evaluates level `out` (level, cells_per_axis and cell_size set) below `parent`.
+// Visits and evaluates level `out` (level, cells_per_axis and cell_size set) below `parent`;
+// `blocks`: its LevelSize::blocks, from follow_region.
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
-                    const FollowRegion& region, unsigned threads, GridLevel* out,
-                    uint64_t* evaluated);
+                    const FollowRegion& region, uint64_t blocks, unsigned threads,
+                    GridLevel* out, uint64_t* evaluated);
 // What follow_region on a level of size `level` allocates, and what follow_surface allocates
 // for a level of size `next` beyond its cells, vertex set, values and evaluator.
 uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells);

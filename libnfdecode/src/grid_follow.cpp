@@ -140,30 +140,30 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
     const uint32_t n = level.cells_per_axis;
     const float threshold = keep_threshold(grid.field, level.cell_size);
     region->parents = VertexSet(n + 1);
-    region->refine_all = nfd::vector<uint32_t>();
-    nfd::vector<uint8_t> active(level.cells.size());
+    region->refine_all = nfd::vector<uint32_t>();  // first the keep rule's cells without a sign change
     for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];
         unpack_coords(level.cells[i], c);
         float f[8];
         level.corners(c, f);
-        active[i] = has_sign_change(f);
-        if (!active[i]) continue;
+        if (!has_sign_change(f)) {
+            if (cell_may_contain_surface(f, threshold)) region->refine_all.push_back(level.cells[i]);
+            continue;
+        }
         for (uint32_t z = c[2] ? c[2] - 1 : 0; z <= std::min(c[2] + 1, n - 1); ++z)
             for (uint32_t y = c[1] ? c[1] - 1 : 0; y <= std::min(c[1] + 1, n - 1); ++y)
                 for (uint32_t x = c[0] ? c[0] - 1 : 0; x <= std::min(c[0] + 1, n - 1); ++x)
                     region->parents.insert(x, y, z);
     }
     region->parents.finish();
-    for (size_t i = 0; i < level.cells.size(); ++i) {
-        if (active[i]) continue;
+    // Of those, the isolated ones: no sign-change neighbour, so not in the region.
+    auto in_region = [&](uint32_t packed) {
         uint32_t c[3], r;
-        unpack_coords(level.cells[i], c);
-        float f[8];
-        level.corners(c, f);
-        if (cell_may_contain_surface(f, threshold) && !region->parents.find(c[0], c[1], c[2], &r))
-            region->refine_all.push_back(level.cells[i]);
-    }
+        unpack_coords(packed, c);
+        return region->parents.find(c[0], c[1], c[2], &r);
+    };
+    nfd::vector<uint32_t>& cells = region->refine_all;
+    cells.erase(std::remove_if(cells.begin(), cells.end(), in_region), cells.end());
 
     // The next level's size: the children of the region's cells.
     ChildLevelSize size(cells_at_level(grid.resolution, level.level - 1));
@@ -177,16 +177,15 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
         size.add_parent(c);
     }
     *next = size.size();
-    region->child_blocks = next->blocks;
 }
 
 uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells) {
-    // The sign-change flags; the region's cell set, whose cells lie in the level's vertex blocks
-    // or beside them; the refine-all list (grown by doubling); the next level's block bitmap.
+    // The region's cell set, whose cells lie in the level's vertex blocks or beside them; the
+    // refine-all list (grown by doubling); the next level's block bitmap.
     const uint64_t per_axis = (level.cells_per_axis + 1 + 7) / 8;
     const uint64_t region_blocks = std::min(27 * level.blocks, per_axis * per_axis * per_axis);
-    return level.cells + VertexSet::bytes_bound(level.cells_per_axis + 1, region_blocks) +
-           8 * level.cells + ChildLevelSize::bytes(child_cells);
+    return VertexSet::bytes_bound(level.cells_per_axis + 1, region_blocks) + 8 * level.cells +
+           ChildLevelSize::bytes(child_cells);
 }
 
 uint64_t follow_surface_bytes_bound(const LevelSize& next) {
@@ -195,10 +194,10 @@ uint64_t follow_surface_bytes_bound(const LevelSize& next) {
 }
 
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
-                    const FollowRegion& region, unsigned threads, GridLevel* out,
-                    uint64_t* evaluated) {
+                    const FollowRegion& region, uint64_t blocks, unsigned threads,
+                    GridLevel* out, uint64_t* evaluated) {
     const uint32_t n = out->cells_per_axis, l = out->level;
-    FloodStore store(n + 1, region.child_blocks);
+    FloodStore store(n + 1, blocks);
     auto store_value = [&store](uint32_t slot, float value, const float*) { store.value(slot) = value; };
     auto evaluator = make_evaluator(net, false, threads, store_value);
     // The value of vertex (x, y, z) at slot s, just claimed: a corner of the parent level is
