@@ -329,6 +329,11 @@ TEST(ApiSampleBand, BandAndSurfaceFollowingGiveTheSameMesh) {
     EXPECT_EQ(band.active_cells, follow.active_cells);
     EXPECT_GT(band.points_evaluated, 2 * follow.points_evaluated);
     EXPECT_EQ(band_limited.points_evaluated, band.points_evaluated);
+    nfd_decode_stats hostile;  // any non-zero value means yes
+    for (int value : {-1, INT32_MIN, INT32_MAX}) {
+        EXPECT_EQ(decode(value, 0, &hostile), triangles) << value;
+        EXPECT_EQ(hostile.points_evaluated, band.points_evaluated) << value;
+    }
 
     nfd_extraction_options eo = {};
     eo.struct_size = sizeof eo;

@@ -346,13 +346,19 @@ INSTANTIATE_TEST_SUITE_P(Devices, Progressive,
 // Hostile values that pass the CRC (the accepted flips of every 41st byte of a small SDF and UDF
 // network's GEOM payload): every level of a progressive extraction ends in a success with a
 // finite mesh or an error code, never a crash (CPU path, ladder 32, 64).
+// Damaged weights that pass the CRC, through both SDF schedules (surface following, the band) and
+// the UDF's, at 64 (one refined level) and 75 (an odd level above: midpoints at its last vertex).
 TEST(ProgressiveCpu, AcceptedDamageGivesFiniteLevelsOrErrors) {
-    for (uint8_t field : {uint8_t(0), uint8_t(1)}) {
+    for (uint8_t field : {uint8_t(0), uint8_t(1)})
+    for (bool band : {false, true}) {
+        if (field == 1 && band) continue;  // no effect on a UDF
         size_t meshed = 0;
         for_each_accepted_damage(
             geom_payload(random_siren(8, 8, 11, field)), 41, {0x80, 0xFF},
             [&](size_t i, const Geometry& g) {
-                const std::unique_ptr<Extraction> ex = make_extraction_cpu(g, 64, 0b11, 1);
+                const uint32_t resolution = i % 2 ? 75 : 64;
+                const std::unique_ptr<Extraction> ex =
+                    make_extraction_cpu(g, resolution, 0b11, 1, band);
                 for (bool done = false; !done;) {
                     MeshData m;
                     ExtractStats stats;
@@ -363,7 +369,7 @@ TEST(ProgressiveCpu, AcceptedDamageGivesFiniteLevelsOrErrors) {
                     done = report.done;
                 }
             });
-        EXPECT_GT(meshed, 0u) << int(field);
+        EXPECT_GT(meshed, 0u) << int(field) << " band " << band;
     }
 }
 

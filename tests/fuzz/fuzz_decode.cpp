@@ -29,11 +29,12 @@ std::string scratch_path(const char* extension) {
     return "/tmp/nfd_fuzz_decode_" + std::to_string(::getpid()) + extension;
 }
 
-void decode(const nfd_asset* asset, uint32_t resolution) {
+void decode(const nfd_asset* asset, uint32_t resolution, bool sample_band) {
     nfd_context* ctx = cpu_context();
     nfd_mesh_options mo{};
     mo.struct_size = sizeof mo;
     mo.resolution = resolution;
+    mo.sample_band = sample_band;
     nfd_mesh* mesh = nullptr;
     const nfd_result r = nfd_mesh_extract(ctx, asset, &mo, &mesh);
     if (r == NFD_ERROR_OUT_OF_MEMORY) return;
@@ -85,11 +86,15 @@ void decode(const nfd_asset* asset, uint32_t resolution) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (size == 0 || !cpu_context()) return 0;
-    // The last byte picks the resolution and is not part of the file.
-    const uint32_t resolution = NFD_MIN_RESOLUTION + data[size - 1] % 25;  // 8..32
+    // The last byte picks the decode and is not part of the file: below 0x80 a resolution of
+    // 8..32 (the coarsest level only); else 64..79 (one refined level, odd cell counts included),
+    // sampling an SDF's band when bit 0x40 is set, else following its surface.
+    const uint8_t pick = data[size - 1];
+    const bool refined = pick & 0x80;
+    const uint32_t resolution = refined ? 64 + (pick & 15) : NFD_MIN_RESOLUTION + pick % 25;
     nfd_asset* asset = nullptr;
     if (nfd_asset_create(data, size - 1, &asset) != NFD_SUCCESS) return 0;
-    decode(asset, resolution);
+    decode(asset, resolution, refined && (pick & 0x40));
     nfd_asset_destroy(asset);
     return 0;
 }
