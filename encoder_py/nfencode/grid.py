@@ -11,8 +11,9 @@ whole in raster order (x fastest). Below it (grid.h has the rules and their reas
   mc_tables.CORNER_OFFSET order within a parent, to the next level, dropping children that start
   at or past the last cell.
 * SDF, surface following (libnfdecode/src/grid_follow.cpp): a level visits the cells seeded at
-  the crossed edges of the sign-change cells above, flooded across faces with a sign change
-  inside the region of those cells and their 26 neighbours, plus every child of the isolated cells
+  the crossed edges of the sign-change cells above, flooded across faces with a sign change and
+  across every face of a cell whose corners all lie within SDF_NEAR_ZERO_CELL * h of zero, inside
+  the region of those cells and their 26 neighbours, plus every child of the isolated cells
   above (no sign change, kept by the keep rule, no sign-change neighbour); in visit_order().
 
 Vertices with all-even indices are copied from the parent level where it has them, the others
@@ -40,6 +41,7 @@ MAX_RESOLUTION = 1024  # NFD_MAX_RESOLUTION
 MIN_COARSE = 32  # refinement stops before a level coarser than this (grid.h, refinement_levels)
 SDF_KEEP_MARGIN = np.float32(1.0)  # kSdfKeepMargin
 UDF_KEEP_MARGIN = np.float32(2.0)  # kUdfKeepMargin
+SDF_NEAR_ZERO_CELL = np.float32(0.5)  # kSdfNearZeroCell
 HALF_DIAGONAL = np.float32(0.8660254)  # sqrt(3) / 2 as the f32 constant of grid.h
 UDF_EDGE_FACTOR = np.float32(1.5)  # kUdfEdgeFactor
 
@@ -291,15 +293,17 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     visited = np.unique(cell_keys(frontier, n))
     frontier = np.stack([visited % n, visited // n % n, visited // (n * n)], axis=1)
 
-    # The flood, a wave at a time, inside the region.
+    # The flood, a wave at a time, inside the region: across faces with a sign change, and every
+    # face of a cell near zero.
+    near_zero_limit = SDF_NEAR_ZERO_CELL * (grid_step(resolution) * np.float32(1 << level))
     while len(frontier):
         corners = vertex_keys(frontier[:, None, :] + CORNER_OFFSET[None], side)
         fetch(corners.ravel())
         values = known.at(corners)
-        crossing = _sign_change(values)
+        near_zero = (np.abs(values) < near_zero_limit).all(axis=1)
         grown = []
         for axis, face, corner_ids in _FACES:
-            through = crossing & _sign_change(values[:, corner_ids])
+            through = _sign_change(values[:, corner_ids]) | near_zero
             neighbour = frontier[through].copy()
             neighbour[:, axis] += 1 if face else -1
             neighbour = neighbour[((neighbour >= 0) & (neighbour < n)).all(axis=1)]

@@ -51,30 +51,39 @@ uint32_t refinement_levels(uint32_t resolution);
 //   1. Seeds: each crossed edge (one end negative) of a cell with a sign change gets its midpoint
 //      evaluated; the half that the sign change falls in is an edge of one child of that cell,
 //      which has a sign change.
-//   2. Flood: each visited cell with a sign change visits the neighbours behind its faces whose
-//      four corners change sign (those have a sign change too), wave after wave, inside the
-//      region: the children of the level above's cells with a sign change and of their 26
-//      neighbours. So a level's size is bounded before it is evaluated (LevelSize), and the surface
-//      may leave the coarser level's sign-change cells by one cell, as it does where it clips a
-//      corner of a coarse cell without changing the sign of its corners.
+//   2. Flood: each visited cell visits the neighbours behind its faces whose four corners change
+//      sign (those have a sign change too), and a cell whose eight corners all lie within
+//      kSdfNearZeroCell * h of zero visits all six, wave after wave, inside the region: the
+//      children of the level above's cells with a sign change and of their 26 neighbours. So a
+//      level's size is bounded before it is evaluated (LevelSize), and the surface may leave the
+//      coarser level's sign-change cells by one cell, as it does where it clips a corner of a
+//      coarse cell without changing the sign of its corners. A near-zero cell is flatter than a
+//      distance field, whose values over a cell span at least h (h * (|n_x| + |n_y| + |n_z|) for
+//      a plane of unit normal n), so a field of that slope never has one: it marks where a fit
+//      hovers at zero, in a thin part or along a fold, and a void may open between the grid's
+//      vertices that no sign change above shows.
 //   3. Isolated cells: a cell of the level above without a sign change that the keep rule (margin
 //      1) keeps and that has no sign-change cell among its 26 neighbours has all its children
 //      visited (and flooded from): a small closed component inside one coarse cell, away from the
 //      rest of the surface, is found where the field's slope is at most 1, as the keep rule
 //      found it.
 //   What the schedule gives up is the keep rule's band: a component of the surface that crosses
-//   no crossed edge of the level above and lies within one cell of its sign-change cells, or a
-//   thin sheet that runs farther than one coarse cell from them between its vertices, is not
-//   found. Learned distance fields of shapes have few such spots: on 10 shapes at 128, 256 and
-//   512 and the golden vectors, 8 meshes are the dense grid's; dragon and suzanne lose 0.1-0.2%
-//   of its cells, on small voids inside the solid where the fit hovers at zero
-//   (bench/keep_rule.cpp, bench/lost_cells.py). Fields that are no shape's distance field lose
-//   more: random SIRENs, whose surfaces fill a quarter of the cells in small pieces, lose 7-40%
-//   of the dense grid's sign-change cells (the band: 0-3%). GridBuilder's `band`
+//   no crossed edge of the level above, lies within one cell of its sign-change cells and is
+//   reached from them through no near-zero cell, or a thin sheet that runs farther than one coarse
+//   cell from them between its vertices, is not found. Learned distance fields of shapes have few
+//   such spots (bench/RESULTS.md, "0.11.1": ten shapes at 128, 256 and 512 against the dense grid,
+//   bench/keep_rule.cpp, bench/lost_cells.py). What near-zero cells cost is the area where a fit
+//   hovers at zero: 2.4-2.8 evaluations per active cell at 256-512 on nine of those shapes, 3.6-3.8
+//   on the tenth (lion). Fields that are no shape's distance field lose more: random SIRENs, whose
+//   surfaces fill a quarter of the cells in small pieces, lost 7-40% of the dense grid's
+//   sign-change cells in 0.11 (the band: 0-3%). GridBuilder's `band`
 //   (nfd_mesh_options.sample_band) keeps the keep rule for an SDF.
 constexpr float kSdfKeepMargin = 1.0f;
 constexpr float kUdfKeepMargin = 2.0f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
+// Surface following's near-zero cells (step 2 above), in cell edges: half a cell, the largest
+// value that a distance field's slope never reaches at all eight corners.
+constexpr float kSdfNearZeroCell = 0.5f;
 // The keep rule's threshold (SDF: for isolated cells, step 3 above).
 inline float keep_threshold(FieldType field, float h) {
     return (field == FieldType::Udf ? kUdfKeepMargin : kSdfKeepMargin) * h * kHalfDiagonal;

@@ -1,7 +1,9 @@
 // CPU reference of the SDF levels below the coarsest (grid.h, "Surface following"): the cells of a
 // level are found from the crossed edges of the level above and flooded across faces with a sign
-// change, each corner evaluated once, inside a region sized before the level starts.
+// change and out of cells near zero, each corner evaluated once, inside a region sized before the
+// level starts.
 #include <algorithm>
+#include <cmath>
 
 #include "grid.h"
 #include "grid_eval.h"
@@ -17,6 +19,12 @@ bool has_sign_change(const float* f, int n) {
     return negative && other;
 }
 bool has_sign_change(const float f[8]) { return has_sign_change(f, 8); }
+// Whether the eight corners of a cell all lie within `limit` of zero (NaN does not).
+bool is_near_zero(const float f[8], float limit) {
+    bool near = true;
+    for (int k = 0; k < 8; ++k) near &= std::fabs(f[k]) < limit;
+    return near;
+}
 
 // The corners of the face of a cell across which its neighbour lies, per face 2 * axis + side.
 constexpr uint8_t kFaceCorners[6][4] = {{0, 2, 4, 6}, {1, 3, 5, 7}, {0, 1, 4, 5},
@@ -271,7 +279,9 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     }
 
     // The flood, a wave at a time: the wave's corners evaluated together, then the neighbours
-    // behind its faces with a sign change (which have one too), inside the region.
+    // behind its faces with a sign change (which have one too), or behind all six faces of a cell
+    // near zero, inside the region.
+    const float near_zero = kSdfNearZeroCell * out->cell_size;
     while (!frontier.empty()) {
         std::swap(frontier, wave);  // visit() appends the next wave to `frontier`
         frontier.clear();
@@ -291,11 +301,12 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
             store.cell_slots(c[0], c[1], c[2], s);
             float f[8];
             for (int k = 0; k < 8; ++k) f[k] = store.value(s[k]);
-            if (!has_sign_change(f)) continue;
+            const bool every_face = is_near_zero(f, near_zero);
+            if (!every_face && !has_sign_change(f)) continue;
             for (int face = 0; face < 6; ++face) {
                 const float g[4] = {f[kFaceCorners[face][0]], f[kFaceCorners[face][1]],
                                     f[kFaceCorners[face][2]], f[kFaceCorners[face][3]]};
-                if (!has_sign_change(g, 4)) continue;
+                if (!every_face && !has_sign_change(g, 4)) continue;
                 uint32_t nb[3] = {c[0], c[1], c[2]};
                 const int axis = face / 2;
                 if (face & 1) {

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nfencode import grid as grid_module
 from nfencode.grid import (
     HALF_DIAGONAL,
     build_grid,
@@ -171,6 +172,35 @@ def test_a_component_inside_one_coarse_cell_is_found_by_the_isolated_cell_rule()
     grid = build_grid(small_sphere, resolution)
     expected = dense_sign_change_cells(small_sphere, resolution)
     assert len(expected) > 100 and grid.finest.cells.tolist() == expected.tolist()
+
+
+def test_a_void_where_the_field_hovers_at_zero_is_found_through_near_zero_cells(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A learned SDF may hover just below zero inside a thin part and rise above it at one vertex
+    (a void, as in dragon and suzanne): here a shell under the top of a sphere where f = -0.001,
+    with a bump to +0.001 at one fine vertex off the coarser levels' vertices, 3 fine cells under
+    the surface. No coarser level sees it, so no seed finds it; the flood reaches it through the
+    shell's near-zero cells (|f| < SDF_NEAR_ZERO_CELL * h at all eight corners), and without them
+    the bump's 8 cells are lost."""
+    resolution = 256
+    centre = grid_coordinates(np.array([129, 129, 189]), resolution).astype(np.float64)
+
+    def hovering(points: np.ndarray) -> np.ndarray:
+        p = points.astype(np.float64)
+        r = np.linalg.norm(p, axis=1)
+        shell = (r > 0.42) & (r < 0.5) & (np.abs(p[:, 0]) < 0.08) & (np.abs(p[:, 1]) < 0.08)
+        bump = -0.001 + 0.002 * np.exp(-np.sum((p - centre) ** 2, axis=1) / 0.004 ** 2)
+        return np.where(shell, bump, r - 0.5)
+
+    def found() -> set[tuple[int, ...]]:
+        fine = build_grid(hovering, resolution).finest
+        negative = fine.corner_values() < 0
+        return set(map(tuple, fine.cells[negative.any(axis=1) & ~negative.all(axis=1)].tolist()))
+
+    expected = set(map(tuple, dense_sign_change_cells(hovering, resolution).tolist()))
+    assert found() == expected
+    monkeypatch.setattr(grid_module, "SDF_NEAR_ZERO_CELL", np.float32(0))
+    assert len(expected - found()) == 8
 
 
 def test_each_vertex_is_evaluated_once_and_even_ones_are_copied() -> None:

@@ -55,7 +55,7 @@ extern "C" {
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
 #define NFD_VERSION_MINOR 11
-#define NFD_VERSION_PATCH 0
+#define NFD_VERSION_PATCH 1
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
@@ -531,11 +531,13 @@ typedef struct nfd_mesh_options {
     /* 0.11: non-zero: an SDF is sampled on the band around its surface (every child of every
      * cell whose corners change sign or come within its half-diagonal of zero, as nfd_grid_extract
      * samples), as all SDF decodes were before 0.11. Zero (the default): the CPU path samples only
-     * the cells the surface crosses, found level by level from the coarser level's crossings: about
-     * 2.5 times fewer field evaluations at 256-512, the same mesh on real shapes but for small
-     * voids inside the solid that touch no crossing of the coarser level (bench/RESULTS.md,
-     * "0.11"); on fields that are no shape's distance field (random networks) it misses more. The
-     * Vulkan path samples the band either way. No effect on a UDF. */
+     * the cells the surface crosses, found level by level from the coarser level's crossings, and
+     * (0.11.1) the cells where the field hovers within half a cell of zero: about 2.5 times fewer
+     * field evaluations at 256-512, the dense grid's mesh on the real shapes measured
+     * (bench/RESULTS.md, "0.11" and "0.11.1"), though a component of the surface that no crossing
+     * above and no near-zero cell leads to is missed; on fields that are no shape's distance field
+     * (random networks) it misses more. The Vulkan path samples the band either way. No effect on
+     * a UDF. */
     int sample_band;
 } nfd_mesh_options;
 
