@@ -11,9 +11,9 @@ whole in raster order (x fastest). Below it (grid.h has the rules and their reas
   mc_tables.CORNER_OFFSET order within a parent, to the next level, dropping children that start
   at or past the last cell.
 * SDF, surface following (libnfdecode/src/grid_follow.cpp): a level visits the cells seeded at
-  the crossed edges of the sign-change cells above, flooded across faces with a sign change and
-  across every face of a cell whose corners all lie within SDF_NEAR_ZERO_CELL * h of zero, inside
-  the region of those cells and their 26 neighbours, plus every child of the isolated cells
+  the crossed edges of the sign-change cells above, flooded across faces with a sign change and,
+  above the finest level, across every face of a cell whose corners all lie within
+  SDF_NEAR_ZERO_CELL * h of zero, inside the region of those cells and their 26 neighbours, plus every child of the isolated cells
   above (no sign change, kept by the keep rule, no sign-change neighbour); in visit_order().
 
 Vertices with all-even indices are copied from the parent level where it has them, the others
@@ -293,9 +293,10 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     visited = np.unique(cell_keys(frontier, n))
     frontier = np.stack([visited % n, visited // n % n, visited // (n * n)], axis=1)
 
-    # The flood, a wave at a time, inside the region: across faces with a sign change, and every
-    # face of a cell near zero.
-    near_zero_limit = SDF_NEAR_ZERO_CELL * (grid_step(resolution) * np.float32(1 << level))
+    # The flood, a wave at a time, inside the region: across faces with a sign change, and above
+    # the finest level every face of a cell near zero.
+    h = grid_step(resolution) * np.float32(1 << level)
+    near_zero_limit = SDF_NEAR_ZERO_CELL * h if level > 0 else np.float32(0)
     while len(frontier):
         corners = vertex_keys(frontier[:, None, :] + CORNER_OFFSET[None], side)
         fetch(corners.ravel())

@@ -52,16 +52,21 @@ uint32_t refinement_levels(uint32_t resolution);
 //      evaluated; the half that the sign change falls in is an edge of one child of that cell,
 //      which has a sign change.
 //   2. Flood: each visited cell visits the neighbours behind its faces whose four corners change
-//      sign (those have a sign change too), and a cell whose eight corners all lie within
-//      kSdfNearZeroCell * h of zero visits all six, wave after wave, inside the region: the
-//      children of the level above's cells with a sign change and of their 26 neighbours. So a
-//      level's size is bounded before it is evaluated (LevelSize), and the surface may leave the
-//      coarser level's sign-change cells by one cell, as it does where it clips a corner of a
-//      coarse cell without changing the sign of its corners. A near-zero cell is flatter than a
-//      distance field, whose values over a cell span at least h (h * (|n_x| + |n_y| + |n_z|) for
-//      a plane of unit normal n), so a field of that slope never has one: it marks where a fit
-//      hovers at zero, in a thin part or along a fold, and a void may open between the grid's
-//      vertices that no sign change above shows.
+//      sign (those have a sign change too), and above the finest level a cell whose eight corners
+//      all lie within kSdfNearZeroCell * h of zero visits all six, wave after wave, inside the
+//      region: the children of the level above's cells with a sign change and of their 26
+//      neighbours. So a level's size is bounded before it is evaluated (LevelSize), and the surface
+//      may leave the coarser level's sign-change cells by one cell, as it does where it clips a
+//      corner of a coarse cell without changing the sign of its corners. A near-zero cell is
+//      flatter than a distance field, whose values over a cell span at least h (h * (|n_x| +
+//      |n_y| + |n_z|) for a plane of unit normal n), so a field of that slope never has one: it
+//      marks where a fit hovers at zero, in a thin part or along a fold, and a void may open
+//      between the grid's vertices that no sign change above shows; the level below then seeds
+//      from the void's crossed edges. The finest level follows sign changes only: a void that
+//      first shows there is under two fine cells across, and walking the hovering area at the
+//      finest level, where most evaluations are, costs about a fifth more on a shape that hovers
+//      widely (lion: 3.6 evaluations per active cell at 256 against 3.0) for no cell found on the
+//      ten shapes measured.
 //   3. Isolated cells: a cell of the level above without a sign change that the keep rule (margin
 //      1) keeps and that has no sign-change cell among its 26 neighbours has all its children
 //      visited (and flooded from): a small closed component inside one coarse cell, away from the
@@ -69,12 +74,12 @@ uint32_t refinement_levels(uint32_t resolution);
 //      found it.
 //   What the schedule gives up is the keep rule's band: a component of the surface that crosses
 //   no crossed edge of the level above, lies within one cell of its sign-change cells and is
-//   reached from them through no near-zero cell, or a thin sheet that runs farther than one coarse
+//   reached from them through no near-zero cell above the finest level, or a thin sheet that runs farther than one coarse
 //   cell from them between its vertices, is not found. Learned distance fields of shapes have few
 //   such spots (bench/RESULTS.md, "0.11.1": ten shapes at 128, 256 and 512 against the dense grid,
 //   bench/keep_rule.cpp, bench/lost_cells.py). What near-zero cells cost is the area where a fit
-//   hovers at zero: 2.4-2.8 evaluations per active cell at 256-512 on nine of those shapes, 3.6-3.8
-//   on the tenth (lion). Fields that are no shape's distance field lose more: random SIRENs, whose
+//   hovers at zero: 2.4-2.7 evaluations per active cell at 256-512 on nine of those shapes, 3.0-3.2
+//   on the tenth (lion, 2.4-2.7 without near-zero cells). Fields that are no shape's distance field lose more: random SIRENs, whose
 //   surfaces fill a quarter of the cells in small pieces, lost 7-40% of the dense grid's
 //   sign-change cells in 0.11 (the band: 0-3%). GridBuilder's `band`
 //   (nfd_mesh_options.sample_band) keeps the keep rule for an SDF.
@@ -82,7 +87,7 @@ constexpr float kSdfKeepMargin = 1.0f;
 constexpr float kUdfKeepMargin = 2.0f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
 // Surface following's near-zero cells (step 2 above), in cell edges: half a cell, the largest
-// value that a distance field's slope never reaches at all eight corners.
+// bound that a distance field's slope never stays under at all eight corners.
 constexpr float kSdfNearZeroCell = 0.5f;
 // The keep rule's threshold (SDF: for isolated cells, step 3 above).
 inline float keep_threshold(FieldType field, float h) {

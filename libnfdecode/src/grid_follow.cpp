@@ -1,6 +1,6 @@
 // CPU reference of the SDF levels below the coarsest (grid.h, "Surface following"): the cells of a
 // level are found from the crossed edges of the level above and flooded across faces with a sign
-// change and out of cells near zero, each corner evaluated once, inside a region sized before the
+// change and (above the finest level) out of cells near zero, each corner evaluated once, inside a region sized before the
 // level starts.
 #include <algorithm>
 #include <cmath>
@@ -279,9 +279,9 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     }
 
     // The flood, a wave at a time: the wave's corners evaluated together, then the neighbours
-    // behind its faces with a sign change (which have one too), or behind all six faces of a cell
-    // near zero, inside the region.
-    const float near_zero = kSdfNearZeroCell * out->cell_size;
+    // behind its faces with a sign change (which have one too), or above the finest level behind
+    // all six faces of a cell near zero (|f| < 0 holds nowhere), inside the region.
+    const float near_zero = l > 0 ? kSdfNearZeroCell * out->cell_size : 0.0f;
     while (!frontier.empty()) {
         std::swap(frontier, wave);  // visit() appends the next wave to `frontier`
         frontier.clear();

@@ -178,12 +178,12 @@ def test_a_void_where_the_field_hovers_at_zero_is_found_through_near_zero_cells(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """A learned SDF may hover just below zero inside a thin part and rise above it at one vertex
     (a void, as in dragon and suzanne): here a shell under the top of a sphere where f = -0.001,
-    with a bump to +0.001 at one fine vertex off the coarser levels' vertices, 3 fine cells under
-    the surface. No coarser level sees it, so no seed finds it; the flood reaches it through the
-    shell's near-zero cells (|f| < SDF_NEAR_ZERO_CELL * h at all eight corners), and without them
-    the bump's 8 cells are lost."""
+    with a bump to +0.001 at one vertex of the level above the finest that the level above it
+    does not have, 6 fine cells under the surface. No crossed edge leads to it; the flood of that
+    level reaches it through the shell's near-zero cells (|f| < SDF_NEAR_ZERO_CELL * h at all
+    eight corners), and the finest level seeds from it. Without them its 8 fine cells are lost."""
     resolution = 256
-    centre = grid_coordinates(np.array([129, 129, 189]), resolution).astype(np.float64)
+    centre = grid_coordinates(np.array([130, 130, 186]), resolution).astype(np.float64)
 
     def hovering(points: np.ndarray) -> np.ndarray:
         p = points.astype(np.float64)

@@ -3,6 +3,7 @@ the C++ suite checks its decoders against the same files."""
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -15,13 +16,18 @@ from nfencode.reference import dequantize, evaluate, evaluate_color, extract_mes
 VECTORS = Path(__file__).resolve().parents[1] / "vectors"
 NAMES = sorted(p.stem for p in VECTORS.glob("v1_*.nfc"))
 COLOR_NAMES = sorted(p.stem for p in VECTORS.glob("v1_1_*.nfc"))
+GRID_NAMES = sorted(p.name.removesuffix(".grid128.txt") for p in VECTORS.glob("v1_*.grid128.txt"))
 MESH_RESOLUTION = 64
+_spec = importlib.util.spec_from_file_location("generate", VECTORS / "generate.py")
+generate = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(generate)  # the vectors' writer: grid_summary is the .grid128.txt text
 POSITION_TOLERANCE = 1e-5  # unit frame (times the file's scale in its original frame), README.md
 NORMAL_TOLERANCE = 1e-3
 
 
 def test_vectors_exist() -> None:
     assert len(NAMES) >= 6 and COLOR_NAMES, f"golden vectors missing in {VECTORS}"
+    assert len(GRID_NAMES) >= 4, f"grid summaries missing in {VECTORS}"
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -54,6 +60,14 @@ def test_mesh_matches_exactly(name: str) -> None:
     scale = nfc.geometry.scale
     assert np.abs(mesh.vertices - positions).max() <= POSITION_TOLERANCE * scale
     assert np.abs(mesh.normals - normals).max() <= NORMAL_TOLERANCE
+
+
+@pytest.mark.parametrize("name", GRID_NAMES)
+def test_sdf_grid_matches_its_summary(name: str) -> None:
+    """The sparse grid at 128 (two levels that follow the surface) visits the cells and evaluates
+    the points it did when generated; the C++ suite checks its grid against the same file."""
+    summary = (VECTORS / f"{name}.grid128.txt").read_text()
+    assert generate.grid_summary((VECTORS / f"{name}.nfc").read_bytes()) == summary
 
 
 @pytest.mark.parametrize("name", COLOR_NAMES)

@@ -16,6 +16,10 @@ For each vector `v1_0_<name>` (geometry only, format 1.0), `v1_1_<name>` (with c
                       relative to the frame offset (v1_2: the 64-bit center; else 0), vertices
                       and faces in the reference's order (README.md); v1_1: float red, green,
                       blue in [0, 1] per vertex after the normal
+  <name>.grid128.txt  (SDF only) the reference's sparse grid at 128, whose two levels below the
+                      coarsest follow the surface (at 64 only the finest does): per level, coarsest
+                      first, `level L cells C vertices V`, then `evaluated E`, the field points
+                      evaluated over all levels
 """
 
 from __future__ import annotations
@@ -27,12 +31,14 @@ import numpy as np
 
 from nfencode.bitstream import read_nfc
 from nfencode.encoder import EncodeConfig, compress
+from nfencode.grid import build_grid
 from nfencode.io import load_shape, save_mesh
-from nfencode.reference import dequantize, evaluate, evaluate_color, extract_mesh
+from nfencode.reference import dequantize, evaluate, evaluate_color, extract_mesh, field_function
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"  # ../shared beside the checkout
 MESH_RESOLUTION = 64
+GRID_RESOLUTION = 128
 VECTORS = [  # name, shape, field, width, bits, frequencies L, epochs, colour width (None: geometry only)
     ("v1_0_bunny_sdf_w16", "stanford/bun_zipper_res3.ply.gz", "sdf", 16, 8, 16, 40, None),
     ("v1_0_bunny_sdf_w32", "stanford/bun_zipper_res3.ply.gz", "sdf", 32, 8, 16, 40, None),
@@ -81,6 +87,13 @@ def encode(name: str, rel: str, field: str, width: int, bits: int, frequencies: 
     print(f"{stem.name}: encoded, {len(data)} bytes")
 
 
+def grid_summary(data: bytes) -> str:
+    """The `.grid128.txt` text of an SDF vector's `.nfc` bytes."""
+    grid = build_grid(field_function(read_nfc(data)), GRID_RESOLUTION)
+    lines = [f"level {lv.level} cells {len(lv.cells)} vertices {len(lv.values)}" for lv in reversed(grid.levels)]
+    return "\n".join(lines + [f"evaluated {grid.points_evaluated}"]) + "\n"
+
+
 def main() -> None:
     for name, *encoding in VECTORS:
         stem = HERE / name
@@ -90,6 +103,8 @@ def main() -> None:
         colors = None if mesh.colors is None else mesh.colors.astype(np.float32)
         save_mesh(stem.with_suffix(f".mesh{MESH_RESOLUTION}.ply"), mesh.vertices, mesh.faces, mesh.normals, colors)
         print(f"{stem.name}: mesh at {MESH_RESOLUTION}, {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
+        if encoding[1] == "sdf":
+            stem.with_suffix(f".grid{GRID_RESOLUTION}.txt").write_text(grid_summary(stem.with_suffix(".nfc").read_bytes()))
 
 
 if __name__ == "__main__":

@@ -532,12 +532,12 @@ typedef struct nfd_mesh_options {
      * cell whose corners change sign or come within its half-diagonal of zero, as nfd_grid_extract
      * samples), as all SDF decodes were before 0.11. Zero (the default): the CPU path samples only
      * the cells the surface crosses, found level by level from the coarser level's crossings, and
-     * (0.11.1) the cells where the field hovers within half a cell of zero: about 2.5 times fewer
-     * field evaluations at 256-512, the dense grid's mesh on the real shapes measured
-     * (bench/RESULTS.md, "0.11" and "0.11.1"), though a component of the surface that no crossing
-     * above and no near-zero cell leads to is missed; on fields that are no shape's distance field
-     * (random networks) it misses more. The Vulkan path samples the band either way. No effect on
-     * a UDF. */
+     * (0.11.1, above the finest level) the cells where the field hovers within half a cell of
+     * zero: about 2.5 times fewer field evaluations at 256-512, the dense grid's mesh on the real
+     * shapes measured (bench/RESULTS.md, "0.11" and "0.11.1"), though a component of the surface
+     * that no crossing above and no near-zero cell leads to is missed; on fields that are no
+     * shape's distance field (random networks) it misses more. The Vulkan path samples the band
+     * either way. No effect on a UDF. */
     int sample_band;
 } nfd_mesh_options;
 
