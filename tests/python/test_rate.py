@@ -71,7 +71,10 @@ def test_target_bytes_refuses_width_and_colour(tmp_path: Path, capsys: pytest.Ca
     assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "900",
                  "--width", "16"]) == 1
     assert "not --width too" in capsys.readouterr().err
-    assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "10"]) != 0
+    # Unreachable: every try is too big (one epoch each: the sizes do not depend on training).
+    assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "10",
+                 "--epochs", "1"]) == 1
+    assert "no file fits in 10 bytes" in capsys.readouterr().err
     for bad in ("0", "-5"):
         assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", bad]) == 1
         assert "--target-bytes must be >= 1" in capsys.readouterr().err
