@@ -13,8 +13,9 @@ whole in raster order (x fastest). Below it (grid.h has the rules and their reas
 * SDF, surface following (libnfdecode/src/grid_follow.cpp): a level visits the cells seeded at
   the crossed edges of the sign-change cells above, flooded across faces with a sign change and,
   above the finest level, across every face of a cell whose corners all lie within
-  SDF_NEAR_ZERO_CELL * h of zero, inside the region of those cells and their 26 neighbours, plus every child of the isolated cells
-  above (no sign change, kept by the keep rule, no sign-change neighbour); in visit_order().
+  SDF_NEAR_ZERO_CELL * h of zero, inside the region of those cells and their 26 neighbours, plus
+  every child of the isolated cells above (no sign change, kept by the keep rule, no sign-change
+  neighbour); in visit_order().
 
 Vertices with all-even indices are copied from the parent level where it has them, the others
 evaluated. Values are stored in f32, as the C++ grid stores them, so that every decision downstream

@@ -74,15 +74,15 @@ uint32_t refinement_levels(uint32_t resolution);
 //      found it.
 //   What the schedule gives up is the keep rule's band: a component of the surface that crosses
 //   no crossed edge of the level above, lies within one cell of its sign-change cells and is
-//   reached from them through no near-zero cell above the finest level, or a thin sheet that runs farther than one coarse
-//   cell from them between its vertices, is not found. Learned distance fields of shapes have few
-//   such spots (bench/RESULTS.md, "0.11.1": ten shapes at 128, 256 and 512 against the dense grid,
-//   bench/keep_rule.cpp, bench/lost_cells.py). What near-zero cells cost is the area where a fit
-//   hovers at zero: 2.4-2.7 evaluations per active cell at 256-512 on nine of those shapes, 3.0-3.2
-//   on the tenth (lion, 2.4-2.7 without near-zero cells). Fields that are no shape's distance field lose more: random SIRENs, whose
-//   surfaces fill a quarter of the cells in small pieces, lost 7-40% of the dense grid's
-//   sign-change cells in 0.11 (the band: 0-3%). GridBuilder's `band`
-//   (nfd_mesh_options.sample_band) keeps the keep rule for an SDF.
+//   reached from them through no near-zero cell above the finest level, or a thin sheet that runs
+//   farther than one coarse cell from them between its vertices, is not found. Learned distance
+//   fields of shapes have few such spots (bench/RESULTS.md, "0.11.1": ten shapes at 128, 256 and
+//   512 against the dense grid, bench/keep_rule.cpp, bench/lost_cells.py). What near-zero cells
+//   cost is the area where a fit hovers at zero: 2.4-2.7 evaluations per active cell at 256-512 on
+//   nine of those shapes, 3.0-3.2 on the tenth (lion; 2.4-2.7 without near-zero cells). Fields
+//   that are no shape's distance field lose more: random SIRENs, whose surfaces fill a quarter of
+//   the cells in small pieces, lost 7-40% of the dense grid's sign-change cells in 0.11 (the band:
+//   0-3%). GridBuilder's `band` (nfd_mesh_options.sample_band) keeps the keep rule for an SDF.
 constexpr float kSdfKeepMargin = 1.0f;
 constexpr float kUdfKeepMargin = 2.0f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2

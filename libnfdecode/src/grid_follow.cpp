@@ -1,7 +1,7 @@
 // CPU reference of the SDF levels below the coarsest (grid.h, "Surface following"): the cells of a
 // level are found from the crossed edges of the level above and flooded across faces with a sign
-// change and (above the finest level) out of cells near zero, each corner evaluated once, inside a region sized before the
-// level starts.
+// change and (above the finest level) out of cells near zero, each corner evaluated once, inside
+// a region sized before the level starts.
 #include <algorithm>
 #include <cmath>
 

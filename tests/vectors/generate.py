@@ -90,7 +90,8 @@ def encode(name: str, rel: str, field: str, width: int, bits: int, frequencies: 
 def grid_summary(data: bytes) -> str:
     """The `.grid128.txt` text of an SDF vector's `.nfc` bytes."""
     grid = build_grid(field_function(read_nfc(data)), GRID_RESOLUTION)
-    lines = [f"level {lv.level} cells {len(lv.cells)} vertices {len(lv.values)}" for lv in reversed(grid.levels)]
+    lines = [f"level {lv.level} cells {len(lv.cells)} vertices {len(lv.values)}"
+             for lv in reversed(grid.levels)]
     return "\n".join(lines + [f"evaluated {grid.points_evaluated}"]) + "\n"
 
 
@@ -104,7 +105,8 @@ def main() -> None:
         save_mesh(stem.with_suffix(f".mesh{MESH_RESOLUTION}.ply"), mesh.vertices, mesh.faces, mesh.normals, colors)
         print(f"{stem.name}: mesh at {MESH_RESOLUTION}, {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
         if encoding[1] == "sdf":
-            stem.with_suffix(f".grid{GRID_RESOLUTION}.txt").write_text(grid_summary(stem.with_suffix(".nfc").read_bytes()))
+            summary = grid_summary(stem.with_suffix(".nfc").read_bytes())
+            stem.with_suffix(f".grid{GRID_RESOLUTION}.txt").write_text(summary)
 
 
 if __name__ == "__main__":
