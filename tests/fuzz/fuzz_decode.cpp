@@ -1,5 +1,5 @@
 // libFuzzer target: everything a decode does behind the parser, on the C++ path, for any file the
-// parser accepts: a mesh at a small resolution (8-32, from the input's last byte) with its colours,
+// parser accepts: a mesh at a small resolution (8-143, from the input's last byte) with its colours,
 // points sampled on it and coloured, the sparse grid with its colours, and the PLY, glTF and VDB
 // writers. Every output must be finite (colours in [0, 1]); anything else aborts.
 #include <nfdecode/nfdecode.h>
@@ -88,10 +88,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (size == 0 || !cpu_context()) return 0;
     // The last byte picks the decode and is not part of the file: below 0x80 a resolution of
     // 8..32 (the coarsest level only); else 64..79 (one refined level, odd cell counts included),
+    // or with bit 0x20 128..143 (two: surface following's near-zero cells act on the first),
     // sampling an SDF's band when bit 0x40 is set, else following its surface.
     const uint8_t pick = data[size - 1];
     const bool refined = pick & 0x80;
-    const uint32_t resolution = refined ? 64 + (pick & 15) : NFD_MIN_RESOLUTION + pick % 25;
+    const uint32_t resolution = refined ? (pick & 0x20 ? 128 : 64) + (pick & 15)
+                                        : NFD_MIN_RESOLUTION + pick % 25;
     nfd_asset* asset = nullptr;
     if (nfd_asset_create(data, size - 1, &asset) != NFD_SUCCESS) return 0;
     decode(asset, resolution, refined && (pick & 0x40));
