@@ -216,6 +216,17 @@ Extracted extract(const GeomSpec& spec, uint32_t resolution) {
     return e;
 }
 
+// The golden SDF vectors (tests/vectors), by name, parsed.
+using GoldenVector = std::pair<std::string, Geometry>;
+std::vector<GoldenVector> golden_sdf_vectors() {
+    std::vector<GoldenVector> sdf;
+    for (const std::string& name : golden_names()) {
+        Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        if (g.field == FieldType::Sdf) sdf.emplace_back(name, std::move(g));
+    }
+    return sdf;
+}
+
 // Marching cubes over the dense grid's sign changes: what the sparse extraction must reproduce.
 void dense_reference(const Network& net, uint32_t r, uint64_t* active, uint64_t* triangles) {
     const size_t side = r + 1;
@@ -447,11 +458,8 @@ TEST(Extract, MatchesPythonReferenceMeshExactly) {
 // u = 1, from at most 4 evaluations per active cell (the coarsest level's 33^3 weighs at 128).
 // bench/keep_rule.cpp runs the same check at 256 and 512 on more shapes.
 TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
-    size_t sdf = 0;
-    for (const std::string& name : golden_names()) {
-        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
-        if (g.field != FieldType::Sdf) continue;
-        ++sdf;
+    const std::vector<GoldenVector> sdf = golden_sdf_vectors();
+    for (const auto& [name, g] : sdf) {
         for (uint32_t r : {128u, 150u}) {
             MeshData mesh;
             ExtractStats stats;
@@ -465,7 +473,7 @@ TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
             EXPECT_LT(per_cell, 4.0) << name << " at " << r;
         }
     }
-    EXPECT_GE(sdf, 4u) << "the SDF vectors are missing";
+    EXPECT_GE(sdf.size(), 4u) << "the SDF vectors are missing";
 }
 
 }  // namespace
@@ -530,11 +538,8 @@ TEST(ExtractUdf, AcceptedDamageMeshesFiniteOrEmpty) {
 // CPU path visits the same cells, keeps the same vertices and evaluates as many points, level by
 // level, seeds, floods, near-zero cells and isolated cells included.
 TEST(Extract, SdfGridMatchesPythonReferenceSummary) {
-    size_t sdf = 0;
-    for (const std::string& name : golden_names()) {
-        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
-        if (g.field != FieldType::Sdf) continue;
-        ++sdf;
+    const std::vector<GoldenVector> sdf = golden_sdf_vectors();
+    for (const auto& [name, g] : sdf) {
         std::ifstream summary(golden_path(name, ".grid128.txt"));
         ASSERT_TRUE(summary) << name;
         GridBuilder builder(g, 128, 0);
@@ -558,7 +563,7 @@ TEST(Extract, SdfGridMatchesPythonReferenceSummary) {
         EXPECT_EQ(levels, grid.levels.size()) << name;
         EXPECT_EQ(grid.stats.points_evaluated, evaluated) << name;
     }
-    EXPECT_GE(sdf, 4u) << "the SDF vectors are missing";
+    EXPECT_GE(sdf.size(), 4u) << "the SDF vectors are missing";
 }
 
 }  // namespace
