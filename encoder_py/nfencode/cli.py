@@ -477,8 +477,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--points", type=int, default=None, help="write this many surface points instead of the mesh")
     p.add_argument("--seed", type=int, default=0, help="seed of the point sampling")
     p.add_argument("--sample-band", action="store_true",
-                   help="sample an SDF on the band around its surface, not only where it crosses cells "
-                        "(nfc-decode --sample-band): more evaluations, also finds small voids inside the solid")
+                   help="sample the band around the surface, not only the cells it crosses (UDF: can "
+                        "carry triangles; nfc-decode --sample-band): more evaluations, also finds an "
+                        "SDF's small voids inside the solid")
     p.set_defaults(run=cmd_decode)
 
     p = sub.add_parser("eval", help="Chamfer distance (and colour PSNR when both are coloured) between a "

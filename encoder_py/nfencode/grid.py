@@ -5,7 +5,7 @@ Grid of `resolution` cells per axis over the unit frame [-1, 1]^3; vertex i sits
 ceil(resolution / 2^l) cells per axis; the coarsest level, refinement_levels() up, is visited
 whole in raster order (x fastest). Below it (grid.h has the rules and their reasons):
 
-* UDF (and an SDF sampled on its band, build_grid's `band`), the keep rule: a cell is kept when
+* The band (build_grid's `band`), the keep rule: a cell is kept when
   its corners change sign (SDF) or min |f| <= keep_threshold(udf, h) = margin * h * sqrt(3)/2
   (f32 arithmetic); the kept cells pass their children, in parent order and
   mc_tables.CORNER_OFFSET order within a parent, to the next level, dropping children that start
@@ -16,6 +16,12 @@ whole in raster order (x fastest). Below it (grid.h has the rules and their reas
   SDF_NEAR_ZERO_CELL * h of zero, inside the region of those cells and their 26 neighbours, plus
   every child of the isolated cells above (no sign change, kept by the keep rule, no sign-change
   neighbour); in visit_order().
+* UDF, surface following with the mesher's valid edges (f_a + f_b <= udf_edge_limit(h)) in place
+  of sign changes: seeded at the children holding a valid half of each valid edge of the cells
+  above, and at every child of a cell above with a valid edge but no seed in itself or its 26
+  neighbours; flooded across faces holding an edge with f_a + f_b <= UDF_FLOOD_EDGE * h, inside
+  the region of the cells above with a valid edge and their 26 neighbours, plus every child of
+  the isolated cells above (UDF keep margin, no valid edge, no such neighbour); in visit_order().
 
 Vertices with all-even indices are copied from the parent level where it has them, the others
 evaluated. Values are stored in f32, as the C++ grid stores them, so that every decision downstream
@@ -45,6 +51,7 @@ UDF_KEEP_MARGIN = np.float32(2.0)  # kUdfKeepMargin
 SDF_NEAR_ZERO_CELL = np.float32(0.5)  # kSdfNearZeroCell
 HALF_DIAGONAL = np.float32(0.8660254)  # sqrt(3) / 2 as the f32 constant of grid.h
 UDF_EDGE_FACTOR = np.float32(1.5)  # kUdfEdgeFactor
+UDF_FLOOD_EDGE = np.float32(2.0)  # kUdfFloodEdge
 
 
 def cells_at_level(resolution: int, level: int) -> int:
@@ -93,12 +100,23 @@ def udf_edge_limit(h: np.float32) -> np.float32:
     return UDF_EDGE_FACTOR * h
 
 
+def edges_within(corner_values: np.ndarray, limit: np.float32) -> np.ndarray:
+    """(N, 12): the edges (EDGE_CORNERS order) of cells whose ends' values sum to at most `limit`
+    (f32; NaN: not)."""
+    sums = corner_values[..., EDGE_CORNERS[:, 0]] + corner_values[..., EDGE_CORNERS[:, 1]]
+    return sums <= limit
+
+
+def udf_valid_edges(corner_values: np.ndarray, h: np.float32) -> np.ndarray:
+    """(N, 12): the UDF mesher's valid edges of cells of edge h (sum <= udf_edge_limit(h))."""
+    return edges_within(corner_values, udf_edge_limit(h))
+
+
 def udf_cell_is_near(corner_values: np.ndarray, h: np.float32) -> np.ndarray:
     """A finest cell of a UDF may carry triangles: all corners finite, and its valid edges
     (f_a + f_b <= udf_edge_limit(h)) include the three edges of some triangle of the table."""
     finite = np.isfinite(corner_values).all(axis=1)
-    sums = corner_values[:, EDGE_CORNERS[:, 0]] + corner_values[:, EDGE_CORNERS[:, 1]]
-    valid = ((sums <= udf_edge_limit(h)) << np.arange(12)).sum(axis=1)
+    valid = (udf_valid_edges(corner_values, h) << np.arange(12)).sum(axis=1)
     return finite & HOLDS_TRIANGLE[valid]
 
 
@@ -210,20 +228,27 @@ def visit_order(cells: np.ndarray, side: int) -> np.ndarray:
 
 
 _AROUND = np.array([(x, y, z) for z in (-1, 0, 1) for y in (-1, 0, 1) for x in (-1, 0, 1)])
-_FACES = [(axis, side, np.array([k for k in range(8) if CORNER_OFFSET[k][axis] == side]))
+# Per face of a cell (axis, side): its corners and its edges (EDGE_CORNERS indices).
+_FACES = [(axis, side, np.flatnonzero(CORNER_OFFSET[:, axis] == side),
+           np.flatnonzero((CORNER_OFFSET[EDGE_CORNERS][:, :, axis] == side).all(axis=1)))
           for axis in range(3) for side in (0, 1)]
 
 
-def _follow_region(level: GridLevel, step: np.float32) -> tuple[np.ndarray, np.ndarray]:
-    """grid_follow.cpp's follow_region: the sorted cell keys of the region (the sign-change cells
-    of `level` and their 26 neighbours) and its isolated cells."""
+def _followed(corner_values: np.ndarray, h: np.float32, udf: bool) -> np.ndarray:
+    """The cells that surface following grows from: a sign change (SDF), a valid edge (UDF)."""
+    return udf_valid_edges(corner_values, h).any(axis=1) if udf else _sign_change(corner_values)
+
+
+def _follow_region(level: GridLevel, step: np.float32, udf: bool) -> tuple[np.ndarray, np.ndarray]:
+    """grid_follow.cpp's follow_region: the sorted cell keys of the region (the followed cells of
+    `level` and their 26 neighbours) and its isolated cells."""
     n = level.cells_per_axis
     f = level.corner_values()
-    active = _sign_change(f)
+    h = step * np.float32(1 << level.level)
+    active = _followed(f, h, udf)
     around = (level.cells[active][:, None, :] + _AROUND[None]).reshape(-1, 3)
     region = np.unique(cell_keys(around[((around >= 0) & (around < n)).all(axis=1)], n))
-    h = step * np.float32(1 << level.level)
-    candidates = ~active & cell_may_contain_surface(f, keep_threshold(False, h))
+    candidates = ~active & cell_may_contain_surface(f, keep_threshold(udf, h))
     isolated = level.cells[candidates]
     return region, isolated[~np.isin(cell_keys(isolated, n), region)]
 
@@ -250,7 +275,7 @@ class _Values:
 
 
 def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: GridLevel,
-                    region: np.ndarray, isolated: np.ndarray) -> tuple[GridLevel, int]:
+                    region: np.ndarray, isolated: np.ndarray, udf: bool) -> tuple[GridLevel, int]:
     """grid_follow.cpp's follow_surface: level `level` below `parent`, and its new evaluations."""
     n = cells_at_level(resolution, level)
     side = n + 1
@@ -272,40 +297,68 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
         evaluated += int(todo.sum())
         known.add(keys, values)
 
-    # Seeds: one child per crossed edge of each sign-change parent, from its midpoint's sign.
+    # Seeds: SDF, one child per crossed edge of each sign-change parent, from its midpoint's sign;
+    # UDF, the children holding a valid half of each valid edge of a parent with one.
+    h = grid_step(resolution) * np.float32(1 << level)
+    parent_h = grid_step(resolution) * np.float32(1 << (level + 1))
     f = parent.corner_values()
-    active = _sign_change(f)
+    active = _followed(f, parent_h, udf)
     cells, f = parent.cells[active], f[active]
+    parent_valid = udf_valid_edges(f, parent_h) if udf else None
+    seeded = np.zeros(len(cells), dtype=bool)
     seeds = []
-    for a, b in EDGE_CORNERS.tolist():
+    for e, (a, b) in enumerate(EDGE_CORNERS.tolist()):
         axis = int(np.argmax(CORNER_OFFSET[b] - CORNER_OFFSET[a]))
-        crossed = (f[:, a] < 0) != (f[:, b] < 0)
+        crossed = parent_valid[:, e] if udf else (f[:, a] < 0) != (f[:, b] < 0)
         middle = 2 * (cells[crossed] + CORNER_OFFSET[a])
         middle[:, axis] += 1
         on_grid = (middle <= n).all(axis=1)
         fetch(vertex_keys(middle[on_grid], side))
+        f_middle = known.at(vertex_keys(middle[on_grid], side))
+        f_ends = f[crossed][on_grid]
         child = 2 * cells[crossed][on_grid] + CORNER_OFFSET[a]
-        upper = (f[crossed][on_grid, a] < 0) == (known.at(vertex_keys(middle[on_grid], side)) < 0)
-        child[:, axis] = 2 * cells[crossed][on_grid, axis] + upper
+        if udf:
+            limit = udf_edge_limit(h)
+            upper = child.copy()
+            upper[:, axis] += 1
+            lower_valid = f_ends[:, a] + f_middle <= limit
+            upper_valid = f_middle + f_ends[:, b] <= limit
+            seeds += [child[lower_valid], upper[upper_valid]]
+            seeded[np.flatnonzero(crossed)[on_grid][lower_valid | upper_valid]] = True
+            continue
+        child[:, axis] += (f_ends[:, a] < 0) == (f_middle < 0)
         seeds.append(child)
+    # UDF: a parent with a valid edge and no seed in itself or its 26 neighbours holds the surface
+    # inside, away from its edges: all its children are seeds. Beside a seeded neighbour the
+    # surface passes there, and the flood comes from it.
+    if udf:
+        pn = parent.cells_per_axis
+        around = (cells[seeded][:, None, :] + _AROUND[None]).reshape(-1, 3)
+        near_seeded = np.unique(cell_keys(around[((around >= 0) & (around < pn)).all(axis=1)], pn))
+        lone = ~seeded & ~np.isin(cell_keys(cells, pn), near_seeded)
+        seeds.append((2 * cells[lone][:, None, :] + CORNER_OFFSET[None]).reshape(-1, 3))
     seeds.append((2 * isolated[:, None, :] + CORNER_OFFSET[None]).reshape(-1, 3))
     frontier = np.concatenate(seeds)
     frontier = frontier[(frontier < n).all(axis=1)]
     visited = np.unique(cell_keys(frontier, n))
     frontier = np.stack([visited % n, visited // n % n, visited // (n * n)], axis=1)
 
-    # The flood, a wave at a time, inside the region: across faces with a sign change, and above
-    # the finest level every face of a cell near zero.
-    h = grid_step(resolution) * np.float32(1 << level)
-    near_zero_limit = SDF_NEAR_ZERO_CELL * h if level > 0 else np.float32(0)
+    # The flood, a wave at a time, inside the region: SDF, across faces with a sign change, and
+    # above the finest level every face of a cell near zero; UDF, across faces holding an edge
+    # with f_a + f_b <= UDF_FLOOD_EDGE * h.
+    near_zero_limit = SDF_NEAR_ZERO_CELL * h if level > 0 and not udf else np.float32(0)
     while len(frontier):
         corners = vertex_keys(frontier[:, None, :] + CORNER_OFFSET[None], side)
         fetch(corners.ravel())
         values = known.at(corners)
         near_zero = (np.abs(values) < near_zero_limit).all(axis=1)
+        floodable = edges_within(values, UDF_FLOOD_EDGE * h) if udf else None
         grown = []
-        for axis, face, corner_ids in _FACES:
-            through = _sign_change(values[:, corner_ids]) | near_zero
+        for axis, face, corner_ids, edge_ids in _FACES:
+            if udf:
+                through = floodable[:, edge_ids].any(axis=1)
+            else:
+                through = _sign_change(values[:, corner_ids]) | near_zero
             neighbour = frontier[through].copy()
             neighbour[:, axis] += 1 if face else -1
             neighbour = neighbour[((neighbour >= 0) & (neighbour < n)).all(axis=1)]
@@ -351,9 +404,11 @@ def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | No
     level, evaluated = _evaluate_level(field_fn, resolution, top, cells, None)
     levels = [level]
     for lower in range(top - 1, -1, -1):
-        if udf_gradient is None and not band:
-            region, isolated = _follow_region(levels[0], grid_step(resolution))
-            level, new = _follow_surface(field_fn, resolution, lower, levels[0], region, isolated)
+        if not band:
+            udf = udf_gradient is not None
+            region, isolated = _follow_region(levels[0], grid_step(resolution), udf)
+            level, new = _follow_surface(field_fn, resolution, lower, levels[0], region, isolated,
+                                         udf)
         else:
             cells = _children(levels[0], grid_step(resolution), cells_at_level(resolution, lower),
                               udf_gradient is not None)

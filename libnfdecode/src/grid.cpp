@@ -229,7 +229,7 @@ bool udf_cell_is_near(const float corner_values[8], float h) {
 
 GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band)
     : network_(geometry.network), threads_(threads),
-      follow_(geometry.field == FieldType::Sdf && !band) {
+      follow_(!band) {
     grid_.resolution = resolution;
     grid_.step = 2.0f / float(resolution);
     grid_.field = geometry.field;
@@ -329,10 +329,13 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
     if (done()) return 0;
     const LevelSize next = next_level_size();
     const uint32_t level = stepped_ ? current_ - 1 : current_;
-    // Its cells, its vertex set and values, the evaluator; an SDF's flood below the coarsest
-    // level; unless it is the finest, what decides the level after: the keep rule's verdicts on
-    // it and the bitmap of the blocks of the level after (keep_cells), or the region.
-    const uint64_t flood = follow_ && stepped_ ? follow_surface_bytes_bound(next) : 0;
+    // Its cells, its vertex set and values, the evaluator; surface following's flood below the
+    // coarsest level; unless it is the finest, what decides the level after: the keep rule's
+    // verdicts on it and the bitmap of the blocks of the level after (keep_cells), or the region.
+    const uint64_t flood =
+        follow_ && stepped_
+            ? follow_surface_bytes_bound(next, grid_.levels[current_].vertices.size())
+            : 0;
     uint64_t refine = 0;
     if (level > 0 && follow_) {
         refine = follow_region_bytes_bound(next, cells_at_level(grid_.resolution, level - 1));

@@ -1,10 +1,9 @@
 // The sparse grid: the product of coarse-to-fine field sampling, shared by every output (the SDF
 // mesher, the UDF mesher, the VDB narrow band, progressive levels). The CPU reference builds it in
-// grid.cpp and grid_follow.cpp. The GPU path (gpu/) visits the same cells with the same rule for a
-// UDF; for an SDF it still applies the keep rule, the CPU's `band` (per-parent child grids, a
-// fixed number of dispatches per level, where surface following grows a level in waves), which
-// finds the sign-change cells surface following finds and the voids below, from about 2.5 times
-// the evaluations.
+// grid.cpp and grid_follow.cpp. The GPU path (gpu/) still applies the keep rule, the CPU's `band`
+// (per-parent child grids, a fixed number of dispatches per level, where surface following grows
+// a level in waves), which finds the cells surface following finds (SDF: and the voids below)
+// from about 2 (UDF) to 2.5 (SDF) times the evaluations.
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -33,7 +32,7 @@ uint32_t refinement_levels(uint32_t resolution);
 
 // Which cells each level visits. The coarsest level: all of them. Below it, two schedules:
 //
-// - UDF, and an SDF's band (GridBuilder's `band`): the keep rule. A cell of edge length h (unit
+// - The band (GridBuilder's `band`): the keep rule. A cell of edge length h (unit
 //   frame) is kept for refinement, and its eight children visited, when min |f| over its corners
 //   <= keep_threshold(field, h) = margin * h * sqrt(3) / 2 (f32, in that order), or (SDF) its
 //   corners change sign: a surface point inside the cell is within h*sqrt(3)/2 of its nearest
@@ -43,6 +42,25 @@ uint32_t refinement_levels(uint32_t resolution);
 //   the near cells too (udf_cell_is_near), which lie beside the surface, and fields learned from
 //   point clouds are steeper: margin 1 loses near cells of the milk cloud at 512, and 1.5 saves
 //   only 3% of the points.
+//
+// - UDF: surface following (grid_follow.cpp), the SDF's schedule below with the UDF mesher's valid
+//   edges (udf_edge_limit) in place of sign changes. A level visits the cells reached from
+//   1. seeds: each valid edge (at its own size) of a cell above with one has its midpoint
+//      evaluated, and the child holding each half that is valid at the child's size is a seed
+//      (where a distance field's surface crosses the edge, the half it crosses is); a cell above
+//      with a valid edge, no seed and no seed in its 26 neighbours has all its children seeded
+//      (a small closed piece inside it, away from its edges: a sphere of radius 0.02 in a coarse
+//      cell of 0.0625);
+//   2. a flood across the faces that hold an edge with f_a + f_b <= kUdfFloodEdge * h (the
+//      neighbour shares that edge), inside the region of the followed cells above and their 26
+//      neighbours, plus every child of the isolated cells above (keep rule with the UDF margin,
+//      no valid edge, no followed neighbour), as for an SDF.
+//   The near cells that the mesher needs (udf_cell_is_near) lie on valid edges, which connect
+//   them to the sheet they belong to. On the golden UDF vectors (garment, scans, coloured cloud)
+//   and the bunny UDF the finest level visits every near cell of the dense grid at 128, 150, 256
+//   and the band's at 512, meshes identical, from 0.45-0.54 of the band's evaluations
+//   (bench/RESULTS.md, "0.12"). What it gives up is the same kind as the SDF's: a cluster of near
+//   cells that no seed reaches and no floodable face joins to the sheet.
 //
 // - SDF: surface following (grid_follow.cpp). A level visits the cells with a sign change (a
 //   corner f < 0 and one not: NaN counts as not negative, as in the mesher's case index) and
@@ -83,7 +101,7 @@ uint32_t refinement_levels(uint32_t resolution);
 //   that are no shape's distance field lose more: random SIRENs, whose surfaces fill a quarter of
 //   the cells in small pieces, lose 1-44% of the dense grid's sign-change cells (width 32, seeds
 //   11, 21 and 5 at 64 and 128, 0.11.1; the band: 0-3%). GridBuilder's `band`
-//   (nfd_mesh_options.sample_band) keeps the keep rule for an SDF.
+//   (nfd_mesh_options.sample_band) keeps the keep rule.
 constexpr float kSdfKeepMargin = 1.0f;
 constexpr float kUdfKeepMargin = 2.0f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
@@ -287,6 +305,11 @@ struct GridOptions {
 // has f_a + f_b <= h; the factor covers gradient norms up to 1.5.
 constexpr float kUdfEdgeFactor = 1.5f;
 inline float udf_edge_limit(float h) { return kUdfEdgeFactor * h; }
+// UDF surface following floods across the faces of a cell that hold an edge with f_a + f_b <=
+// kUdfFloodEdge * h: a third more than a valid edge, so that a cluster of near cells beside the
+// sheet behind a face whose edges only just fail the mesher's test is reached (the milk cloud at
+// 256 loses 10 near cells at 1.5 h, none at 1.8 h; bench/RESULTS.md, "0.12").
+constexpr float kUdfFloodEdge = 2.0f;
 // A finest-level cell of a UDF is *near* (may carry triangles) when its corners are finite and its
 // valid edges include the three edges of some triangle of the table (mc::Tables::holds_triangle):
 // an emitted triangle needs three valid edges, so no other cell can emit one whatever its pseudo-
@@ -310,9 +333,10 @@ struct SparseGrid {
     float coord(uint32_t fine_index) const { return -1.0f + float(fine_index) * step; }
 };
 
-// Surface following (SDF levels below the coarsest, above): what a level's flood may enter.
+// Surface following (levels below the coarsest, above): what a level's flood may enter.
 struct FollowRegion {
-    VertexSet parents;                 // the cells above with a sign change and their 26 neighbours
+    VertexSet parents;                 // the followed cells above (sign change, valid edge) and
+                                       // their 26 neighbours
     nfd::vector<uint32_t> refine_all;  // the isolated cells above (step 3), packed
 };
 // The region below `level` (level.level > 0), and the size of the level it bounds.
@@ -324,9 +348,10 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
                     const FollowRegion& region, uint64_t blocks, unsigned threads,
                     GridLevel* out, uint64_t* evaluated);
 // What follow_region on a level of size `level` allocates, and what follow_surface allocates
-// for a level of size `next` beyond its cells, vertex set, values and evaluator.
+// for a level of size `next` below a level of `parent_vertices` vertices beyond its cells, vertex
+// set, values and evaluator.
 uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells);
-uint64_t follow_surface_bytes_bound(const LevelSize& next);
+uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices);
 
 // CPU reference of the coarse-to-fine evaluation, one level per step(): build_grid_cpu steps it
 // to the finest level; a progressive extraction (progressive.h) meshes the levels on the way.
@@ -334,9 +359,9 @@ uint64_t follow_surface_bytes_bound(const LevelSize& next);
 class GridBuilder {
 public:
     // `resolution` within NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION; `threads` as for evaluate_cpu.
-    // `band`: an SDF's levels too by the keep rule, for a band of values several cells deep on
-    // each side of the surface (nfd_grid_extract's product), instead of surface following (the
-    // meshers', which need only the sign-change cells).
+    // `band`: the levels by the keep rule, for a band of values several cells deep on each side of
+    // the surface (nfd_grid_extract's product), instead of surface following (the meshers', which
+    // need only the sign-change or near cells).
     GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band = false);
     // Evaluates the next level (the coarse one first: all its cells; then the children of the
     // kept cells of the level before, or the cells surface following finds), then, unless it is
@@ -361,12 +386,12 @@ public:
 private:
     const Network& network_;
     const unsigned threads_;
-    const bool follow_;  // surface following: an SDF without `band`
+    const bool follow_;  // surface following: without `band`
     SparseGrid grid_;
     uint32_t current_ = 0;
     bool stepped_ = false;
     nfd::vector<uint8_t> kept_;  // keep rule: of the current level's cells, its verdicts
-    FollowRegion region_;        // SDF: where the next level's flood may go
+    FollowRegion region_;        // surface following: where the next level's flood may go
     LevelSize next_;             // of the next level, from the verdicts or the region
 };
 

@@ -1,7 +1,7 @@
-// CPU reference of the SDF levels below the coarsest (grid.h, "Surface following"): the cells of a
-// level are found from the crossed edges of the level above and flooded across faces with a sign
-// change and (above the finest level) out of cells near zero, each corner evaluated once, inside
-// a region sized before the level starts.
+// CPU reference of the levels below the coarsest (grid.h, "Surface following"): the cells of a
+// level are found from the crossed (SDF) or valid (UDF) edges of the level above and flooded across
+// faces with a sign change and (above the finest level) out of cells near zero, or across faces
+// with a valid edge, each corner evaluated once, inside a region sized before the level starts.
 #include <algorithm>
 #include <cmath>
 
@@ -26,9 +26,42 @@ bool is_near_zero(const float f[8], float limit) {
     return near;
 }
 
-// The corners of the face of a cell across which its neighbour lies, per face 2 * axis + side.
+// The edges of a cell whose ends' values sum to at most `limit`: bit e for edge e of
+// mc::kEdgeCorners. NaN makes no edge pass.
+uint32_t edges_within(const float f[8], float limit) {
+    uint32_t within = 0;
+    for (int e = 0; e < 12; ++e)
+        within |= uint32_t(f[mc::kEdgeCorners[e][0]] + f[mc::kEdgeCorners[e][1]] <= limit) << e;
+    return within;
+}
+// The UDF mesher's valid edges of a cell of edge h (grid.h, udf_edge_limit).
+uint32_t udf_valid_edges(const float f[8], float h) { return edges_within(f, udf_edge_limit(h)); }
+// The cells a level grows from: a sign change (SDF), a valid edge (UDF).
+bool is_followed(FieldType field, const float f[8], float h) {
+    return field == FieldType::Udf ? udf_valid_edges(f, h) != 0 : has_sign_change(f);
+}
+
+// The corners of the face of a cell across which its neighbour lies, per face 2 * axis + side,
+// and the edges of that face (mc::kEdgeCorners indices) as a mask.
 constexpr uint8_t kFaceCorners[6][4] = {{0, 2, 4, 6}, {1, 3, 5, 7}, {0, 1, 4, 5},
                                         {2, 3, 6, 7}, {0, 1, 2, 3}, {4, 5, 6, 7}};
+bool face_changes_sign(const float f[8], int face) {
+    const float g[4] = {f[kFaceCorners[face][0]], f[kFaceCorners[face][1]],
+                        f[kFaceCorners[face][2]], f[kFaceCorners[face][3]]};
+    return has_sign_change(g, 4);
+}
+constexpr uint32_t face_edges(int face) {
+    uint32_t mask = 0;
+    for (int e = 0; e < 12; ++e) {
+        const uint8_t a = mc::kEdgeCorners[e][0], b = mc::kEdgeCorners[e][1];
+        const int axis = face / 2, side = face & 1;
+        if (mc::kCornerOffset[a][axis] == side && mc::kCornerOffset[b][axis] == side)
+            mask |= 1u << e;
+    }
+    return mask;
+}
+constexpr uint32_t kFaceEdges[6] = {face_edges(0), face_edges(1), face_edges(2),
+                                    face_edges(3), face_edges(4), face_edges(5)};
 
 // The child level while the flood grows it, by blocks of 8^3 vertices as VertexSet stores them:
 // per block the vertices whose value is known or queued and the cells visited (a cell's bit is
@@ -148,13 +181,13 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
     const uint32_t n = level.cells_per_axis;
     const float threshold = keep_threshold(grid.field, level.cell_size);
     region->parents = VertexSet(n + 1);
-    region->refine_all = nfd::vector<uint32_t>();  // first the keep rule's cells without a sign change
+    region->refine_all = nfd::vector<uint32_t>();  // first the keep rule's cells not followed
     for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];
         unpack_coords(level.cells[i], c);
         float f[8];
         level.corners(c, f);
-        if (!has_sign_change(f)) {
+        if (!is_followed(grid.field, f, level.cell_size)) {
             if (cell_may_contain_surface(f, threshold)) region->refine_all.push_back(level.cells[i]);
             continue;
         }
@@ -164,7 +197,7 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
                     region->parents.insert(x, y, z);
     }
     region->parents.finish();
-    // Of those, the isolated ones: no sign-change neighbour, so not in the region.
+    // Of those, the isolated ones: no followed neighbour, so not in the region.
     auto in_region = [&](uint32_t packed) {
         uint32_t c[3], r;
         unpack_coords(packed, c);
@@ -196,9 +229,11 @@ uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells)
            ChildLevelSize::bytes(child_cells);
 }
 
-uint64_t follow_surface_bytes_bound(const LevelSize& next) {
-    // The flood's store, its two frontiers (each at most the level's cells, grown by doubling).
-    return FloodStore::bytes_bound(next.cells_per_axis + 1, next.blocks) + 16 * next.cells;
+uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices) {
+    // The flood's store, its two frontiers (each at most the level's cells, grown by doubling),
+    // a UDF's seeded-parent bits.
+    return FloodStore::bytes_bound(next.cells_per_axis + 1, next.blocks) + 16 * next.cells +
+           (parent_vertices + 63) / 64 * 8;
 }
 
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
@@ -228,13 +263,17 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
         }
     };
 
-    // Seeds: the midpoint of each crossed edge of a parent with a sign change tells which half
-    // the surface crosses; the parent's child holding that half has a sign change. A parent
-    // edge is shared by up to four parents, which evaluate its midpoint once and agree.
+    // Seeds. SDF: the midpoint of each crossed edge of a parent with a sign change tells which
+    // half the surface crosses; the parent's child holding that half has a sign change. UDF: each
+    // valid edge of a parent (at the parent's size) has its midpoint evaluated, and the child
+    // holding each half that is valid at this level's size is a seed; where a distance field's
+    // surface crosses the edge, the half it crosses is. A parent edge is shared by up to four
+    // parents, which evaluate its midpoint once and agree.
+    const bool udf = grid.field == FieldType::Udf;
     struct CrossedParentEdge {
         uint32_t cell[3];       // the parent
         const uint8_t* lower;   // its corner at the edge's lower end (mc::kCornerOffset)
-        float f_lower;          // the value there
+        float f_lower, f_upper;  // the values at the edge's ends
         int axis;
         uint32_t middle[3];     // the midpoint, a vertex of this level
         uint32_t slot;          // the midpoint's
@@ -245,12 +284,14 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
             unpack_coords(packed, e.cell);
             float f[8];
             parent.corners(e.cell, f);
-            if (!has_sign_change(f)) continue;
+            const uint32_t valid = udf ? udf_valid_edges(f, parent.cell_size) : 0;
+            if (udf ? valid == 0 : !has_sign_change(f)) continue;
             for (int k = 0; k < 12; ++k) {
                 const uint8_t a = mc::kEdgeCorners[k][0], b = mc::kEdgeCorners[k][1];
-                if ((f[a] < 0.0f) == (f[b] < 0.0f)) continue;
+                if (udf ? !(valid >> k & 1) : (f[a] < 0.0f) == (f[b] < 0.0f)) continue;
                 e.lower = mc::kCornerOffset[a];
                 e.f_lower = f[a];
+                e.f_upper = f[b];
                 e.axis = k / 4;
                 for (int i = 0; i < 3; ++i) e.middle[i] = 2 * (e.cell[i] + e.lower[i]);
                 ++e.middle[e.axis];
@@ -265,12 +306,49 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
         if (store.claim_known(e.slot)) fetch(e.slot, e.middle[0], e.middle[1], e.middle[2]);
     });
     evaluator.finish();
+    const float edge_limit = udf_edge_limit(out->cell_size);
+    // UDF: the parents whose edges gave a seed, a bit per parent vertex rank of their lowest corner.
+    nfd::vector<uint64_t> seeded(udf ? (parent.vertices.size() + 63) / 64 : 0);
     for_each_crossed_edge([&](const CrossedParentEdge& e) {
         uint32_t child[3];
         for (int i = 0; i < 3; ++i) child[i] = 2 * e.cell[i] + e.lower[i];
-        child[e.axis] = 2 * e.cell[e.axis] + ((e.f_lower < 0.0f) == (store.value(e.slot) < 0.0f));
-        visit(child[0], child[1], child[2]);
+        const float f_middle = store.value(e.slot);
+        if (!udf) {
+            child[e.axis] += (e.f_lower < 0.0f) == (f_middle < 0.0f);
+            visit(child[0], child[1], child[2]);
+            return;
+        }
+        const bool lower = e.f_lower + f_middle <= edge_limit;
+        const bool upper = f_middle + e.f_upper <= edge_limit;
+        if (lower) visit(child[0], child[1], child[2]);
+        ++child[e.axis];
+        if (upper) visit(child[0], child[1], child[2]);
+        if (lower || upper) {
+            const uint32_t r = parent.vertices.rank(e.cell[0], e.cell[1], e.cell[2]);
+            seeded[r / 64] |= uint64_t(1) << (r % 64);
+        }
     });
+    // UDF: a parent with a valid edge but no seed, none of whose 26 neighbours has one, holds the
+    // surface inside, away from its edges (a small closed piece): all its children are seeds.
+    // Where a neighbour has seeds, the surface passes beside it and the flood comes from there.
+    auto is_seeded = [&](int64_t x, int64_t y, int64_t z) {
+        uint32_t r;
+        return parent.vertices.find(x, y, z, &r) && (seeded[r / 64] >> (r % 64) & 1);
+    };
+    for (size_t i = 0; udf && i < parent.cells.size(); ++i) {
+        uint32_t c[3];
+        unpack_coords(parent.cells[i], c);
+        float f[8];
+        parent.corners(c, f);
+        if (!udf_valid_edges(f, parent.cell_size) || is_seeded(c[0], c[1], c[2])) continue;
+        bool lone = true;
+        for (int k = 0; k < 27 && lone; ++k)
+            lone = !is_seeded(int64_t(c[0]) + k % 3 - 1, int64_t(c[1]) + k / 3 % 3 - 1,
+                              int64_t(c[2]) + k / 9 - 1);
+        if (!lone) continue;
+        for (const auto& o : mc::kCornerOffset)
+            visit(2 * c[0] + o[0], 2 * c[1] + o[1], 2 * c[2] + o[2]);
+    }
     for (uint32_t packed : region.refine_all) {
         uint32_t c[3];
         unpack_coords(packed, c);
@@ -280,8 +358,10 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
 
     // The flood, a wave at a time: the wave's corners evaluated together, then the neighbours
     // behind its faces with a sign change (which have one too), or above the finest level behind
-    // all six faces of a cell near zero (|f| < 0 holds nowhere), inside the region.
-    const float near_zero = l > 0 ? kSdfNearZeroCell * out->cell_size : 0.0f;
+    // all six faces of a cell near zero (|f| < 0 holds nowhere), or (UDF) behind its faces with a
+    // valid edge (which the neighbour shares), inside the region.
+    const float near_zero = l > 0 && !udf ? kSdfNearZeroCell * out->cell_size : 0.0f;
+    const float flood_limit = kUdfFloodEdge * out->cell_size;
     while (!frontier.empty()) {
         std::swap(frontier, wave);  // visit() appends the next wave to `frontier`
         frontier.clear();
@@ -302,11 +382,11 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
             float f[8];
             for (int k = 0; k < 8; ++k) f[k] = store.value(s[k]);
             const bool every_face = is_near_zero(f, near_zero);
-            if (!every_face && !has_sign_change(f)) continue;
+            const uint32_t floodable = udf ? edges_within(f, flood_limit) : 0;
+            if (udf ? floodable == 0 : !every_face && !has_sign_change(f)) continue;
             for (int face = 0; face < 6; ++face) {
-                const float g[4] = {f[kFaceCorners[face][0]], f[kFaceCorners[face][1]],
-                                    f[kFaceCorners[face][2]], f[kFaceCorners[face][3]]};
-                if (!every_face && !has_sign_change(g, 4)) continue;
+                if (udf ? !(floodable & kFaceEdges[face]) : !every_face && !face_changes_sign(f, face))
+                    continue;
                 uint32_t nb[3] = {c[0], c[1], c[2]};
                 const int axis = face / 2;
                 if (face & 1) {

@@ -216,19 +216,19 @@ Extracted extract(const GeomSpec& spec, uint32_t resolution) {
     return e;
 }
 
-// The golden SDF vectors (tests/vectors), by name, parsed.
+// The golden vectors (tests/vectors) of one field type, by name, parsed.
 using GoldenVector = std::pair<std::string, Geometry>;
-std::vector<GoldenVector> golden_sdf_vectors() {
-    std::vector<GoldenVector> sdf;
+std::vector<GoldenVector> golden_vectors(FieldType field) {
+    std::vector<GoldenVector> vectors;
     for (const std::string& name : golden_names()) {
         Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
-        if (g.field == FieldType::Sdf) sdf.emplace_back(name, std::move(g));
+        if (g.field == field) vectors.emplace_back(name, std::move(g));
     }
-    return sdf;
+    return vectors;
 }
 
-// Marching cubes over the dense grid's sign changes: what the sparse extraction must reproduce.
-void dense_reference(const Network& net, uint32_t r, uint64_t* active, uint64_t* triangles) {
+// The field at every vertex of the dense grid of r cells per axis, x fastest.
+std::vector<float> dense_values(const Network& net, uint32_t r) {
     const size_t side = r + 1;
     std::vector<float> p(3 * side * side * side), v(side * side * side);
     for (size_t i = 0; i < v.size(); ++i) {
@@ -236,18 +236,35 @@ void dense_reference(const Network& net, uint32_t r, uint64_t* active, uint64_t*
         for (int a = 0; a < 3; ++a) p[3 * i + a] = -1.0f + float(idx[a]) * (2.0f / float(r));
     }
     evaluate_cpu(net, p.data(), v.size(), v.data());
-    *active = *triangles = 0;
+    return v;
+}
+
+// fn(cell, f) for every cell of the dense grid of r cells per axis, with its corner values.
+template <class Fn>
+void for_each_dense_cell(const std::vector<float>& v, uint32_t r, Fn&& fn) {
+    const size_t side = r + 1;
     for (uint32_t z = 0; z < r; ++z)
         for (uint32_t y = 0; y < r; ++y)
             for (uint32_t x = 0; x < r; ++x) {
-                int index = 0;
+                float f[8];
                 for (int c = 0; c < 8; ++c) {
                     const uint8_t* o = mc::kCornerOffset[c];
-                    index |= int(v[((z + o[2]) * side + y + o[1]) * side + x + o[0]] < 0) << c;
+                    f[c] = v[((z + o[2]) * side + y + o[1]) * side + x + o[0]];
                 }
-                *active += index != 0 && index != 255;
-                *triangles += mc::tables().triangle_count[index];
+                const uint32_t cell[3] = {x, y, z};
+                fn(cell, f);
             }
+}
+
+// Marching cubes over the dense grid's sign changes: what the sparse extraction must reproduce.
+void dense_reference(const Network& net, uint32_t r, uint64_t* active, uint64_t* triangles) {
+    *active = *triangles = 0;
+    for_each_dense_cell(dense_values(net, r), r, [&](const uint32_t*, const float f[8]) {
+        int index = 0;
+        for (int c = 0; c < 8; ++c) index |= int(f[c] < 0) << c;
+        *active += index != 0 && index != 255;
+        *triangles += mc::tables().triangle_count[index];
+    });
 }
 
 TEST(Extract, ClosedFieldGivesWatertightOutwardMeshOnTheZeroSet) {
@@ -458,7 +475,7 @@ TEST(Extract, MatchesPythonReferenceMeshExactly) {
 // u = 1, from at most 4 evaluations per active cell (the coarsest level's 33^3 weighs at 128).
 // bench/keep_rule.cpp runs the same check at 256 and 512 on more shapes.
 TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
-    const std::vector<GoldenVector> sdf = golden_sdf_vectors();
+    const std::vector<GoldenVector> sdf = golden_vectors(FieldType::Sdf);
     for (const auto& [name, g] : sdf) {
         for (uint32_t r : {128u, 150u}) {
             MeshData mesh;
@@ -474,6 +491,45 @@ TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
         }
     }
     EXPECT_GE(sdf.size(), 4u) << "the SDF vectors are missing";
+}
+
+// UDF surface following (grid.h): every near cell of the dense grid (one that can carry a
+// triangle) is visited on the golden UDF vectors, at 128 and 150, from fewer evaluations than the
+// keep rule's band, and the mesh is the band's.
+TEST(Extract, GoldenUdfVectorsLoseNoNearCellAgainstTheDenseGrid) {
+    const std::vector<GoldenVector> udf = golden_vectors(FieldType::Udf);
+    for (const auto& [name, g] : udf) {
+        for (uint32_t r : {128u, 150u}) {
+            uint64_t dense = 0, found = 0;
+            const float step = 2.0f / float(r);
+            for_each_dense_cell(dense_values(g.network, r), r, [&](const uint32_t*, const float f[8]) {
+                dense += udf_cell_is_near(f, step);
+            });
+            GridBuilder builder(g, r, 0);
+            do builder.step();
+            while (!builder.done());
+            const GridLevel& finest = builder.grid().finest();
+            for (uint32_t packed : finest.cells) {
+                uint32_t c[3];
+                unpack_coords(packed, c);
+                float f[8];
+                finest.corners(c, f);
+                found += udf_cell_is_near(f, finest.cell_size);
+            }
+            EXPECT_EQ(found, dense) << name << " at " << r;
+            MeshData followed, band;
+            ExtractStats followed_stats, band_stats;
+            ASSERT_EQ(extract_mesh_cpu(g, r, &followed, &followed_stats, 0, false), NFD_SUCCESS);
+            ASSERT_EQ(extract_mesh_cpu(g, r, &band, &band_stats, 0, true), NFD_SUCCESS);
+            EXPECT_EQ(followed.triangle_count(), band.triangle_count()) << name << " at " << r;
+            EXPECT_LT(followed_stats.points_evaluated, band_stats.points_evaluated) << name;
+            std::printf("%s at %u: %llu near cells, %.2f evaluations per near cell (band %.2f)\n",
+                        name.c_str(), r, (unsigned long long)dense,
+                        double(followed_stats.points_evaluated) / double(dense),
+                        double(band_stats.points_evaluated) / double(dense));
+        }
+    }
+    EXPECT_GE(udf.size(), 3u) << "the UDF vectors are missing";
 }
 
 }  // namespace
@@ -533,37 +589,57 @@ TEST(ExtractUdf, AcceptedDamageMeshesFiniteOrEmpty) {
     EXPECT_GT(meshed, 0u);
 }
 
-// tests/vectors/v1_0_<name>.grid128.txt: the numpy reference's sparse grid of each golden SDF at
-// 128, whose two levels below the coarsest follow the surface (at 64, only the finest does): the
-// CPU path visits the same cells, keeps the same vertices and evaluates as many points, level by
-// level, seeds, floods, near-zero cells and isolated cells included.
-TEST(Extract, SdfGridMatchesPythonReferenceSummary) {
-    const std::vector<GoldenVector> sdf = golden_sdf_vectors();
-    for (const auto& [name, g] : sdf) {
-        std::ifstream summary(golden_path(name, ".grid128.txt"));
-        ASSERT_TRUE(summary) << name;
-        GridBuilder builder(g, 128, 0);
-        do builder.step();
-        while (!builder.done());
-        const SparseGrid& grid = builder.grid();
-        std::string word;
-        size_t levels = 0;
-        while (summary >> word && word == "level") {
-            uint32_t l = 0;
-            uint64_t cells = 0, vertices = 0;
-            summary >> l >> word >> cells >> word >> vertices;
-            ASSERT_LT(l, grid.levels.size()) << name;
-            EXPECT_EQ(grid.levels[l].cells.size(), cells) << name << " level " << l;
-            EXPECT_EQ(grid.levels[l].vertices.size(), vertices) << name << " level " << l;
-            ++levels;
+// tests/vectors/v1_*_<name>.grid128.txt: the numpy reference's sparse grid of each golden vector
+// at 128, whose two levels below the coarsest follow the surface (at 64, only the finest does):
+// the CPU path visits the same cells, keeps the same vertices and evaluates as many points, level
+// by level, seeds, floods, near-zero cells and isolated cells included, and (UDF) as many
+// gradients. Exactly for an SDF; a UDF's valid-edge tests land within f32 rounding of their limit
+// a few times per vector at 128 (relative gap 3e-7 on the bunny scans), where the two evaluators'
+// last bits decide, so its counts agree within 0.1%.
+TEST(Extract, GridMatchesPythonReferenceSummary) {
+    size_t checked = 0;
+    for (FieldType field : {FieldType::Sdf, FieldType::Udf}) {
+        auto expect_count = [field](uint64_t ours, uint64_t reference, const std::string& what) {
+            if (field == FieldType::Sdf) {
+                EXPECT_EQ(ours, reference) << what;
+            } else {
+                EXPECT_NEAR(double(ours), double(reference), 1e-3 * double(reference)) << what;
+            }
+        };
+        for (const auto& [name, g] : golden_vectors(field)) {
+            std::ifstream summary(golden_path(name, ".grid128.txt"));
+            ASSERT_TRUE(summary) << name;
+            GridBuilder builder(g, 128, 0);
+            do builder.step();
+            while (!builder.done());
+            if (field == FieldType::Udf) builder.evaluate_udf_gradients();
+            const SparseGrid& grid = builder.grid();
+            std::string word;
+            size_t levels = 0;
+            while (summary >> word && word == "level") {
+                uint32_t l = 0;
+                uint64_t cells = 0, vertices = 0;
+                summary >> l >> word >> cells >> word >> vertices;
+                ASSERT_LT(l, grid.levels.size()) << name;
+                const std::string at = name + " level " + std::to_string(l);
+                expect_count(grid.levels[l].cells.size(), cells, at + " cells");
+                expect_count(grid.levels[l].vertices.size(), vertices, at + " vertices");
+                ++levels;
+            }
+            uint64_t evaluated = 0, gradients = 0;
+            summary >> evaluated;
+            EXPECT_EQ(word, "evaluated") << name;
+            EXPECT_EQ(levels, grid.levels.size()) << name;
+            expect_count(grid.stats.points_evaluated, evaluated, name + " evaluated");
+            if (field == FieldType::Udf) {
+                summary >> word >> gradients;
+                EXPECT_EQ(word, "gradients") << name;
+                expect_count(grid.stats.gradients_evaluated, gradients, name + " gradients");
+            }
+            ++checked;
         }
-        uint64_t evaluated = 0;
-        summary >> evaluated;
-        EXPECT_EQ(word, "evaluated") << name;
-        EXPECT_EQ(levels, grid.levels.size()) << name;
-        EXPECT_EQ(grid.stats.points_evaluated, evaluated) << name;
     }
-    EXPECT_GE(sdf.size(), 4u) << "the SDF vectors are missing";
+    EXPECT_GE(checked, 8u) << "the golden vectors are missing";
 }
 
 }  // namespace

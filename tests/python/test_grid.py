@@ -14,6 +14,7 @@ from nfencode.grid import (
     cells_at_level,
     coarse_resolution,
     grid_coordinates,
+    grid_step,
     keep_threshold,
     refinement_levels,
     udf_cell_is_near,
@@ -92,13 +93,14 @@ def sphere(points: np.ndarray) -> np.ndarray:
     return np.linalg.norm(points.astype(np.float64) - [0.05, -0.1, 0.02], axis=1) - 0.5
 
 
-def test_udf_levels_visit_children_of_kept_cells_in_order() -> None:
-    """Written out cell by cell: the coarse level in raster order (x fastest), then per kept parent
-    its children in CORNER_OFFSET order, dropping those past the last cell. At resolution 99 level 1
-    has 50 cells; the last one reaches past u = 1 and its children at fine index 99 are dropped."""
+def test_udf_band_visits_children_of_kept_cells_in_order() -> None:
+    """The band (build_grid's `band`, nfd_mesh_options.sample_band) written out cell by cell: the
+    coarse level in raster order (x fastest), then per kept parent its children in CORNER_OFFSET
+    order, dropping those past the last cell. At resolution 99 level 1 has 50 cells; the last one
+    reaches past u = 1 and its children at fine index 99 are dropped."""
     resolution = 99
     grid = build_grid(lambda p: np.abs(p[:, 0].astype(np.float64) - 0.97), resolution,
-                      lambda p: np.zeros((len(p), 3)))  # a plane near u = 1, as a UDF
+                      lambda p: np.zeros((len(p), 3)), band=True)  # a plane near u = 1, as a UDF
     coarse, fine = grid.levels[1], grid.levels[0]
     n = coarse.cells_per_axis
     assert n == 50 and coarse.cells.tolist() == [[x, y, z] for z in range(n) for y in range(n) for x in range(n)]
@@ -140,9 +142,42 @@ def test_sdf_levels_visit_the_sign_change_cells_in_visit_order(resolution: int) 
         assert grid.finest.cells.tolist() == dense_sign_change_cells(field, resolution).tolist()
 
 
+def dense_near_cells(field, resolution: int) -> set[tuple[int, ...]]:
+    """The cells of the dense grid of an unsigned field that may carry a triangle (near cells)."""
+    axis = np.arange(resolution + 1)
+    z, y, x = np.meshgrid(axis, axis, axis, indexing="ij")
+    values = field(grid_coordinates(np.stack([x, y, z], axis=-1).reshape(-1, 3), resolution))
+    values = values.astype(np.float32).reshape(resolution + 1, resolution + 1, resolution + 1)
+    r = resolution
+    corners = np.stack([values[o[2]:r + o[2], o[1]:r + o[1], o[0]:r + o[0]] for o in CORNER_OFFSET],
+                       axis=-1)
+    near = udf_cell_is_near(corners.reshape(-1, 8), grid_step(resolution)).reshape(r, r, r)
+    zz, yy, xx = np.nonzero(near)
+    return set(zip(xx.tolist(), yy.tolist(), zz.tolist()))
+
+
+@pytest.mark.parametrize("resolution", [99, 128, 256])
+def test_udf_levels_follow_the_surface_to_every_near_cell(resolution: int) -> None:
+    """UDF surface following: the finest level visits every near cell of the dense grid, from
+    fewer evaluations than the band, for a plane near u = 1 (at 99 the last cell of level 1
+    reaches past u = 1), a sphere, and a sphere of radius 0.02 inside one coarse cell."""
+    centre = grid_coordinates(np.array([4 * 8 + 4, 5 * 8 + 4, 6 * 8 + 4]), 256)
+    fields = [lambda p: np.abs(p[:, 0].astype(np.float64) - 0.97),
+              lambda p: np.abs(sphere(p)),
+              lambda p: np.abs(np.linalg.norm(p.astype(np.float64) - centre, axis=1) - 0.02)]
+    for field in fields:
+        grid = build_grid(field, resolution, lambda p: np.zeros((len(p), 3)))
+        fine = grid.finest
+        near = fine.cells[udf_cell_is_near(fine.corner_values(), grid.step)]
+        expected = dense_near_cells(field, resolution)
+        assert len(expected) > 20 and set(map(tuple, near.tolist())) == expected
+        band = build_grid(field, resolution, lambda p: np.zeros((len(p), 3)), band=True)
+        assert grid.points_evaluated < band.points_evaluated
+
+
 def test_band_visits_children_of_kept_cells_and_finds_the_same_cells() -> None:
     """build_grid's `band` (nfd_mesh_options.sample_band): an SDF by the keep rule, written out as
-    for the UDF above; its sign-change cells are those surface following visits."""
+    for the UDF band above; its sign-change cells are those surface following visits."""
     resolution = 99
     field = lambda p: p[:, 0].astype(np.float64) - 0.97  # noqa: E731
     grid = build_grid(field, resolution, band=True)

@@ -63,9 +63,10 @@ def test_mesh_matches_exactly(name: str) -> None:
 
 
 @pytest.mark.parametrize("name", GRID_NAMES)
-def test_sdf_grid_matches_its_summary(name: str) -> None:
+def test_grid_matches_its_summary(name: str) -> None:
     """The sparse grid at 128 (two levels that follow the surface) visits the cells and evaluates
-    the points it did when generated; the C++ suite checks its grid against the same file."""
+    the points (and a UDF's gradients) it did when generated; the C++ suite checks its grid
+    against the same file."""
     summary = (VECTORS / f"{name}.grid128.txt").read_text()
     assert generate.grid_summary((VECTORS / f"{name}.nfc").read_bytes()) == summary
 

@@ -16,10 +16,10 @@ For each vector `v1_0_<name>` (geometry only, format 1.0), `v1_1_<name>` (with c
                       relative to the frame offset (v1_2: the 64-bit center; else 0), vertices
                       and faces in the reference's order (README.md); v1_1: float red, green,
                       blue in [0, 1] per vertex after the normal
-  <name>.grid128.txt  (SDF only) the reference's sparse grid at 128, whose two levels below the
-                      coarsest follow the surface (at 64 only the finest does): per level, coarsest
-                      first, `level L cells C vertices V`, then `evaluated E`, the field points
-                      evaluated over all levels
+  <name>.grid128.txt  the reference's sparse grid at 128, whose two levels below the coarsest
+                      follow the surface (at 64 only the finest does): per level, coarsest first,
+                      `level L cells C vertices V`, then `evaluated E`, the field points evaluated
+                      over all levels, and for a UDF `gradients G`, the gradient points
 """
 
 from __future__ import annotations
@@ -29,11 +29,12 @@ from pathlib import Path
 
 import numpy as np
 
-from nfencode.bitstream import read_nfc
+from nfencode.bitstream import FIELD_SDF, read_nfc
 from nfencode.encoder import EncodeConfig, compress
 from nfencode.grid import build_grid
 from nfencode.io import load_shape, save_mesh
-from nfencode.reference import dequantize, evaluate, evaluate_color, extract_mesh, field_function
+from nfencode.reference import (dequantize, evaluate, evaluate_color, extract_mesh, field_function,
+                                gradient_function)
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"  # ../shared beside the checkout
@@ -88,11 +89,16 @@ def encode(name: str, rel: str, field: str, width: int, bits: int, frequencies: 
 
 
 def grid_summary(data: bytes) -> str:
-    """The `.grid128.txt` text of an SDF vector's `.nfc` bytes."""
-    grid = build_grid(field_function(read_nfc(data)), GRID_RESOLUTION)
+    """The `.grid128.txt` text of a vector's `.nfc` bytes."""
+    nfc = read_nfc(data)
+    udf = nfc.geometry.field_type != FIELD_SDF
+    grid = build_grid(field_function(nfc), GRID_RESOLUTION, gradient_function(nfc) if udf else None)
     lines = [f"level {lv.level} cells {len(lv.cells)} vertices {len(lv.values)}"
              for lv in reversed(grid.levels)]
-    return "\n".join(lines + [f"evaluated {grid.points_evaluated}"]) + "\n"
+    lines.append(f"evaluated {grid.points_evaluated}")
+    if udf:
+        lines.append(f"gradients {grid.gradients_evaluated}")
+    return "\n".join(lines) + "\n"
 
 
 def main() -> None:
@@ -104,9 +110,8 @@ def main() -> None:
         colors = None if mesh.colors is None else mesh.colors.astype(np.float32)
         save_mesh(stem.with_suffix(f".mesh{MESH_RESOLUTION}.ply"), mesh.vertices, mesh.faces, mesh.normals, colors)
         print(f"{stem.name}: mesh at {MESH_RESOLUTION}, {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles")
-        if encoding[1] == "sdf":
-            summary = grid_summary(stem.with_suffix(".nfc").read_bytes())
-            stem.with_suffix(f".grid{GRID_RESOLUTION}.txt").write_text(summary)
+        summary = grid_summary(stem.with_suffix(".nfc").read_bytes())
+        stem.with_suffix(f".grid{GRID_RESOLUTION}.txt").write_text(summary)
 
 
 if __name__ == "__main__":

@@ -54,8 +54,8 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 11
-#define NFD_VERSION_PATCH 1
+#define NFD_VERSION_MINOR 12
+#define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
@@ -528,16 +528,18 @@ typedef struct nfd_mesh_options {
      * (their job fails with that code), beside the queue's budget. */
     uint64_t max_host_bytes;
     uint64_t max_device_bytes;
-    /* 0.11: non-zero: an SDF is sampled on the band around its surface (every child of every
-     * cell whose corners change sign or come within its half-diagonal of zero, as nfd_grid_extract
-     * samples), as all SDF decodes were before 0.11. Zero (the default): the CPU path samples only
-     * the cells the surface crosses, found level by level from the coarser level's crossings, and
-     * (0.11.1, above the finest level) the cells where the field hovers within half a cell of
-     * zero: about 2.5 times fewer field evaluations at 256-512, the dense grid's mesh on the real
-     * shapes measured (bench/RESULTS.md, "0.11" and "0.11.1"), though a component of the surface
-     * that no crossing above and no near-zero cell leads to is missed; on fields that are no
-     * shape's distance field (random networks) it misses more. The Vulkan path samples the band
-     * either way. No effect on a UDF. */
+    /* 0.11: non-zero: the field is sampled on the band around its surface (every child of every
+     * cell whose corners change sign or come within its half-diagonal (UDF: twice that) of zero,
+     * as nfd_grid_extract samples), as all decodes were before 0.11 (UDF: before 0.12). Zero (the
+     * default): the CPU path samples only the cells the surface crosses, found level by level
+     * from the coarser level's crossings, and (0.11.1, above the finest level) the cells where the
+     * field hovers within half a cell of zero: about 2.5 times fewer field evaluations at 256-512,
+     * the dense grid's mesh on the real shapes measured (bench/RESULTS.md, "0.11" and "0.11.1"),
+     * though a component of the surface that no crossing above and no near-zero cell leads to is
+     * missed; on fields that are no shape's distance field (random networks) it misses more. A
+     * UDF (0.12) likewise samples the cells that can carry a triangle, found from the coarser
+     * level's cells that can: about half the evaluations, the band's mesh on the files measured
+     * (bench/RESULTS.md, "0.12"). The Vulkan path samples the band either way. */
     int sample_band;
 } nfd_mesh_options;
 
