@@ -8,6 +8,7 @@
 #include "grid.h"
 #include "grid_eval.h"
 #include "mc_tables.h"
+#include "parallel.h"
 
 namespace nfd {
 namespace {
@@ -40,6 +41,10 @@ uint32_t udf_valid_edges(const float f[8], float h) { return edges_within(f, udf
 bool is_followed(FieldType field, const float f[8], float h) {
     return field == FieldType::Udf ? udf_valid_edges(f, h) != 0 : has_sign_change(f);
 }
+
+// Cells of a wave per thread, at least: smaller waves stay on the caller's thread, where starting
+// a thread would cost more than the tests it takes over.
+constexpr size_t kFloodGrain = 4096;
 
 // The corners of the face of a cell across which its neighbour lies, per face 2 * axis + side,
 // and the edges of that face (mc::kEdgeCorners indices) as a mask.
@@ -79,22 +84,17 @@ public:
         const uint64_t per_axis = (side + 7) / 8;
         return 4 * per_axis * per_axis * per_axis + (sizeof(Bits) + 512 * 4) * blocks;
     }
-    uint32_t slot(uint32_t x, uint32_t y, uint32_t z) {
-        return block(x, y, z) << 9 | (z & 7) << 6 | (y & 7) << 3 | (x & 7);
-    }
+    uint32_t slot(uint32_t x, uint32_t y, uint32_t z) { return in_block(block(x, y, z), x, y, z); }
     // The slots of the corners of cell (x, y, z), mc::kCornerOffset order: one block lookup
     // where the cell lies inside a block (343 cells in 512), and then true.
     bool cell_slots(uint32_t x, uint32_t y, uint32_t z, uint32_t s[8]) {
-        if ((x & 7) == 7 || (y & 7) == 7 || (z & 7) == 7) {
-            for (int k = 0; k < 8; ++k) {
-                const uint8_t* o = mc::kCornerOffset[k];
-                s[k] = slot(x + o[0], y + o[1], z + o[2]);
-            }
-            return false;
-        }
-        const uint32_t base = slot(x, y, z);
-        for (int k = 0; k < 8; ++k) s[k] = base + kCornerStep[k];
-        return true;
+        return corner_slots(x, y, z, s, [this](uint32_t u, uint32_t v, uint32_t w) { return slot(u, v, w); });
+    }
+    // The same for a cell whose corners are known: it makes no block, so threads may share it.
+    void known_cell_slots(uint32_t x, uint32_t y, uint32_t z, uint32_t s[8]) const {
+        corner_slots(x, y, z, s, [this](uint32_t u, uint32_t v, uint32_t w) {
+            return in_block(table_[block_index(u, v, w)], u, v, w);
+        });
     }
     // Marks the corners of the cell whose corner slots are `s` (cell_slots, `in_block` what it
     // returned) known and calls fn(k) for each corner k that was not: in a block, two words.
@@ -119,13 +119,14 @@ public:
     }
     // Whether cell (x, y, z) was visited; makes no block.
     bool visited(uint32_t x, uint32_t y, uint32_t z) const {
-        const uint32_t b = table_[((z >> 3) * per_axis_ + (y >> 3)) * per_axis_ + (x >> 3)];
+        const uint32_t b = table_[block_index(x, y, z)];
         return b != kNoBlock && bits_[b].visited[z & 7] >> ((x & 7) + 8 * (y & 7)) & 1;
     }
     // Marks vertex `s` known, or the cell at it visited; false if it was already.
     bool claim_known(uint32_t s) { return claim(bits_[s >> 9].known, s); }
     bool claim_visited(uint32_t s) { return claim(bits_[s >> 9].visited, s); }
     float& value(uint32_t s) { return values_[s]; }
+    float value(uint32_t s) const { return values_[s]; }
     // fn(x, y, z) for every visited cell: blocks in raster order, inside a block by 2^3 groups
     // in raster order, and a group in mc::kCornerOffset order. So a parent's children are
     // consecutive, a sibling group where all eight were visited (marching.h).
@@ -152,8 +153,27 @@ private:
     struct Bits {
         uint64_t known[8], visited[8];
     };
+    size_t block_index(uint32_t x, uint32_t y, uint32_t z) const {
+        return (size_t(z >> 3) * per_axis_ + (y >> 3)) * per_axis_ + (x >> 3);
+    }
+    static uint32_t in_block(uint32_t block, uint32_t x, uint32_t y, uint32_t z) {
+        return block << 9 | (z & 7) << 6 | (y & 7) << 3 | (x & 7);
+    }
+    template <class SlotFn>
+    static bool corner_slots(uint32_t x, uint32_t y, uint32_t z, uint32_t s[8], SlotFn&& slot) {
+        if ((x & 7) == 7 || (y & 7) == 7 || (z & 7) == 7) {
+            for (int k = 0; k < 8; ++k) {
+                const uint8_t* o = mc::kCornerOffset[k];
+                s[k] = slot(x + o[0], y + o[1], z + o[2]);
+            }
+            return false;
+        }
+        const uint32_t base = slot(x, y, z);
+        for (int k = 0; k < 8; ++k) s[k] = base + kCornerStep[k];
+        return true;
+    }
     uint32_t block(uint32_t x, uint32_t y, uint32_t z) {
-        uint32_t& b = table_[((z >> 3) * per_axis_ + (y >> 3)) * per_axis_ + (x >> 3)];
+        uint32_t& b = table_[block_index(x, y, z)];
         if (b == kNoBlock) {
             b = uint32_t(bits_.size());
             bits_.push_back(Bits{});
@@ -231,8 +251,8 @@ uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells)
 
 uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices) {
     // The flood's store, its two frontiers (each at most the level's cells, grown by doubling),
-    // a UDF's seeded-parent bits.
-    return FloodStore::bytes_bound(next.cells_per_axis + 1, next.blocks) + 16 * next.cells +
+    // a wave's face masks, a UDF's seeded-parent bits.
+    return FloodStore::bytes_bound(next.cells_per_axis + 1, next.blocks) + 17 * next.cells +
            (parent_vertices + 63) / 64 * 8;
 }
 
@@ -255,6 +275,7 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
         }
     };
     nfd::vector<uint32_t> frontier, wave;
+    nfd::vector<uint8_t> through;  // per cell of a wave: the faces it floods through (bit = face)
     size_t visited = 0;
     auto visit = [&](uint32_t x, uint32_t y, uint32_t z) {
         if (x < n && y < n && z < n && store.claim_visited(store.slot(x, y, z))) {
@@ -375,35 +396,54 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
             });
         }
         evaluator.finish();
-        for (uint32_t packed : wave) {
-            uint32_t c[3], s[8], r;
-            unpack_coords(packed, c);
-            store.cell_slots(c[0], c[1], c[2], s);
-            float f[8];
-            for (int k = 0; k < 8; ++k) f[k] = store.value(s[k]);
-            const bool every_face = is_near_zero(f, near_zero);
-            const uint32_t floodable = udf ? edges_within(f, flood_limit) : 0;
-            if (udf ? floodable == 0 : !every_face && !has_sign_change(f)) continue;
-            for (int face = 0; face < 6; ++face) {
-                if (udf ? !(floodable & kFaceEdges[face]) : !every_face && !face_changes_sign(f, face))
-                    continue;
-                uint32_t nb[3] = {c[0], c[1], c[2]};
-                const int axis = face / 2;
-                if (face & 1) {
-                    ++nb[axis];
-                } else if (nb[axis]-- == 0) {
-                    continue;
+        // Which faces each cell of the wave floods through, on threads (they only read the
+        // store), then the visits in wave order, as one thread would make them.
+        through.assign(wave.size(), 0);
+        parallel_for(wave.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
+            const FloodStore& known = store;
+            for (size_t i = begin; i < end; ++i) {
+                uint32_t c[3], s[8], r;
+                unpack_coords(wave[i], c);
+                known.known_cell_slots(c[0], c[1], c[2], s);
+                float f[8];
+                for (int k = 0; k < 8; ++k) f[k] = known.value(s[k]);
+                const bool every_face = is_near_zero(f, near_zero);
+                const uint32_t floodable = udf ? edges_within(f, flood_limit) : 0;
+                if (udf ? floodable == 0 : !every_face && !has_sign_change(f)) continue;
+                for (int face = 0; face < 6; ++face) {
+                    if (udf ? !(floodable & kFaceEdges[face])
+                            : !every_face && !face_changes_sign(f, face))
+                        continue;
+                    uint32_t nb[3] = {c[0], c[1], c[2]};
+                    const int axis = face / 2;
+                    if (face & 1) {
+                        ++nb[axis];
+                    } else if (nb[axis]-- == 0) {
+                        continue;
+                    }
+                    // Most neighbours were visited already: that test first, the region's after.
+                    if (nb[axis] < n && !known.visited(nb[0], nb[1], nb[2]) &&
+                        region.parents.find(nb[0] / 2, nb[1] / 2, nb[2] / 2, &r))
+                        through[i] |= uint8_t(1u << face);
                 }
-                // Most neighbours were visited already: that test first, the region's after.
-                if (nb[axis] < n && !store.visited(nb[0], nb[1], nb[2]) &&
-                    region.parents.find(nb[0] / 2, nb[1] / 2, nb[2] / 2, &r))
-                    visit(nb[0], nb[1], nb[2]);
+            }
+        });
+        for (size_t i = 0; i < wave.size(); ++i) {
+            if (!through[i]) continue;
+            uint32_t c[3];
+            unpack_coords(wave[i], c);
+            for (int face = 0; face < 6; ++face) {
+                if (!(through[i] >> face & 1)) continue;
+                uint32_t nb[3] = {c[0], c[1], c[2]};
+                nb[face / 2] += face & 1 ? 1 : -1;
+                visit(nb[0], nb[1], nb[2]);
             }
         }
     }
     *evaluated += evaluator.finish();
     frontier = nfd::vector<uint32_t>();
     wave = nfd::vector<uint32_t>();
+    through = nfd::vector<uint8_t>();
 
     out->cells.reserve(visited);
     store.for_each_visited(
