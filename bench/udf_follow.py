@@ -79,7 +79,8 @@ def main() -> None:
                 runs: dict[bool, list[Decode]] = {True: [], False: []}
                 for _ in range(args.runs):
                     for band in (True, False):
-                        runs[band].append(decode(path, resolution, band, band_ply if band else follow_ply))
+                        out = band_ply if band else follow_ply
+                        runs[band].append(decode(path, resolution, band, out))
                 band, follow = runs[True], runs[False]
                 same = np.array_equal(triangles(band_ply), triangles(follow_ply))
                 print(f"| {path.name} | {resolution} | {band[0].points} → {follow[0].points} | "

@@ -1,7 +1,8 @@
 // CPU reference of the levels below the coarsest (grid.h, "Surface following"): the cells of a
 // level are found from the crossed (SDF) or valid (UDF) edges of the level above and flooded across
-// faces with a sign change and (above the finest level) out of cells near zero, or across faces
-// with a valid edge, each corner evaluated once, inside a region sized before the level starts.
+// faces with a sign change and (above the finest level) out of cells near zero, or (UDF) across
+// faces holding an edge close to valid, each corner evaluated once, inside a region sized before
+// the level starts.
 #include <algorithm>
 #include <cmath>
 
@@ -88,7 +89,8 @@ public:
     // The slots of the corners of cell (x, y, z), mc::kCornerOffset order: one block lookup
     // where the cell lies inside a block (343 cells in 512), and then true.
     bool cell_slots(uint32_t x, uint32_t y, uint32_t z, uint32_t s[8]) {
-        return corner_slots(x, y, z, s, [this](uint32_t u, uint32_t v, uint32_t w) { return slot(u, v, w); });
+        return corner_slots(x, y, z, s,
+                            [this](uint32_t u, uint32_t v, uint32_t w) { return slot(u, v, w); });
     }
     // The same for a cell whose corners are known: it makes no block, so threads may share it.
     void known_cell_slots(uint32_t x, uint32_t y, uint32_t z, uint32_t s[8]) const {
@@ -328,7 +330,8 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     });
     evaluator.finish();
     const float edge_limit = udf_edge_limit(out->cell_size);
-    // UDF: the parents whose edges gave a seed, a bit per parent vertex rank of their lowest corner.
+    // UDF: the parents whose edges gave a seed, a bit per parent vertex rank of their lowest
+    // corner.
     nfd::vector<uint64_t> seeded(udf ? (parent.vertices.size() + 63) / 64 : 0);
     for_each_crossed_edge([&](const CrossedParentEdge& e) {
         uint32_t child[3];
@@ -379,8 +382,8 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
 
     // The flood, a wave at a time: the wave's corners evaluated together, then the neighbours
     // behind its faces with a sign change (which have one too), or above the finest level behind
-    // all six faces of a cell near zero (|f| < 0 holds nowhere), or (UDF) behind its faces with a
-    // valid edge (which the neighbour shares), inside the region.
+    // all six faces of a cell near zero (|f| < 0 holds nowhere), or (UDF) behind its faces holding
+    // an edge with f_a + f_b <= kUdfFloodEdge * h (which the neighbour shares), inside the region.
     const float near_zero = l > 0 && !udf ? kSdfNearZeroCell * out->cell_size : 0.0f;
     const float flood_limit = kUdfFloodEdge * out->cell_size;
     while (!frontier.empty()) {

@@ -239,7 +239,7 @@ std::vector<float> dense_values(const Network& net, uint32_t r) {
     return v;
 }
 
-// fn(cell, f) for every cell of the dense grid of r cells per axis, with its corner values.
+// fn(f) for every cell of the dense grid of r cells per axis: its corner values.
 template <class Fn>
 void for_each_dense_cell(const std::vector<float>& v, uint32_t r, Fn&& fn) {
     const size_t side = r + 1;
@@ -251,15 +251,14 @@ void for_each_dense_cell(const std::vector<float>& v, uint32_t r, Fn&& fn) {
                     const uint8_t* o = mc::kCornerOffset[c];
                     f[c] = v[((z + o[2]) * side + y + o[1]) * side + x + o[0]];
                 }
-                const uint32_t cell[3] = {x, y, z};
-                fn(cell, f);
+                fn(f);
             }
 }
 
 // Marching cubes over the dense grid's sign changes: what the sparse extraction must reproduce.
 void dense_reference(const Network& net, uint32_t r, uint64_t* active, uint64_t* triangles) {
     *active = *triangles = 0;
-    for_each_dense_cell(dense_values(net, r), r, [&](const uint32_t*, const float f[8]) {
+    for_each_dense_cell(dense_values(net, r), r, [&](const float f[8]) {
         int index = 0;
         for (int c = 0; c < 8; ++c) index |= int(f[c] < 0) << c;
         *active += index != 0 && index != 255;
@@ -502,7 +501,7 @@ TEST(Extract, GoldenUdfVectorsLoseNoNearCellAgainstTheDenseGrid) {
         for (uint32_t r : {128u, 150u}) {
             uint64_t dense = 0, found = 0;
             const float step = 2.0f / float(r);
-            for_each_dense_cell(dense_values(g.network, r), r, [&](const uint32_t*, const float f[8]) {
+            for_each_dense_cell(dense_values(g.network, r), r, [&](const float f[8]) {
                 dense += udf_cell_is_near(f, step);
             });
             GridBuilder builder(g, r, 0);
