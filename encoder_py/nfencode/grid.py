@@ -253,25 +253,31 @@ def _follow_region(level: GridLevel, step: np.float32, udf: bool) -> tuple[np.nd
     return region, isolated[~np.isin(cell_keys(isolated, n), region)]
 
 
-class _Values:
-    """A level's vertex values as the flood fetches them: sorted keys and their values."""
+class _Blocks:
+    """Flags and values over the raster keys of a grid of `side` points per axis, by 8^3 blocks
+    allocated as they are first touched (grid_follow.cpp's FloodStore): a flood touches a thin
+    shell, so memory follows it, and each lookup costs the same however many points are stored."""
 
     def __init__(self, side: int) -> None:
         self.side = side
-        self.keys = np.zeros(0, dtype=np.int64)
+        self.per_axis = (side + 7) // 8
+        self.table = np.full(self.per_axis ** 3, -1, dtype=np.int64)
+        self.flags = np.zeros(0, dtype=bool)
         self.values = np.zeros(0, dtype=np.float32)
 
-    def missing(self, keys: np.ndarray) -> np.ndarray:
-        keys = np.unique(keys)
-        return keys[~np.isin(keys, self.keys)]
-
-    def add(self, keys: np.ndarray, values: np.ndarray) -> None:
-        keys, values = np.concatenate([self.keys, keys]), np.concatenate([self.values, values])
-        order = np.argsort(keys, kind="stable")
-        self.keys, self.values = keys[order], values[order]
-
-    def at(self, keys: np.ndarray) -> np.ndarray:
-        return self.values[np.searchsorted(self.keys, keys)]
+    def slots(self, keys: np.ndarray) -> np.ndarray:
+        """The slot of each key, making the blocks that are missing (which replaces `flags` and
+        `values`: index them after this call returns)."""
+        side = self.side
+        x, y, z = keys % side, keys // side % side, keys // (side * side)
+        block = ((z >> 3) * self.per_axis + (y >> 3)) * self.per_axis + (x >> 3)
+        new = np.unique(block[self.table[block] < 0])
+        if len(new):
+            first = len(self.flags) // 512
+            self.table[new] = np.arange(first, first + len(new))
+            self.flags = np.concatenate([self.flags, np.zeros(512 * len(new), dtype=bool)])
+            self.values = np.concatenate([self.values, np.zeros(512 * len(new), dtype=np.float32)])
+        return self.table[block] * 512 + ((z & 7) << 6 | (y & 7) << 3 | (x & 7))
 
 
 def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: GridLevel,
@@ -279,12 +285,18 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     """grid_follow.cpp's follow_surface: level `level` below `parent`, and its new evaluations."""
     n = cells_at_level(resolution, level)
     side = n + 1
-    known = _Values(side)
+    known = _Blocks(side)  # flags: the vertex's value is known
     evaluated = 0
+
+    def value_at(keys: np.ndarray) -> np.ndarray:
+        slots = known.slots(keys)
+        return known.values[slots]
 
     def fetch(keys: np.ndarray) -> None:
         nonlocal evaluated
-        keys = known.missing(keys)
+        keys = np.unique(keys)
+        slots = known.slots(keys)
+        keys = keys[~known.flags[slots]]
         vertices = np.stack([keys % side, keys // side % side, keys // (side * side)], axis=1)
         values = np.empty(len(keys), dtype=np.float32)
         copy = (vertices % 2 == 0).all(axis=1)
@@ -295,7 +307,9 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
         todo[copied] = False
         values[todo] = field_fn(grid_coordinates(vertices[todo] << level, resolution))
         evaluated += int(todo.sum())
-        known.add(keys, values)
+        slots = known.slots(keys)
+        known.flags[slots] = True
+        known.values[slots] = values
 
     # Seeds: SDF, one child per crossed edge of each sign-change parent, from its midpoint's sign;
     # UDF, the children holding a valid half of each valid edge of a parent with one.
@@ -314,7 +328,7 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
         middle[:, axis] += 1
         on_grid = (middle <= n).all(axis=1)
         fetch(vertex_keys(middle[on_grid], side))
-        f_middle = known.at(vertex_keys(middle[on_grid], side))
+        f_middle = value_at(vertex_keys(middle[on_grid], side))
         f_ends = f[crossed][on_grid]
         child = 2 * cells[crossed][on_grid] + CORNER_OFFSET[a]
         if udf:
@@ -340,8 +354,12 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     seeds.append((2 * isolated[:, None, :] + CORNER_OFFSET[None]).reshape(-1, 3))
     frontier = np.concatenate(seeds)
     frontier = frontier[(frontier < n).all(axis=1)]
-    visited = np.unique(cell_keys(frontier, n))
-    frontier = np.stack([visited % n, visited // n % n, visited // (n * n)], axis=1)
+    keys = np.unique(cell_keys(frontier, n))
+    visited = _Blocks(n)  # flags: the cell was visited
+    slots = visited.slots(keys)
+    visited.flags[slots] = True
+    waves = [keys]
+    frontier = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
 
     # The flood, a wave at a time, inside the region: SDF, across faces with a sign change, and
     # above the finest level every face of a cell near zero; UDF, across faces holding an edge
@@ -350,7 +368,7 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     while len(frontier):
         corners = vertex_keys(frontier[:, None, :] + CORNER_OFFSET[None], side)
         fetch(corners.ravel())
-        values = known.at(corners)
+        values = value_at(corners)
         near_zero = (np.abs(values) < near_zero_limit).all(axis=1)
         floodable = edges_within(values, UDF_FLOOD_EDGE * h) if udf else None
         grown = []
@@ -364,16 +382,19 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
             neighbour = neighbour[((neighbour >= 0) & (neighbour < n)).all(axis=1)]
             grown.append(neighbour[np.isin(cell_keys(neighbour // 2, (n + 1) // 2), region)])
         keys = np.unique(cell_keys(np.concatenate(grown), n))
-        keys = keys[~np.isin(keys, visited)]
-        visited = np.union1d(visited, keys)
+        slots = visited.slots(keys)
+        keys, slots = keys[~visited.flags[slots]], slots[~visited.flags[slots]]
+        visited.flags[slots] = True
+        waves.append(keys)
         frontier = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
 
-    cells = np.stack([visited % n, visited // n % n, visited // (n * n)], axis=1)
+    keys = np.concatenate(waves)
+    cells = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
     cells = cells[np.argsort(visit_order(cells, side), kind="stable")]
     corner_keys = vertex_keys(cells[:, None, :] + CORNER_OFFSET[None, :, :], side)
     keys, inverse = np.unique(corner_keys.ravel(), return_inverse=True)
     vertices = np.stack([keys % side, keys // side % side, keys // (side * side)], axis=1)
-    grid_level = GridLevel(level, n, cells, keys, vertices, inverse.reshape(-1, 8), known.at(keys))
+    grid_level = GridLevel(level, n, cells, keys, vertices, inverse.reshape(-1, 8), value_at(keys))
     return grid_level, evaluated
 
 

@@ -156,7 +156,7 @@ def dense_near_cells(field, resolution: int) -> set[tuple[int, ...]]:
     return set(zip(xx.tolist(), yy.tolist(), zz.tolist()))
 
 
-@pytest.mark.parametrize("resolution", [99, 128, 256])
+@pytest.mark.parametrize("resolution", [99, 128])
 def test_udf_levels_follow_the_surface_to_every_near_cell(resolution: int) -> None:
     """UDF surface following: the finest level visits every near cell of the dense grid, from
     fewer evaluations than the band, for a plane near u = 1 (at 99 the last cell of level 1
