@@ -58,7 +58,7 @@ uint32_t refinement_levels(uint32_t resolution);
 //   The near cells that the mesher needs (udf_cell_is_near) lie on valid edges, which connect
 //   them to the sheet they belong to. On the golden UDF vectors (garment, scans, coloured cloud)
 //   and the bunny UDF the finest level visits every near cell of the dense grid at 128, 150, 256
-//   and the band's at 512, meshes identical, from 0.45-0.54 of the band's evaluations
+//   and the band's at 512, meshes identical, from 0.45-0.56 of the band's evaluations
 //   (bench/RESULTS.md, "0.12"). What it gives up is the same kind as the SDF's: a cluster of near
 //   cells that no seed reaches and no floodable face joins to the sheet.
 //
