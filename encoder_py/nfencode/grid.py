@@ -254,16 +254,17 @@ def _follow_region(level: GridLevel, step: np.float32, udf: bool) -> tuple[np.nd
 
 
 class _Blocks:
-    """Flags and values over the raster keys of a grid of `side` points per axis, by 8^3 blocks
-    allocated as they are first touched (grid_follow.cpp's FloodStore): a flood touches a thin
-    shell, so memory follows it, and each lookup costs the same however many points are stored."""
+    """Flags (and, `with_values`, values) over the raster keys of a grid of `side` points per axis,
+    by 8^3 blocks allocated as they are first touched (grid_follow.cpp's FloodStore): a flood
+    touches a thin shell, so memory follows it, and each lookup costs the same however many points
+    are stored."""
 
-    def __init__(self, side: int) -> None:
+    def __init__(self, side: int, with_values: bool) -> None:
         self.side = side
         self.per_axis = (side + 7) // 8
         self.table = np.full(self.per_axis ** 3, -1, dtype=np.int64)
         self.flags = np.zeros(0, dtype=bool)
-        self.values = np.zeros(0, dtype=np.float32)
+        self.values = np.zeros(0, dtype=np.float32) if with_values else None
 
     def slots(self, keys: np.ndarray) -> np.ndarray:
         """The slot of each key, making the blocks that are missing (which replaces `flags` and
@@ -276,7 +277,8 @@ class _Blocks:
             first = len(self.flags) // 512
             self.table[new] = np.arange(first, first + len(new))
             self.flags = np.concatenate([self.flags, np.zeros(512 * len(new), dtype=bool)])
-            self.values = np.concatenate([self.values, np.zeros(512 * len(new), dtype=np.float32)])
+            if self.values is not None:
+                self.values = np.concatenate([self.values, np.zeros(512 * len(new), np.float32)])
         return self.table[block] * 512 + ((z & 7) << 6 | (y & 7) << 3 | (x & 7))
 
 
@@ -285,7 +287,7 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     """grid_follow.cpp's follow_surface: level `level` below `parent`, and its new evaluations."""
     n = cells_at_level(resolution, level)
     side = n + 1
-    known = _Blocks(side)  # flags: the vertex's value is known
+    known = _Blocks(side, with_values=True)  # flags: the vertex's value is known
     evaluated = 0
 
     def value_at(keys: np.ndarray) -> np.ndarray:
@@ -355,7 +357,7 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     frontier = np.concatenate(seeds)
     frontier = frontier[(frontier < n).all(axis=1)]
     keys = np.unique(cell_keys(frontier, n))
-    visited = _Blocks(n)  # flags: the cell was visited
+    visited = _Blocks(n, with_values=False)  # flags: the cell was visited
     slots = visited.slots(keys)
     visited.flags[slots] = True
     waves = [keys]

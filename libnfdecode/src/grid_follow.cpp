@@ -362,9 +362,10 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     for (size_t i = 0; udf && i < parent.cells.size(); ++i) {
         uint32_t c[3];
         unpack_coords(parent.cells[i], c);
+        if (is_seeded(c[0], c[1], c[2])) continue;  // most followed parents: one bit, no corners
         float f[8];
         parent.corners(c, f);
-        if (!udf_valid_edges(f, parent.cell_size) || is_seeded(c[0], c[1], c[2])) continue;
+        if (!udf_valid_edges(f, parent.cell_size)) continue;
         bool lone = true;
         for (int k = 0; k < 27 && lone; ++k)
             lone = !is_seeded(int64_t(c[0]) + k % 3 - 1, int64_t(c[1]) + k / 3 % 3 - 1,
