@@ -101,6 +101,57 @@ uvec3 owner_cell(uvec3 n, uint s, uint r) {
     return o;
 }
 
+// find_owner for the points and edges of one kept cell's child grid, on bits instead of loads: a
+// kernel that looks up many of them (every local point, every edge) reads the kept bits of the
+// 27 cells around the cell once (`around`: bit (x + 1) + 3 (y + 1) + 9 (z + 1) for the cell at
+// offset (x, y, z), clear outside the grid; the cell's own bit 13 set), and each owner is then a
+// few ALU steps. On llvmpipe every load is an 8-lane gather, and find_owner's loop made several
+// per point.
+uint kept_around(uvec3 p, uint r) {
+    uint around = 0u;
+    for (uint z = 0u; z < 3u; ++z) {
+        for (uint y = 0u; y < 3u; ++y) {
+            if (p.z + z < 1u || p.z + z > r || p.y + y < 1u || p.y + y > r) continue;
+            // The row's three cells lie in at most two words of the bitmap: two loads, not three.
+            uint c = cell_index(uvec3(p.x, p.y + y - 1u, p.z + z - 1u), r);
+            uint lo = p.x > 0u ? c - 1u : c, hi = p.x + 1u < r ? c + 1u : c;
+            uint lo_word = kept_bits[lo >> 5], hi_word = kept_bits[hi >> 5];
+            for (uint x = 0u; x < 3u; ++x) {
+                if (p.x + x < 1u || p.x + x > r) continue;
+                uint cell = c + x - 1u;
+                uint word = (cell >> 5) == (lo >> 5) ? lo_word : hi_word;
+                if ((word & (1u << (cell & 31u))) != 0u) around |= 1u << (x + 3u * y + 9u * z);
+            }
+        }
+    }
+    return around;
+}
+// The owner of the point of p's child grid at local l (components 0..2), or with `axis` < 3 of the
+// edge from l along that axis, as an offset + 1 from p (components 0..2): find_owner's candidates
+// (the cells whose closed box holds it: p, and p's neighbour below where a component of l is 0,
+// above where it is 2; an edge lies inside p along its axis) in its order.
+uvec3 owner_around(uint around, uvec3 l, uint axis) {
+    uvec3 lo = uvec3(1u), hi = uvec3(1u);
+    for (uint a = 0u; a < 3u; ++a) {
+        if (a == axis) continue;
+        if (l[a] == 0u) lo[a] = 0u;
+        if (l[a] == 2u) hi[a] = 2u;
+    }
+    for (uint z = lo.z; z <= hi.z; ++z)
+        for (uint y = lo.y; y <= hi.y; ++y)
+            for (uint x = lo.x; x <= hi.x; ++x)
+                if ((around & (1u << (x + 3u * y + 9u * z))) != 0u) return uvec3(x, y, z);
+    return uvec3(1u);  // p itself, whose bit is always set
+}
+// The owner of point l (axis 3) or of the edge from l along `axis` of kept cell p's (rank k)
+// child grid, and its rank: p's own where p owns it.
+uvec3 local_owner(uvec3 p, uint k, uint around, uvec3 l, uint axis, uint r, out uint rank) {
+    uvec3 o = owner_around(around, l, axis);
+    bool own = all(equal(o, uvec3(1u)));
+    rank = own ? k : kept_rank(cell_index(p + o - 1u, r));
+    return p + o - 1u;
+}
+
 // The child-grid coordinates of point i of a point list: its parent is the last one whose offset
 // is at most i (a binary search over the offsets, which are non-decreasing over the whole buffer:
 // parents past the last one own no points), and it is that parent's (i - offset)-th owned point
@@ -119,14 +170,23 @@ uvec3 listed_point(uint i) {
     return 2u * p + uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
 }
 
-// Value at point l of the child grid of kept cell p (rank k) at level r.
-float child_grid_value(uvec3 p, uint k, uvec3 l, uint r) {
-    if (is_corner(l)) return corners[8u * k + corner_index(l)];
-    uvec3 v = 2u * p + l;
-    uvec3 o = owner_cell(v, 2u, r);
-    uint ko = kept_rank(cell_index(o, r));
+// Value at child-grid point v, not a corner of its kept cell, from its owner o (rank ko).
+float owned_value(uvec3 v, uvec3 o, uint ko) {
     uint below = (1u << local_index(v - 2u * o)) - 1u;
     return values[offsets[ko] + bitCount(owned[ko] & below)];
+}
+// Value at point l of the child grid of kept cell p (rank k) at level r; with `around`
+// (kept_around) for a kernel that reads many points of p.
+float child_grid_value(uvec3 p, uint k, uvec3 l, uint r) {
+    if (is_corner(l)) return corners[8u * k + corner_index(l)];
+    uvec3 o = owner_cell(2u * p + l, 2u, r);
+    return owned_value(2u * p + l, o, kept_rank(cell_index(o, r)));
+}
+float child_grid_value(uvec3 p, uint k, uint around, uvec3 l, uint r) {
+    if (is_corner(l)) return corners[8u * k + corner_index(l)];
+    uint ko;
+    uvec3 o = local_owner(p, k, around, l, 3u, r, ko);
+    return owned_value(2u * p + l, o, ko);
 }
 
 // The keep rule of grid.h (cell_may_contain_surface), on a child's 8 corner values; NaN

@@ -8,8 +8,8 @@
 // A vertex is made for every crossed edge of the child grid (one whose end points differ in
 // sign: f < 0 inside, as mc_tables.h defines). An edge is shared by up to four visited cells,
 // possibly of different parents; it belongs to the kept parent with the smallest linear index
-// whose closed box contains it, found like child-grid points (owner_cell) from its midpoint in
-// quarter-cell units. The 54 edges of a 3x3x3 grid are numbered axis by axis:
+// whose closed box contains it (find_owner's rule for its midpoint in quarter-cell units), found
+// by extract.glsl's owner_around. The 54 edges of a 3x3x3 grid are numbered axis by axis:
 // id = 18 a + (index of the start point s, s[a] in {0, 1}, the other two in {0, 1, 2}).
 // A vertex's index is the prefix of the edge masks' popcounts (`vertex_offsets`, per uint word
 // of edge_masks) at its owner's first word plus its rank in the owner's mask.
@@ -60,12 +60,15 @@ uint mask_rank(uvec2 mask, uint id) {  // set bits below id
 // The current parent's child grid (0 where a point does not exist), from the level's sparse
 // storage (extract.glsl). A dense copy per parent would make later lookups one load, but at
 // resolution 1024 it is 108 bytes for each of ~1.8M parents, more than the sparse storage itself.
+// Returns kept_around(p), which the kernel may use again for owners of edges.
 float grid[27];
-void load_grid(uvec3 p, uint k, uint r) {
+uint load_grid(uvec3 p, uint k, uint r) {
+    uint around = kept_around(p, r);
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
-        grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, lv, r) : 0.0;
+        grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, around, lv, r) : 0.0;
     }
+    return around;
 }
 bool inside(uvec3 l) { return grid[local_index(l)] < 0.0; }
 
@@ -118,8 +121,5 @@ uint cube_case(uvec3 d) {  // child d of the current parent
         if (inside(d + corner_offset(i))) c |= 1u << i;
     return c;
 }
-
-// The kept parent owning the finest-level edge from grid point v (level 2r) along axis a.
-uvec3 edge_owner(uvec3 v, uint a, uint r) { return owner_cell(2u * v + unit_axis(a), 4u, r); }
 
 #endif

@@ -16,7 +16,7 @@ void main() {
     if (k >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
-    load_grid(p, k, r);
+    uint around = load_grid(p, k, r);
     uint triangles = 0u, busy = 0u;
     uvec4 c = uvec4(0u);
     for (uint child = 0u; child < 8u; ++child) {
@@ -36,7 +36,7 @@ void main() {
         edge_from_id(id, a, s);
         uvec3 e = unit_axis(a);
         if (!child_point_exists(2u * p + s + e) || inside(s) == inside(s + e)) continue;
-        if (any(notEqual(edge_owner(2u * p + s, a, r), p))) continue;
+        if (any(notEqual(owner_around(around, s, a), uvec3(1u)))) continue;
         if (id < 32u) mask.x |= 1u << id;
         else mask.y |= 1u << (id - 32u);
     }

@@ -35,6 +35,7 @@ void main() {
     }
 
     uvec4 c = cases[k];
+    uint around = (c.z | c.w) != 0u ? kept_around(p, r) : 0u;  // any triangle emitted
     uint index = 3u * triangle_offsets[k];
     for (uint child = 0u; child < 8u; ++child) {
         uint emitted = case_byte(c, 8u + child);
@@ -46,9 +47,10 @@ void main() {
             for (uint j = 0u; j < 3u; ++j) {
                 uint e = uint(mc_triangle_edge(cc, 3u * t + j));
                 uint a = e / 4u;
-                uvec3 v = 2u * p + d + corner_offset(mc_edge_start_corner(e));
-                uvec3 o = edge_owner(v, a, r);
-                uint ko = kept_rank(cell_index(o, r));
+                uvec3 l = d + corner_offset(mc_edge_start_corner(e));
+                uvec3 v = 2u * p + l;
+                uint ko;
+                uvec3 o = local_owner(p, k, around, l, a, r, ko);
                 indices[index++] =
                     vertex_offsets[2u * ko] + mask_rank(edge_masks[ko], edge_id(a, v - 2u * o));
             }

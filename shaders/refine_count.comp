@@ -11,11 +11,13 @@ void main() {
     if (k >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
+    uint around = kept_around(p, r);
     uint mask = 0u;
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         uvec3 v = 2u * p + lv;
-        if (!is_corner(lv) && child_point_exists(v) && all(equal(owner_cell(v, 2u, r), p)))
+        if (!is_corner(lv) && child_point_exists(v) &&
+            all(equal(owner_around(around, lv, 3u), uvec3(1u))))
             mask |= 1u << l;
     }
     owned[k] = mask;

@@ -19,28 +19,28 @@ layout(std430, binding = NFD_B_GRADIENT_OFFSETS) readonly buffer GradientOffsets
 layout(std430, binding = NFD_B_GRADIENTS) readonly buffer Gradients { vec4 gradients[]; };
 #endif
 
-// Whether finest cell c (which may lie outside the grid) is a near child of a kept parent.
-bool is_near_cell(ivec3 c, uint r) {
-    if (any(lessThan(c, ivec3(0))) || !child_cell_exists(uvec3(c))) return false;
-    uvec3 q = uvec3(c) / 2u;
-    uint parent = cell_index(q, r);
-    if (!is_kept(parent)) return false;
-    uvec3 d = uvec3(c) - 2u * q;
-    return (near_masks[kept_rank(parent)] & (1u << (d.x | d.y << 1 | d.z << 2))) != 0u;
-}
-
-// The index in the gradient list of child-grid point w, or NFD_NOT_LISTED.
-uint gradient_index(uvec3 w, uint r) {
-    uvec3 o;
-    if (!find_owner(w, 2u, r, o)) return NFD_NOT_LISTED;
-    uint ko = kept_rank(cell_index(o, r));
+// The index in the gradient list of child-grid point w, owned by kept parent o (rank ko), or
+// NFD_NOT_LISTED.
+uint listed_gradient(uvec3 w, uvec3 o, uint ko) {
     uint bit = 1u << local_index(w - 2u * o);
     if ((gradient_owned[ko] & bit) == 0u) return NFD_NOT_LISTED;
     return gradient_offsets[ko] + bitCount(gradient_owned[ko] & (bit - 1u));
 }
+// The index in the gradient list of child-grid point w, or NFD_NOT_LISTED.
+uint gradient_index(uvec3 w, uint r) {
+    uvec3 o;
+    if (!find_owner(w, 2u, r, o)) return NFD_NOT_LISTED;
+    return listed_gradient(w, o, kept_rank(cell_index(o, r)));
+}
 
-// (value, gradient) at child-grid point w, a corner of a near cell (so its owner listed it).
+// (value, gradient) at child-grid point w, a corner of a near cell (so its owner listed it); or
+// at point l of kept parent p's (rank k) child grid (around: kept_around).
 vec4 field_at(uvec3 w, uint r) { return gradients[gradient_index(w, r)]; }
+vec4 field_at(uvec3 p, uint k, uint around, uvec3 l, uint r) {
+    uint ko;
+    uvec3 o = local_owner(p, k, around, l, 3u, r, ko);
+    return gradients[listed_gradient(2u * p + l, o, ko)];
+}
 
 // As mesh_udf_cpu.cpp: left to right, no fused multiply-add, so that equal gradients give equal
 // pseudo-signs on both paths.

@@ -20,6 +20,7 @@ void main() {
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     uint near = near_masks[k];
+    uint around = near != 0u ? kept_around(p, r) : 0u;
     uint triangles = 0u, busy = 0u;
     uvec4 c = uvec4(0u);
     for (uint child = 0u; child < 8u; ++child) {
@@ -29,7 +30,7 @@ void main() {
         vec3 g[8];
         uint nearest = 0u;
         for (uint i = 0u; i < 8u; ++i) {
-            vec4 fg = field_at(2u * p + d + corner_offset(i), r);
+            vec4 fg = field_at(p, k, around, d + corner_offset(i), r);
             f[i] = fg.x;
             g[i] = fg.yzw;
             if (f[i] < f[nearest]) nearest = i;
@@ -53,9 +54,10 @@ void main() {
             for (uint j = 0u; j < 3u; ++j) {
                 uint e = uint(mc_triangle_edge(cc, 3u * t + j));
                 uint a = e / 4u;
-                uvec3 v = 2u * p + d + corner_offset(mc_edge_start_corner(e));
-                uvec3 o = edge_owner(v, a, r);
-                uint ko = kept_rank(cell_index(o, r));
+                uvec3 l = d + corner_offset(mc_edge_start_corner(e));
+                uvec3 v = 2u * p + l;
+                uint ko;
+                uvec3 o = local_owner(p, k, around, l, a, r, ko);
                 uint id = edge_id(a, v - 2u * o);
                 if (id < 32u) atomicOr(edge_masks[ko].x, 1u << id);
                 else atomicOr(edge_masks[ko].y, 1u << (id - 32u));

@@ -20,14 +20,36 @@ void main() {
     if (k >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
+    uint around = kept_around(p, r);
+    // The near cells among the 4x4x4 finest cells 2p - 1 + b (b in 0..3 per axis) around p's
+    // children, from the near masks of the kept cells around p: bit b.x + 4 b.y + 16 b.z.
+    uvec2 near = uvec2(0u);
+    for (uint n = 0u; n < 27u; ++n) {
+        if ((around & (1u << n)) == 0u) continue;
+        uvec3 offset = uvec3(n % 3u, (n / 3u) % 3u, n / 9u);  // neighbour p + offset - 1
+        uint children = near_masks[n == 13u ? k : kept_rank(cell_index(p + offset - 1u, r))];
+        for (uint child = 0u; child < 8u; ++child) {
+            ivec3 b = 2 * ivec3(offset) + ivec3(corner_offset(child)) - 1;
+            if ((children & (1u << child)) == 0u || any(lessThan(b, ivec3(0))) ||
+                any(greaterThan(b, ivec3(3))))
+                continue;
+            uint bit = uint(b.x + 4 * b.y + 16 * b.z);
+            if (bit < 32u) near.x |= 1u << bit;
+            else near.y |= 1u << (bit - 32u);
+        }
+    }
     uint mask = 0u, fresh = 0u;
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 local = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
-        uvec3 w = 2u * p + local;
-        if (!child_point_exists(w) || any(notEqual(owner_cell(w, 2u, r), p))) continue;
-        bool needed = false;
-        for (uint c = 0u; c < 8u && !needed; ++c)
-            needed = is_near_cell(ivec3(w) - ivec3(corner_offset(c)), r);
+        if (!child_point_exists(2u * p + local) ||
+            any(notEqual(owner_around(around, local, 3u), uvec3(1u))))
+            continue;
+        bool needed = false;  // a near cell among the 8 around the point: b = local + 1 - c
+        for (uint c = 0u; c < 8u; ++c) {
+            uvec3 b = local + uvec3(1u) - corner_offset(c);
+            uint bit = b.x + 4u * b.y + 16u * b.z;
+            needed = needed || ((bit < 32u ? near.x >> bit : near.y >> (bit - 32u)) & 1u) != 0u;
+        }
         if (!needed) continue;
         mask |= 1u << l;
         if (!CARRIED || !is_corner(local) ||
