@@ -208,13 +208,17 @@ nfd_result Context::create_logical_device() {
 }
 
 // Device memory: a device-local type of the largest device-local heap (the VRAM of a discrete GPU,
-// not its 256 MB BAR window). Host memory: host-visible + coherent, device-local if possible.
-// Unified when the device type is host-visible + coherent too (CPU implementations, integrated
-// GPUs, resizable BAR over the whole heap): then every buffer is mapped and nothing is staged,
-// unless NFD_FORCE_STAGING is set (tests run the staged path on lavapipe with it).
+// not its 256 MB BAR window). Unified, every buffer mapped and nothing staged, when that type is
+// host-visible, coherent and cached too (CPU implementations, integrated GPUs), unless
+// NFD_FORCE_STAGING is set (tests run the staged path on lavapipe with it). A discrete GPU's
+// mappable VRAM (resizable BAR) is not cached: each CPU read of it crosses the bus alone, which
+// read an H200's meshes back at ~30 MB/s, so such a device's buffers are staged.
+// Host memory (staging, read-backs, what the host writes and reads itself): host-visible and
+// coherent, cached where a type is.
 nfd_result Context::pick_memory_types() {
     const VkMemoryPropertyFlags host =
         VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    const VkMemoryPropertyFlags cached = host | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
     const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
     uint32_t heap = UINT32_MAX;
     for (uint32_t h = 0; h < memory_.memoryHeapCount; ++h)
@@ -224,17 +228,15 @@ nfd_result Context::pick_memory_types() {
     for (uint32_t i = 0; i < memory_.memoryTypeCount; ++i) {
         const VkMemoryType& t = memory_.memoryTypes[i];
         if (t.heapIndex != heap || !(t.propertyFlags & local)) continue;
-        const bool mappable = (t.propertyFlags & host) == host;
+        const bool mappable = (t.propertyFlags & cached) == cached;
         if (device_type_ == UINT32_MAX || (mappable && !unified_)) {
             device_type_ = i;
             unified_ = mappable;
         }
     }
-    for (int pass = 0; pass < 2 && host_type_ == UINT32_MAX; ++pass)
-        for (uint32_t i = 0; i < memory_.memoryTypeCount && host_type_ == UINT32_MAX; ++i) {
-            const VkMemoryPropertyFlags f = memory_.memoryTypes[i].propertyFlags;
-            if ((f & host) == host && (pass == 1 || (f & local))) host_type_ = i;
-        }
+    for (const VkMemoryPropertyFlags wanted : {cached, host})
+        for (uint32_t i = 0; i < memory_.memoryTypeCount && host_type_ == UINT32_MAX; ++i)
+            if ((memory_.memoryTypes[i].propertyFlags & wanted) == wanted) host_type_ = i;
     if (host_type_ == UINT32_MAX) return NFD_ERROR_DEVICE_UNAVAILABLE;
     if (device_type_ == UINT32_MAX) {  // no device-local heap: host memory is all there is
         device_type_ = host_type_;
