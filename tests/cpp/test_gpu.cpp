@@ -59,6 +59,82 @@ Network encoding_probe(std::vector<float> frequencies, uint32_t column) {
     return net;
 }
 
+// Memory layouts of drivers these tests do not run on, as their vulkaninfo reports them (sizes
+// rounded). No device needed: choose_memory_types reads the properties alone.
+constexpr VkMemoryPropertyFlags kLocal = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+constexpr VkMemoryPropertyFlags kHost =
+    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+constexpr VkMemoryPropertyFlags kCached = kHost | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+constexpr VkDeviceSize kGiB = VkDeviceSize(1) << 30;
+
+VkPhysicalDeviceMemoryProperties memory_layout(
+    std::initializer_list<std::pair<VkDeviceSize, bool>> heaps,  // size, device-local
+    std::initializer_list<std::pair<uint32_t, VkMemoryPropertyFlags>> types) {  // heap, flags
+    VkPhysicalDeviceMemoryProperties m{};
+    for (const auto& [size, local] : heaps)
+        m.memoryHeaps[m.memoryHeapCount++] = {size, local ? VK_MEMORY_HEAP_DEVICE_LOCAL_BIT : 0u};
+    for (const auto& [heap, flags] : types) m.memoryTypes[m.memoryTypeCount++] = {flags, heap};
+    return m;
+}
+
+gpu::MemoryTypes chosen(const VkPhysicalDeviceMemoryProperties& m) {
+    gpu::MemoryTypes t;
+    EXPECT_TRUE(gpu::choose_memory_types(m, &t));
+    return t;
+}
+
+TEST(MemoryTypes, DiscreteGpuWithResizableBarIsStagedThroughCachedHostMemory) {
+    // NVIDIA H200 (driver 580): VRAM mappable over the whole heap, but not cached.
+    const gpu::MemoryTypes t = chosen(memory_layout(
+        {{141 * kGiB, true}, {64 * kGiB, false}},
+        {{1, 0}, {0, kLocal}, {1, kHost}, {1, kCached}, {0, kLocal | kHost}}));
+    EXPECT_EQ(t.device, 1u);
+    EXPECT_EQ(t.host, 3u);
+    EXPECT_FALSE(t.unified);
+}
+
+TEST(MemoryTypes, DiscreteGpuWithBarWindowUsesTheLargestHeap) {
+    // RADV on a discrete card without resizable BAR: a 256 MB device-local window.
+    const gpu::MemoryTypes t = chosen(memory_layout(
+        {{8 * kGiB, true}, {16 * kGiB, false}, {256u << 20, true}},
+        {{0, kLocal}, {1, kHost}, {2, kLocal | kHost}, {1, kCached}}));
+    EXPECT_EQ(t.device, 0u);
+    EXPECT_EQ(t.host, 3u);
+    EXPECT_FALSE(t.unified);
+}
+
+TEST(MemoryTypes, CpuImplementationsAndIntegratedGpusAreUnified) {
+    // lavapipe: one heap, one type with every flag.
+    gpu::MemoryTypes t = chosen(memory_layout({{24 * kGiB, true}}, {{0, kLocal | kCached}}));
+    EXPECT_EQ(t.device, 0u);
+    EXPECT_EQ(t.host, 0u);
+    EXPECT_TRUE(t.unified);
+    // An integrated GPU (ANV): a plain device-local type listed before the mappable one.
+    t = chosen(memory_layout({{16 * kGiB, true}}, {{0, kLocal}, {0, kLocal | kCached}}));
+    EXPECT_EQ(t.device, 1u);
+    EXPECT_EQ(t.host, 1u);
+    EXPECT_TRUE(t.unified);
+}
+
+TEST(MemoryTypes, WithoutCachedOrDeviceLocalTypes) {
+    // No cached type: host memory falls back to coherent, uncached.
+    gpu::MemoryTypes t = chosen(memory_layout({{8 * kGiB, true}, {16 * kGiB, false}},
+                                              {{0, kLocal}, {1, kHost}}));
+    EXPECT_EQ(t.device, 0u);
+    EXPECT_EQ(t.host, 1u);
+    EXPECT_FALSE(t.unified);
+    // No device-local heap: host memory is all there is.
+    t = chosen(memory_layout({{16 * kGiB, false}}, {{0, kHost}, {0, kCached}}));
+    EXPECT_EQ(t.device, 1u);
+    EXPECT_EQ(t.host, 1u);
+    EXPECT_TRUE(t.unified);
+    // Nothing the host can map coherently: no context.
+    gpu::MemoryTypes none;
+    EXPECT_FALSE(gpu::choose_memory_types(
+        memory_layout({{8 * kGiB, true}}, {{0, kLocal}, {0, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT}}),
+        &none));
+}
+
 TEST_F(Gpu, DeviceHasAName) { EXPECT_STRNE(gpu::device_name(device()), ""); }
 
 // sin and cos of f32 arguments up to ~3000 rad (encoding frequencies reach 489, hidden layers

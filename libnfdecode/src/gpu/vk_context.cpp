@@ -207,41 +207,47 @@ nfd_result Context::create_logical_device() {
     return NFD_SUCCESS;
 }
 
-// Device memory: a device-local type of the largest device-local heap (the VRAM of a discrete GPU,
-// not its 256 MB BAR window). Unified, every buffer mapped and nothing staged, when that type is
-// host-visible, coherent and cached too (CPU implementations, integrated GPUs), unless
-// NFD_FORCE_STAGING is set (tests run the staged path on lavapipe with it). A discrete GPU's
-// mappable VRAM (resizable BAR) is not cached: each CPU read of it crosses the bus alone, which
-// read an H200's meshes back at ~30 MB/s, so such a device's buffers are staged.
-// Host memory (staging, read-backs, what the host writes and reads itself): host-visible and
-// coherent, cached where a type is.
-nfd_result Context::pick_memory_types() {
+bool choose_memory_types(const VkPhysicalDeviceMemoryProperties& memory, MemoryTypes* out) {
     const VkMemoryPropertyFlags host =
         VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
     const VkMemoryPropertyFlags cached = host | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
     const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    const uint32_t heaps = std::min(memory.memoryHeapCount, uint32_t(VK_MAX_MEMORY_HEAPS));
+    const uint32_t types = std::min(memory.memoryTypeCount, uint32_t(VK_MAX_MEMORY_TYPES));
+    MemoryTypes m;
     uint32_t heap = UINT32_MAX;
-    for (uint32_t h = 0; h < memory_.memoryHeapCount; ++h)
-        if ((memory_.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) &&
-            (heap == UINT32_MAX || memory_.memoryHeaps[h].size > memory_.memoryHeaps[heap].size))
+    for (uint32_t h = 0; h < heaps; ++h)
+        if ((memory.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) &&
+            (heap == UINT32_MAX || memory.memoryHeaps[h].size > memory.memoryHeaps[heap].size))
             heap = h;
-    for (uint32_t i = 0; i < memory_.memoryTypeCount; ++i) {
-        const VkMemoryType& t = memory_.memoryTypes[i];
+    for (uint32_t i = 0; i < types; ++i) {
+        const VkMemoryType& t = memory.memoryTypes[i];
         if (t.heapIndex != heap || !(t.propertyFlags & local)) continue;
         const bool mappable = (t.propertyFlags & cached) == cached;
-        if (device_type_ == UINT32_MAX || (mappable && !unified_)) {
-            device_type_ = i;
-            unified_ = mappable;
+        if (m.device == UINT32_MAX || (mappable && !m.unified)) {
+            m.device = i;
+            m.unified = mappable;
         }
     }
     for (const VkMemoryPropertyFlags wanted : {cached, host})
-        for (uint32_t i = 0; i < memory_.memoryTypeCount && host_type_ == UINT32_MAX; ++i)
-            if ((memory_.memoryTypes[i].propertyFlags & wanted) == wanted) host_type_ = i;
-    if (host_type_ == UINT32_MAX) return NFD_ERROR_DEVICE_UNAVAILABLE;
-    if (device_type_ == UINT32_MAX) {  // no device-local heap: host memory is all there is
-        device_type_ = host_type_;
-        unified_ = true;
+        for (uint32_t i = 0; i < types && m.host == UINT32_MAX; ++i)
+            if ((memory.memoryTypes[i].propertyFlags & wanted) == wanted) m.host = i;
+    if (m.host == UINT32_MAX) return false;
+    if (m.device == UINT32_MAX) {  // no device-local heap: host memory is all there is
+        m.device = m.host;
+        m.unified = true;
     }
+    *out = m;
+    return true;
+}
+
+// NFD_FORCE_STAGING: tests run the staged path on lavapipe, whose memory is unified.
+nfd_result Context::pick_memory_types() {
+    MemoryTypes m;
+    if (!choose_memory_types(memory_, &m)) return NFD_ERROR_DEVICE_UNAVAILABLE;
+    device_type_ = m.device;
+    host_type_ = m.host;
+    unified_ = m.unified;
     const char* force = std::getenv("NFD_FORCE_STAGING");
     if (force && *force && *force != '0') unified_ = false;
     return NFD_SUCCESS;

@@ -62,6 +62,21 @@ nfd_result to_result(VkResult result);
 // host writes while recording (the top level, a job's chunks of points) or reads often.
 enum class Memory { Device, Host };
 
+// The memory types a context takes, from the device's memory properties alone (so that tests can
+// give it the layouts of drivers they do not run on). Device: a device-local type of the largest
+// device-local heap (the VRAM of a discrete GPU, not its 256 MB BAR window). `unified` (every
+// buffer mapped, nothing staged) when that type is host-visible, coherent and cached too (CPU
+// implementations, integrated GPUs). A discrete GPU's mappable VRAM (resizable BAR) is not cached:
+// each CPU read of it crosses the bus alone, which read an H200's meshes back at ~30 MB/s, so
+// such a device's buffers are staged. Host (staging, read-backs, what the host writes and reads
+// itself): host-visible and coherent, cached where a type is. False where no type is host-visible
+// and coherent.
+struct MemoryTypes {
+    uint32_t device = UINT32_MAX, host = UINT32_MAX;
+    bool unified = false;
+};
+bool choose_memory_types(const VkPhysicalDeviceMemoryProperties& memory, MemoryTypes* out);
+
 // A buffer and its memory; `data` is its mapping, or null where the host reaches it by staging.
 struct Buffer {
     VkBuffer buffer = VK_NULL_HANDLE;
