@@ -5,13 +5,12 @@
 # into .devkit/, laid out as a build folder (samples/, tests/, bench/) plus lib/ (the shared
 # libraries the binaries need beyond glibc and libstdc++) and nfc/ (bench/out/keep's files).
 # On the GPU machine, from the repository root:
-#   ln -sfn .devkit build                          # bench/*.py look in build/
 #   LD_LIBRARY_PATH=$PWD/.devkit/lib bench/device_check.sh .devkit
 # The C++ tests find the golden vectors by this checkout's absolute path (NFD_TEST_VECTORS_DIR), so
 # that path must lead to the copy there (a symbolic link).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-# Without OpenVDB: its libraries alone (~60 MB) would not fit a device run's 64 MiB of carried files.
+# Without OpenVDB: its libraries (~60 MB) would not fit the 64 MiB that a device run carries.
 cmake -S . -B build-device -G Ninja -DCMAKE_BUILD_TYPE=Release -DNFD_BUILD_TESTS=ON \
   -DNFD_BUILD_BENCH=ON -DNFD_BUILD_VIEWER=OFF -DNFD_WITH_OPENVDB=OFF > /dev/null
 cmake --build build-device -j"$(nproc)" > /dev/null
