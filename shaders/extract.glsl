@@ -189,6 +189,17 @@ float child_grid_value(uvec3 p, uint k, uint around, uvec3 l, uint r) {
     return owned_value(2u * p + l, o, ko);
 }
 
+// Kept cell p's (rank k) whole child grid into `grid` (index local_index(l); 0 where a point does
+// not exist). Returns kept_around(p), which the kernel may use again for owners of edges.
+uint load_child_grid(uvec3 p, uint k, uint r, out float grid[27]) {
+    uint around = kept_around(p, r);
+    for (uint l = 0u; l < 27u; ++l) {
+        uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
+        grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, around, lv, r) : 0.0;
+    }
+    return around;
+}
+
 // The keep rule of grid.h (cell_may_contain_surface), on a child's 8 corner values; NaN
 // corners fail every comparison, so such cells are dropped as on the CPU.
 bool may_contain_surface(float v[8], float threshold) {

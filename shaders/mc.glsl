@@ -62,14 +62,7 @@ uint mask_rank(uvec2 mask, uint id) {  // set bits below id
 // resolution 1024 it is 108 bytes for each of ~1.8M parents, more than the sparse storage itself.
 // Returns kept_around(p), which the kernel may use again for owners of edges.
 float grid[27];
-uint load_grid(uvec3 p, uint k, uint r) {
-    uint around = kept_around(p, r);
-    for (uint l = 0u; l < 27u; ++l) {
-        uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
-        grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, around, lv, r) : 0.0;
-    }
-    return around;
-}
+uint load_grid(uvec3 p, uint k, uint r) { return load_child_grid(p, k, r, grid); }
 bool inside(uvec3 l) { return grid[local_index(l)] < 0.0; }
 
 // The value at child-grid point w (which may lie one step outside the grid), if it was evaluated:

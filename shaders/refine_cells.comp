@@ -11,12 +11,8 @@ void main() {
     if (k >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
-    uint around = kept_around(p, r);
     float grid[27];
-    for (uint l = 0u; l < 27u; ++l) {
-        uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
-        grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, around, lv, r) : 0.0;
-    }
+    load_child_grid(p, k, r, grid);
     for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
         if (!child_cell_exists(2u * p + d)) continue;

@@ -243,13 +243,9 @@ bool choose_memory_types(const VkPhysicalDeviceMemoryProperties& memory, MemoryT
 
 // NFD_FORCE_STAGING: tests run the staged path on lavapipe, whose memory is unified.
 nfd_result Context::pick_memory_types() {
-    MemoryTypes m;
-    if (!choose_memory_types(memory_, &m)) return NFD_ERROR_DEVICE_UNAVAILABLE;
-    device_type_ = m.device;
-    host_type_ = m.host;
-    unified_ = m.unified;
+    if (!choose_memory_types(memory_, &memory_types_)) return NFD_ERROR_DEVICE_UNAVAILABLE;
     const char* force = std::getenv("NFD_FORCE_STAGING");
-    if (force && *force && *force != '0') unified_ = false;
+    if (force && *force && *force != '0') memory_types_.unified = false;
     return NFD_SUCCESS;
 }
 
@@ -420,7 +416,7 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out, Memory memory)
     NFD_VK_TRY(vkCreateBuffer(device_, &info, nullptr, &b.buffer));
     VkMemoryRequirements requirements;
     vkGetBufferMemoryRequirements(device_, b.buffer, &requirements);
-    const uint32_t type = memory == Memory::Host ? host_type_ : device_type_;
+    const uint32_t type = memory == Memory::Host ? memory_types_.host : memory_types_.device;
     if (!(requirements.memoryTypeBits & (1u << type))) {
         vkDestroyBuffer(device_, b.buffer, nullptr);
         return NFD_ERROR_DEVICE;
@@ -439,7 +435,7 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out, Memory memory)
         }
         r = vkBindBufferMemory(device_, b.buffer, b.memory, 0);
     }
-    if (r == VK_SUCCESS && (memory == Memory::Host || unified_))
+    if (r == VK_SUCCESS && (memory == Memory::Host || memory_types_.unified))
         r = vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.data);
     if (r != VK_SUCCESS) {
         destroy(b);

@@ -168,7 +168,7 @@ public:
     // Destroys it, or while a host's command buffer is being recorded, keeps it until
     // its batch is destroyed (those commands may use it).
     void destroy(Buffer& buffer);
-    bool unified() const { return unified_; }
+    bool unified() const { return memory_types_.unified; }
     bool cpu_implementation() const {
         return properties_.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
     }
@@ -254,8 +254,7 @@ private:
     uint32_t queue_family_ = 0;
     VkPhysicalDeviceProperties properties_{};
     VkPhysicalDeviceMemoryProperties memory_{};
-    uint32_t device_type_ = UINT32_MAX, host_type_ = UINT32_MAX;  // pick_memory_types()
-    bool unified_ = false;
+    MemoryTypes memory_types_;  // pick_memory_types()
     std::atomic<VkDeviceSize> live_bytes_{0}, peak_bytes_{0};
     std::atomic<bool> lost_{false};  // a submission reported VK_ERROR_DEVICE_LOST: for good
     std::mutex queue_mutex_;     // vkQueueSubmit: the queue is externally synchronized
