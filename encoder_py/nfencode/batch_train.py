@@ -11,6 +11,7 @@ It is the one-by-one pipeline of `encoder.compress`, shape by shape, not an appr
 - each shape draws its own epochs from its own pool (per-shape sampling) with its own stream;
 - the objective is the sum of the K per-shape objectives (truncated loss + λ·Σ|θ|), so each shape's
   gradient is its own, and Adam is elementwise, so each shape's update is what it would be alone;
+- a UDF of a mesh trains its first epochs as the signed field of its sides, as `train.fit` does;
 - QAT quantizes each shape's tensors on their own grids (per shape, per tensor), and each shape keeps
   whichever of its pre- and post-QAT networks validates better.
 
@@ -36,7 +37,7 @@ from .devices import cpu_threads, resolve_device
 from .encoder import EncodeConfig, EncodeResult, Prepared, add_color, check_config, finish, prepare, wants_color
 from .io import Shape
 from .sampling import draw_epoch, epoch_counts
-from .train import TrainingData
+from .train import TrainingData, signed_epochs
 
 
 def batched_fake_quantize(x: torch.Tensor, bits: int) -> torch.Tensor:
@@ -120,6 +121,8 @@ class StackedData:
     distances: torch.Tensor  # (K, n)
     validation_encoded: torch.Tensor
     validation_distances: torch.Tensor
+    sides: torch.Tensor  # (K, n): TrainingData.sides, ones for a shape without them
+    has_sides: torch.Tensor  # (K,) bool
 
 
 def validation_losses(net: StackedSiren, data: StackedData, bits: int | None) -> torch.Tensor:
@@ -137,9 +140,11 @@ def fit_many(
     cosine: bool,
     batch_size: int,
     bits: int | None = None,
+    signed: int = 0,
     patience: int | None = None,
 ) -> int:
-    """`train.fit` for K shapes at once (module docstring). Returns the epochs run."""
+    """`train.fit` for K shapes at once (module docstring); the shapes with sides train the first
+    `signed` epochs as signed fields. Returns the epochs run."""
     optimizer = torch.optim.Adam(net.parameters(), lr=lr)
     batches_per_epoch = math.ceil(sum(epoch_counts(1.0)) / batch_size)
     total_steps = max(1, epochs * batches_per_epoch)
@@ -150,18 +155,23 @@ def fit_many(
     best = net.snapshot() if patience is not None else None
     stale = torch.zeros(k, dtype=torch.int64, device=data.encoded.device)
     step = 0
+    absolute = net.absolute
     for epoch in range(epochs):
         order = torch.from_numpy(np.stack([draw_epoch(p.pool, p.rng) for p in preps])).to(data.encoded.device)
+        signing = data.has_sides & (epoch < signed)
+        targets = torch.where(signing[:, None], data.distances * data.sides, data.distances)
+        net.absolute = absolute & ~signing
         for batch in order.split(batch_size, dim=1):
             if cosine:
                 for group in optimizer.param_groups:
                     group["lr"] = 0.5 * lr * (1.0 + math.cos(math.pi * step / total_steps))
             pred = net.forward(data.encoded[rows, batch], bits)
-            loss = per_shape_loss(pred, data.distances[rows, batch])
+            loss = per_shape_loss(pred, targets[rows, batch])
             optimizer.zero_grad(set_to_none=True)
             (loss + config.L1_WEIGHT * net.l1()).sum().backward()
             optimizer.step()
             step += 1
+        net.absolute = absolute
         if patience is not None:
             assert best is not None and best_loss is not None
             current = validation_losses(net, data, bits)
@@ -187,16 +197,19 @@ def _prepare_stacked(shapes: Sequence[Shape], cfg: EncodeConfig,
     names = ("encoded", "distances", "validation_encoded", "validation_distances")
     preps: list[Prepared] = []
     stacked: list[torch.Tensor] = []
+    has_sides = torch.zeros(len(shapes), dtype=torch.bool, device=device)
     for k, shape in enumerate(shapes):
         prep = prepare(shape, cfg, torch.device("cpu"))
-        parts = [getattr(prep.data, name) for name in names]
+        sides = prep.data.sides if prep.data.sides is not None else torch.ones_like(prep.data.distances)
+        parts = [getattr(prep.data, name) for name in names] + [sides]
         if k == 0:
             stacked = [torch.empty((len(shapes), *t.shape), dtype=t.dtype, device=device) for t in parts]
         for target, part in zip(stacked, parts):
             target[k].copy_(part)
+        has_sides[k] = prep.data.sides is not None
         prep.data = TrainingData(*(torch.empty(0) for _ in names))  # the stack holds it now
         preps.append(prep)
-    return preps, StackedData(*stacked)
+    return preps, StackedData(*stacked, has_sides)
 
 
 def compress_many(shapes: Sequence[Shape], cfg: EncodeConfig, *, patience: int | None = None) -> list[EncodeResult]:
@@ -215,7 +228,8 @@ def compress_many(shapes: Sequence[Shape], cfg: EncodeConfig, *, patience: int |
         preps, data = _prepare_stacked(shapes, cfg, device)
         net = StackedSiren.stack(preps, device)
         schedule = {"batch_size": preset.batch_size, "patience": patience}
-        fit_many(net, data, preps, epochs=epochs, lr=preset.lr, cosine=preset.cosine, **schedule)
+        fit_many(net, data, preps, epochs=epochs, lr=preset.lr, cosine=preset.cosine,
+                 signed=signed_epochs(epochs), **schedule)
 
         best_loss = validation_losses(net, data, cfg.bits)
         best = net.snapshot()

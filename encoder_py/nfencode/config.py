@@ -40,8 +40,9 @@ the mesh encloses an inside despite small holes. Measured (20k points, seed 0): 
 spot, igea, nefertiti 0.00%, bunny 0.56% (5 holes), suzanne 0.53%, demosthenes 1.26% (67 boundary
 edges) → SDF; garments 3.7% (Pants1) to 17% (skirt), lionstatue 18% → UDF.
 Meshes folded onto themselves (the res3 dragon and Happy Buddha: ~3% non-manifold edges, ~2.5%
-duplicate faces) still enclose an inside and stay SDF, which is measured better: fast w32, CD at 256,
-dragon SDF 0.00943 vs UDF 0.0294, happy SDF 0.00924 vs UDF 0.0113 (bench/RESULTS.md)."""
+duplicate faces) still enclose an inside and stay SDF, which is measured better: fast w32 at L = 8, CD
+at 256, dragon SDF 0.00936 vs UDF 0.00984, happy SDF 0.00929 vs UDF 0.01009 (the UDFs with their signed
+start, UDF_SIGNED_EPOCHS; without it 0.0126 and more; bench/RESULTS.md)."""
 
 AUTO_PROBE_POINTS = 20_000
 """Probe points of the `auto` test (~0.3 s on the bunny)."""
@@ -75,6 +76,17 @@ PAPER_BATCH_SIZE = 10_000
 
 L1_WEIGHT = 1e-8
 """λ of the λ·Σ|θ| term (paper)."""
+
+UDF_SIGNED_EPOCHS = 1 / 3
+"""A UDF of a mesh trains the first third of its epochs as a signed field: the output before its
+`abs` fitted to the distances signed by the side of the surface each point lies on (the faces'
+orientation, sampling.SurfaceSampler.sides), then as the UDF, in one learning-rate schedule
+(train.fit). Measured (fast preset, w32, seed 0, CD at 256): bunny UDF 0.01225 -> 0.00853 (its SDF:
+0.00841), T-shirt 0.00992 -> 0.00843, Pants1 0.00776 -> 0.00743, res3 dragon 0.01260 -> 0.00984;
+boundary edges 59k -> 33 on the bunny, 47k -> 839 on the T-shirt (its own: 228). A third, a
+sixth or two thirds of the epochs (with the schedule restarted between the phases, T-shirt):
+0.00790 / 0.00790 / 0.00815.
+Point clouds have no faces, hence no sides, and train as the UDF throughout."""
 
 DEFAULT_BITS = 8
 DEFAULT_WIDTH = 32  # hidden layer width of `nfc encode` without --width or a target; --target-cd's start

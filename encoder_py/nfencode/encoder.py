@@ -43,7 +43,7 @@ from .model import Siren
 from .normalize import needs_frame64, to_unit, unit_ball_frame
 from .quantize import quantized_network
 from .sampling import DistancePool, SurfaceSampler, build_pool, resolve_field
-from .train import TrainingData, fit, prepare_data, validation_loss
+from .train import TrainingData, fit, prepare_data, signed_epochs, validation_loss
 
 
 @dataclass
@@ -168,7 +168,8 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
     data = prepare_data(model, pool)
     if device.type != "cpu":
         data = TrainingData(*(t.to(device) for t in (data.encoded, data.distances, data.validation_encoded,
-                                                      data.validation_distances)))
+                                                      data.validation_distances)),
+                            None if data.sides is None else data.sides.to(device))
     return Prepared(field, field_reason, center32, scale32, frame64, pool, model, data, rng)
 
 
@@ -220,7 +221,8 @@ def _compress_geometry(shape: Shape, cfg: EncodeConfig, device: torch.device, st
     prep = prepare(shape, cfg, device)
     model, data, pool, rng = prep.model.to(device), prep.data, prep.pool, prep.rng
     fit(model, data, pool, epochs=epochs, lr=preset.lr, cosine=preset.cosine,
-        batch_size=preset.batch_size, rng=rng, quiet=cfg.quiet)
+        batch_size=preset.batch_size, rng=rng,
+        signed=0 if data.sides is None else signed_epochs(epochs), quiet=cfg.quiet)
 
     # QAT; keep whichever quantized network, before or after it, validates better.
     best_loss = validation_loss(model, data, cfg.bits)

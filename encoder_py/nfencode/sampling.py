@@ -9,6 +9,10 @@ Distances: meshes get the exact point-to-triangle distance (libigl's AABB tree),
 the fast generalized winding number, which tolerates the small holes of real scans; point clouds get
 the nearest-neighbour distance (UDF only). Beyond 2·d* the exact value is never needed (the loss
 clamps at d*), so queries are bounded there, which makes far uniform points ~5x cheaper.
+
+A UDF of a mesh also gets each point's *side* (±1): which side of the nearest surface it lies on, by
+the faces' orientation, which open surfaces have too (libigl's pseudonormal test; beyond the query
+bound the nearest face's normal). Training starts from the field signed by it (train.fit).
 """
 
 from __future__ import annotations
@@ -31,7 +35,8 @@ FAR = 2.0 * config.TRUNCATION
 class DistancePool:
     """Training samples, the three kinds stored one after the other, plus a held-out validation set.
 
-    points (n, 3) float32 in the unit frame; distances (n,) float32 with |d| clamped to at most FAR.
+    points (n, 3) float32 in the unit frame; distances (n,) float32 with |d| clamped to at most FAR;
+    sides (n,) float32 ±1 for a UDF of a mesh (SurfaceSampler.sides), else None.
     """
 
     points: np.ndarray
@@ -39,6 +44,7 @@ class DistancePool:
     counts: tuple[int, int, int]  # uniform, surface, near
     validation_points: np.ndarray
     validation_distances: np.ndarray
+    sides: np.ndarray | None = None
 
 
 class SurfaceSampler:
@@ -84,8 +90,8 @@ class SurfaceSampler:
             assert not signed, "point clouds have no inside"
             d, _ = self._tree.query(points, distance_upper_bound=FAR)  # type: ignore[union-attr]
             return np.minimum(d, FAR)
-        kind = igl.SIGNED_DISTANCE_TYPE_FAST_WINDING_NUMBER if signed else igl.SIGNED_DISTANCE_TYPE_UNSIGNED
-        d, *_ = igl.signed_distance(points, self.vertices, self.faces, sign_type=kind, lower_bound=-FAR, upper_bound=FAR)
+        d = self._bounded_distances(points, igl.SIGNED_DISTANCE_TYPE_FAST_WINDING_NUMBER if signed
+                                    else igl.SIGNED_DISTANCE_TYPE_UNSIGNED)
         # libigl returns NaN where the bound pruned the search: those points are farther than d*
         # (measured: pruned points lie > 1.8·d* away), so only their sign is still needed.
         far = np.isnan(d)
@@ -96,6 +102,28 @@ class SurfaceSampler:
             else:
                 d[far] = FAR
         return np.clip(d, -FAR, FAR)
+
+    def _bounded_distances(self, points: np.ndarray, kind: int) -> np.ndarray:
+        """libigl's signed_distance of `kind`, NaN beyond FAR (where the bound pruned the search)."""
+        d, *_ = igl.signed_distance(points, self.vertices, self.faces, sign_type=kind, lower_bound=-FAR, upper_bound=FAR)
+        return d
+
+    def sides(self, points: np.ndarray) -> np.ndarray:
+        """±1 (float32): the side of the surface each point lies on, by the faces' orientation (meshes
+        only). Within FAR libigl's pseudonormal test (the angle-weighted normal of the nearest feature);
+        beyond it, where only a plausible side is needed, the normal of the face with the nearest
+        centroid, which a k-d tree finds far cheaper than an unbounded exact query. 0 counts as +1."""
+        assert self.faces is not None
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        side = self._bounded_distances(points, igl.SIGNED_DISTANCE_TYPE_PSEUDONORMAL)
+        far = np.isnan(side)
+        if far.any():
+            a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
+            centroids = (a + b + c) / 3.0
+            _, nearest = cKDTree(centroids).query(points[far])
+            normals = np.cross(b - a, c - a)[nearest]
+            side[far] = np.einsum("ij,ij->i", points[far] - centroids[nearest], normals)
+        return np.where(side < 0.0, -1.0, 1.0).astype(np.float32)
 
     def near_points(self, n: int, sigma: float, rng: np.random.Generator) -> np.ndarray:
         return self.surface_points(n, rng) + rng.normal(0.0, sigma, (n, 3))
@@ -149,15 +177,17 @@ def epoch_counts(scale: float) -> tuple[int, int, int]:
 
 def _samples(
     sampler: SurfaceSampler, field: str, counts: tuple[int, int, int], rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points, distances, and the points uniform and near the surface (whose sides may be asked)."""
     n_uniform, n_surface, n_near = counts
     uniform = rng.uniform(-1.0, 1.0, (n_uniform, 3))
     surface = sampler.surface_points(n_surface, rng)
     near = sampler.near_points(n_near, config.NEAR_SURFACE_SIGMA[field], rng)
-    queried = sampler.distances(np.concatenate([uniform, near]), signed=field == "sdf")
+    off_surface = np.concatenate([uniform, near])
+    queried = sampler.distances(off_surface, signed=field == "sdf")
     points = np.concatenate([uniform, surface, near]).astype(np.float32)
     distances = np.concatenate([queried[:n_uniform], np.zeros(n_surface), queried[n_uniform:]]).astype(np.float32)
-    return points, distances
+    return points, distances, off_surface
 
 
 def build_pool(
@@ -167,9 +197,14 @@ def build_pool(
     if field not in ("sdf", "udf") or (field == "sdf" and not sampler.is_mesh):
         raise ValueError(f"cannot build a {field!r} pool for this input")
     counts = epoch_counts(pool_epochs)
-    points, distances = _samples(sampler, field, counts, rng)
-    validation_points, validation_distances = _samples(sampler, field, epoch_counts(config.VALIDATION_FRACTION), rng)
-    return DistancePool(points, distances, counts, validation_points, validation_distances)
+    points, distances, off_surface = _samples(sampler, field, counts, rng)
+    validation_points, validation_distances, _ = _samples(sampler, field, epoch_counts(config.VALIDATION_FRACTION), rng)
+    sides = None
+    if field == "udf" and sampler.is_mesh:
+        n_uniform, n_surface, _ = counts
+        queried = sampler.sides(off_surface)  # on the surface itself the side does not matter
+        sides = np.concatenate([queried[:n_uniform], np.ones(n_surface, np.float32), queried[n_uniform:]])
+    return DistancePool(points, distances, counts, validation_points, validation_distances, sides)
 
 
 def draw_epoch(pool: DistancePool, rng: np.random.Generator) -> np.ndarray:

@@ -25,12 +25,14 @@ ENCODE_CHUNK = 100_000
 
 @dataclass
 class TrainingData:
-    """Encoded pool (n, 3 + 6L) and distances (n,), and the same for the validation set."""
+    """Encoded pool (n, 3 + 6L) and distances (n,), the same for the validation set, and the pool's
+    sides (n,) where it has them (a UDF of a mesh: DistancePool.sides)."""
 
     encoded: torch.Tensor
     distances: torch.Tensor
     validation_encoded: torch.Tensor
     validation_distances: torch.Tensor
+    sides: torch.Tensor | None = None
 
 
 def _encode(model: Siren, points: np.ndarray) -> torch.Tensor:
@@ -48,7 +50,13 @@ def prepare_data(model: Siren, pool: DistancePool) -> TrainingData:
         torch.from_numpy(pool.distances),
         _encode(model, pool.validation_points),
         torch.from_numpy(pool.validation_distances),
+        None if pool.sides is None else torch.from_numpy(pool.sides),
     )
+
+
+def signed_epochs(epochs: int) -> int:
+    """How many of `epochs` a fit of data with sides trains as a signed field first (`fit`)."""
+    return round(epochs * config.UDF_SIGNED_EPOCHS)
 
 
 def truncated_loss(pred: torch.Tensor, distance: torch.Tensor, truncation: float = config.TRUNCATION) -> torch.Tensor:
@@ -138,16 +146,33 @@ def fit(
     batch_size: int,
     rng: np.random.Generator,
     bits: int | None = None,
+    signed: int = 0,
     quiet: bool = False,
     desc: str = "train",
 ) -> float:
-    """`optimize` on the truncated loss over epochs drawn from the geometry pool."""
+    """`optimize` on the truncated loss over epochs drawn from the geometry pool. The first `signed`
+    epochs (data with sides: `signed_epochs`) fit the output before its `abs` to the distances
+    signed by data.sides, in the same schedule: an `abs` network whose inner field has a side per
+    region of space keeps a zero set wherever two regions meet, and one started from random weights
+    leaves such phantom sheets near the surface (and holes where they cut it); started from the
+    sides, the inner field is near the surface a signed distance, whose only zero set is the surface
+    (bench/RESULTS.md, issue 6)."""
+    output = model.output
+    epoch = 0
 
     def batches() -> Iterator[Batch]:
+        nonlocal epoch
+        is_signed = epoch < signed
+        epoch += 1
+        model.output = "identity" if is_signed else output
+        targets = data.distances * data.sides if is_signed and data.sides is not None else data.distances
         order = torch.from_numpy(draw_epoch(pool, rng)).to(data.encoded.device)
         for batch in order.split(batch_size):
-            yield data.encoded[batch], data.distances[batch]
+            yield data.encoded[batch], targets[batch]
 
-    return optimize(model, batches, truncated_loss, epochs=epochs,
-                    steps_per_epoch=math.ceil(sum(epoch_counts(1.0)) / batch_size), lr=lr, cosine=cosine,
-                    bits=bits, quiet=quiet, desc=desc)
+    try:
+        return optimize(model, batches, truncated_loss, epochs=epochs,
+                        steps_per_epoch=math.ceil(sum(epoch_counts(1.0)) / batch_size), lr=lr, cosine=cosine,
+                        bits=bits, quiet=quiet, desc=desc)
+    finally:
+        model.output = output

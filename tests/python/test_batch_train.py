@@ -69,7 +69,8 @@ def test_early_stopping_ends_when_no_shape_improves() -> None:
     cfg = EncodeConfig(width=8, quiet=True)
     preps = [prepare(s, cfg, torch.device("cpu")) for s in shapes()[:2]]
     data = StackedData(*(torch.stack([getattr(p.data, n) for p in preps]) for n in
-                         ("encoded", "distances", "validation_encoded", "validation_distances")))
+                         ("encoded", "distances", "validation_encoded", "validation_distances")),
+                       sides=torch.ones(2, len(preps[0].data.distances)), has_sides=torch.zeros(2, dtype=torch.bool))
     net = StackedSiren.stack(preps, torch.device("cpu"))
     before = net.snapshot()
     # lr 0: nothing can improve, so both shapes freeze after `patience` epochs and the phase ends.
