@@ -12,7 +12,8 @@ clamps at d*), so queries are bounded there, which makes far uniform points ~5x 
 
 A UDF of a mesh also gets each point's *side* (±1): which side of the nearest surface it lies on, by
 the faces' orientation, which open surfaces have too (libigl's pseudonormal test; beyond the query
-bound the nearest face's normal). Training starts from the field signed by it (train.fit).
+bound the nearest face's normal), when the faces are consistently oriented (`oriented_share`).
+Training starts from the field signed by it (train.fit).
 """
 
 from __future__ import annotations
@@ -133,6 +134,17 @@ class SurfaceSampler:
         self.faces = np.ascontiguousarray(self.faces[:, ::-1])
 
 
+def oriented_share(faces: np.ndarray) -> float:
+    """Of the edges that exactly two faces share, the share the two traverse in opposite directions
+    (consistently oriented neighbours); 0 when no edge is shared."""
+    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    _, edge, uses = np.unique(np.sort(directed, axis=1), axis=0, return_inverse=True, return_counts=True)
+    balance = np.zeros(len(uses), np.int64)  # +1 per use from the lower vertex, -1 per use from the upper
+    np.add.at(balance, edge.reshape(-1), np.where(directed[:, 0] < directed[:, 1], 1, -1))
+    shared = uses == 2
+    return float((balance[shared] == 0).mean()) if shared.any() else 0.0
+
+
 class FieldChoice(NamedTuple):
     field: str  # "sdf" or "udf"
     reason: str  # one line: why, for the log
@@ -200,7 +212,7 @@ def build_pool(
     points, distances, off_surface = _samples(sampler, field, counts, rng)
     validation_points, validation_distances, _ = _samples(sampler, field, epoch_counts(config.VALIDATION_FRACTION), rng)
     sides = None
-    if field == "udf" and sampler.is_mesh:
+    if field == "udf" and sampler.is_mesh and oriented_share(sampler.faces) >= config.UDF_SIGNED_MIN_ORIENTED:
         n_uniform, n_surface, _ = counts
         queried = sampler.sides(off_surface)  # on the surface itself the side does not matter
         sides = np.concatenate([queried[:n_uniform], np.ones(n_surface, np.float32), queried[n_uniform:]])

@@ -10,7 +10,7 @@ from nfencode import config
 from nfencode.batch_train import StackedSiren, fit_many
 from nfencode.encoder import EncodeConfig, prepare
 from nfencode.io import Shape
-from nfencode.sampling import FAR, SurfaceSampler, build_pool
+from nfencode.sampling import FAR, SurfaceSampler, build_pool, oriented_share
 from nfencode.train import fit
 
 
@@ -47,6 +47,20 @@ def test_only_the_udf_pool_of_a_mesh_carries_sides() -> None:
     assert np.all(udf.sides[inside] == -1.0) and np.all(udf.sides[np.linalg.norm(udf.points, axis=1) > 1.01] == 1.0)
     assert build_pool(mesh, "sdf", rng).sides is None
     assert build_pool(cloud, "udf", rng).sides is None
+
+
+def test_a_mesh_without_a_consistent_orientation_gets_no_sides() -> None:
+    ball = sphere()
+    assert oriented_share(ball.faces) == 1.0 and oriented_share(ball.faces[:, ::-1]) == 1.0
+    rng = np.random.default_rng(0)
+    soup = ball.faces.copy()
+    flipped = rng.random(len(soup)) < 0.5
+    soup[flipped] = soup[flipped][:, ::-1]
+    assert 0.4 < oriented_share(soup) < 0.6
+    assert oriented_share(np.arange(12).reshape(4, 3)) == 0.0  # no edge shared: nothing to tell
+    # Its sides would be noise (bench/RESULTS.md: far worse than no signed start), so it trains unsigned.
+    assert build_pool(SurfaceSampler(ball.vertices, soup), "udf", rng).sides is None
+    assert build_pool(SurfaceSampler(ball.vertices, ball.faces[:, ::-1]), "udf", rng).sides is not None
 
 
 def inner_field_at(model: torch.nn.Module, radius: float) -> torch.Tensor:
