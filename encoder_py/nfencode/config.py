@@ -41,7 +41,7 @@ spot, igea, nefertiti 0.00%, bunny 0.56% (5 holes), suzanne 0.53%, demosthenes 1
 edges) → SDF; garments 3.7% (Pants1) to 17% (skirt), lionstatue 18% → UDF.
 Meshes folded onto themselves (the res3 dragon and Happy Buddha: ~3% non-manifold edges, ~2.5%
 duplicate faces) still enclose an inside and stay SDF, which is measured better: fast w32 at L = 8, CD
-at 256, dragon SDF 0.00936 vs UDF 0.00984, happy SDF 0.00929 vs UDF 0.01009 (the UDFs with their signed
+at 256, dragon SDF 0.00936 vs UDF 0.00971, happy SDF 0.00929 vs UDF 0.00985 (the UDFs with their signed
 start, UDF_SIGNED_EPOCHS; without it 0.0126 and more; bench/RESULTS.md)."""
 
 AUTO_PROBE_POINTS = 20_000
@@ -80,12 +80,13 @@ L1_WEIGHT = 1e-8
 UDF_SIGNED_EPOCHS = 1 / 3
 """A UDF of a mesh trains the first third of its epochs as a signed field: the output before its
 `abs` fitted to the distances signed by the side of the surface each point lies on (the faces'
-orientation, sampling.SurfaceSampler.sides), then as the UDF, in one learning-rate schedule
-(train.fit). Measured (fast preset, w32, seed 0, CD at 256): bunny UDF 0.01225 -> 0.00853 (its SDF:
-0.00841), T-shirt 0.00992 -> 0.00843, Pants1 0.00776 -> 0.00743, res3 dragon 0.01260 -> 0.00984;
-boundary edges 59k -> 33 on the bunny, 47k -> 839 on the T-shirt (its own: 228). A third, a
-sixth or two thirds of the epochs (with the schedule restarted between the phases, T-shirt):
-0.00790 / 0.00790 / 0.00815.
+orientation; +1 where the nearest surface point is on a free edge, so that the signed field does
+not continue a sheet past its edge: sampling.SurfaceSampler.sides), then as the UDF, in one
+learning-rate schedule (train.fit). Measured (fast preset, seed 0, CD at 256, bench/RESULTS.md "The
+signed start"): bunny UDF w32 0.01225 -> 0.00867 (its SDF: 0.00841), T-shirt w32 0.00992 -> 0.00760,
+Pants1 w32 0.00776 -> 0.00660; at w16 all five garments below the decimated-Draco envelope; boundary
+edges 59k -> 11 on the bunny. A third, a sixth or two thirds of the epochs (the schedule restarted between the phases,
+T-shirt w32, before the free-edge rule): 0.00790 / 0.00790 / 0.00815.
 Point clouds have no faces, hence no sides, and train as the UDF throughout."""
 
 UDF_SIGNED_MIN_ORIENTED = 0.9

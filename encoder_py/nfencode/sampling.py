@@ -11,9 +11,9 @@ the nearest-neighbour distance (UDF only). Beyond 2·d* the exact value is never
 clamps at d*), so queries are bounded there, which makes far uniform points ~5x cheaper.
 
 A UDF of a mesh also gets each point's *side* (±1): which side of the nearest surface it lies on, by
-the faces' orientation, which open surfaces have too (libigl's pseudonormal test; beyond the query
-bound the nearest face's normal), when the faces are consistently oriented (`oriented_share`).
-Training starts from the field signed by it (train.fit).
+the faces' orientation, which open surfaces have too (libigl's pseudonormal test; +1 where the
+nearest surface point is on a free edge), when the faces are consistently oriented
+(`oriented_share`). Training starts from the field signed by it (train.fit).
 """
 
 from __future__ import annotations
@@ -30,6 +30,10 @@ from .errors import InputError
 
 FAR = 2.0 * config.TRUNCATION
 """Distance stored for points farther than the query bound (only its sign and |d| > d* matter)."""
+
+ON_BOUNDARY = 1e-9
+"""How near (unit frame) a closest point must be to a free edge to count as on it: float64 rounding of
+libigl's closest points, which land on the edge itself."""
 
 
 @dataclass
@@ -91,8 +95,8 @@ class SurfaceSampler:
             assert not signed, "point clouds have no inside"
             d, _ = self._tree.query(points, distance_upper_bound=FAR)  # type: ignore[union-attr]
             return np.minimum(d, FAR)
-        d = self._bounded_distances(points, igl.SIGNED_DISTANCE_TYPE_FAST_WINDING_NUMBER if signed
-                                    else igl.SIGNED_DISTANCE_TYPE_UNSIGNED)
+        kind = igl.SIGNED_DISTANCE_TYPE_FAST_WINDING_NUMBER if signed else igl.SIGNED_DISTANCE_TYPE_UNSIGNED
+        d, *_ = igl.signed_distance(points, self.vertices, self.faces, sign_type=kind, lower_bound=-FAR, upper_bound=FAR)
         # libigl returns NaN where the bound pruned the search: those points are farther than d*
         # (measured: pruned points lie > 1.8·d* away), so only their sign is still needed.
         far = np.isnan(d)
@@ -104,27 +108,40 @@ class SurfaceSampler:
                 d[far] = FAR
         return np.clip(d, -FAR, FAR)
 
-    def _bounded_distances(self, points: np.ndarray, kind: int) -> np.ndarray:
-        """libigl's signed_distance of `kind`, NaN beyond FAR (where the bound pruned the search)."""
-        d, *_ = igl.signed_distance(points, self.vertices, self.faces, sign_type=kind, lower_bound=-FAR, upper_bound=FAR)
-        return d
-
     def sides(self, points: np.ndarray) -> np.ndarray:
-        """±1 (float32): the side of the surface each point lies on, by the faces' orientation (meshes
-        only). Within FAR libigl's pseudonormal test (the angle-weighted normal of the nearest feature);
-        beyond it, where only a plausible side is needed, the normal of the face with the nearest
-        centroid, which a k-d tree finds far cheaper than an unbounded exact query. 0 counts as +1."""
+        """±1 (float32): the side of the surface each point lies on, by the faces' orientation
+        (libigl's pseudonormal test: the angle-weighted normal of the nearest feature), and +1 where
+        the nearest surface point lies on the mesh's free boundary: beyond a free edge the sheet does
+        not go on, and a side there would make the signed start continue it (bench/RESULTS.md).
+        Meshes only; an unbounded query, since far points need a side too. 0 counts as +1."""
         assert self.faces is not None
         points = np.ascontiguousarray(points, dtype=np.float64)
-        side = self._bounded_distances(points, igl.SIGNED_DISTANCE_TYPE_PSEUDONORMAL)
-        far = np.isnan(side)
-        if far.any():
-            a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
-            centroids = (a + b + c) / 3.0
-            _, nearest = cKDTree(centroids).query(points[far])
-            normals = np.cross(b - a, c - a)[nearest]
-            side[far] = np.einsum("ij,ij->i", points[far] - centroids[nearest], normals)
-        return np.where(side < 0.0, -1.0, 1.0).astype(np.float32)
+        d, face, closest, *_ = igl.signed_distance(points, self.vertices, self.faces,
+                                                   sign_type=igl.SIGNED_DISTANCE_TYPE_PSEUDONORMAL)
+        side = np.where(d < 0.0, -1.0, 1.0).astype(np.float32)
+        side[self._on_free_boundary(face, closest)] = 1.0
+        return side
+
+    def _on_free_boundary(self, face: np.ndarray, closest: np.ndarray) -> np.ndarray:
+        """Whether each point `closest` of face `face` lies on a free edge or a free vertex (an end of
+        one) of the mesh, to within float64 rounding."""
+        assert self.faces is not None
+        faces, vertices = self.faces, self.vertices
+        free_edge = edge_table(faces).free  # (F, 3): face f's edge from corner k to k + 1
+        free_vertex = np.zeros(len(vertices), bool)
+        for k in range(3):
+            free_vertex[faces[free_edge[:, k], k]] = True
+        on = np.zeros(len(face), bool)
+        for k in range(3):
+            at = free_edge[face, k]
+            a, b = vertices[faces[face[at], k]], vertices[faces[face[at], (k + 1) % 3]]
+            ab, ac = b - a, closest[at] - a
+            t = np.clip(np.einsum("ij,ij->i", ac, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0.0, 1.0)
+            on[at] |= np.linalg.norm(ac - t[:, None] * ab, axis=1) <= ON_BOUNDARY
+            corner = faces[face, k]
+            at = free_vertex[corner]
+            on[at] |= np.linalg.norm(closest[at] - vertices[corner[at]], axis=1) <= ON_BOUNDARY
+        return on
 
     def near_points(self, n: int, sigma: float, rng: np.random.Generator) -> np.ndarray:
         return self.surface_points(n, rng) + rng.normal(0.0, sigma, (n, 3))
@@ -134,14 +151,34 @@ class SurfaceSampler:
         self.faces = np.ascontiguousarray(self.faces[:, ::-1])
 
 
+class EdgeTable(NamedTuple):
+    """A mesh's edges: `edge[f, k]` the index of face f's edge from corner k to k + 1, `uses` how many
+    faces use each edge, `forward[f, k]` whether face f runs along it from its lower vertex index."""
+
+    edge: np.ndarray
+    uses: np.ndarray
+    forward: np.ndarray
+
+    @property
+    def free(self) -> np.ndarray:
+        """(F, 3): whether face f's edge k belongs to no other face (the mesh's free boundary)."""
+        return self.uses[self.edge] == 1
+
+
+def edge_table(faces: np.ndarray) -> EdgeTable:
+    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2)  # (F, 3, 2): corner k -> k + 1
+    _, edge, uses = np.unique(np.sort(directed, axis=2).reshape(-1, 2), axis=0, return_inverse=True,
+                              return_counts=True)
+    return EdgeTable(edge.reshape(-1, 3), uses, directed[..., 0] < directed[..., 1])
+
+
 def oriented_share(faces: np.ndarray) -> float:
     """Of the edges that exactly two faces share, the share the two traverse in opposite directions
     (consistently oriented neighbours); 0 when no edge is shared."""
-    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    _, edge, uses = np.unique(np.sort(directed, axis=1), axis=0, return_inverse=True, return_counts=True)
-    balance = np.zeros(len(uses), np.int64)  # +1 per use from the lower vertex, -1 per use from the upper
-    np.add.at(balance, edge.reshape(-1), np.where(directed[:, 0] < directed[:, 1], 1, -1))
-    shared = uses == 2
+    table = edge_table(faces)
+    balance = np.zeros(len(table.uses), np.int64)  # +1 per use from the lower vertex, -1 from the upper
+    np.add.at(balance, table.edge.reshape(-1), np.where(table.forward, 1, -1).reshape(-1))
+    shared = table.uses == 2
     return float((balance[shared] == 0).mean()) if shared.any() else 0.0
 
 

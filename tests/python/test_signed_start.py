@@ -34,6 +34,10 @@ def test_sides_follow_the_faces_orientation_near_and_beyond_the_query_bound() ->
     sheet = SurfaceSampler(v, np.array([[0, 1, 2], [0, 2, 3]], np.int64))
     above_below = np.array([[0.1, 0.2, 0.05], [0.1, 0.2, -0.05], [0, 0, 0.7], [0.3, 0, -0.7]])
     assert sheet.sides(above_below).tolist() == [1, -1, 1, -1]
+    # Beyond its free edges and corners the sheet does not go on: no side there, so +1 on both sides
+    # of its plane (the signed start then fits the unsigned distance; its extension is no surface).
+    beyond = np.array([[0.8, 0.1, 0.05], [0.8, 0.1, -0.05], [-0.9, 0.0, -0.3], [0.7, 0.7, -0.02], [0.0, -0.6, -0.5]])
+    assert sheet.sides(beyond).tolist() == [1, 1, 1, 1, 1]
 
 
 def test_only_the_udf_pool_of_a_mesh_carries_sides() -> None:
