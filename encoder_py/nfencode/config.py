@@ -85,8 +85,8 @@ not continue a sheet past its edge: sampling.SurfaceSampler.sides), then as the 
 learning-rate schedule (train.fit). Measured (fast preset, seed 0, CD at 256, bench/RESULTS.md "The
 signed start"): bunny UDF w32 0.01225 -> 0.00867 (its SDF: 0.00841), T-shirt w32 0.00992 -> 0.00760,
 Pants1 w32 0.00776 -> 0.00660; at w16 all five garments below the decimated-Draco envelope; boundary
-edges 59k -> 11 on the bunny. A third, a sixth or two thirds of the epochs (the schedule restarted between the phases,
-T-shirt w32, before the free-edge rule): 0.00790 / 0.00790 / 0.00815.
+edges 59k -> 11 on the bunny. A third, a sixth or two thirds of the epochs (the schedule restarted
+between the phases, T-shirt w32, before the free-edge rule): 0.00790 / 0.00790 / 0.00815.
 Point clouds have no faces, hence no sides, and train as the UDF throughout."""
 
 UDF_SIGNED_MIN_ORIENTED = 0.9

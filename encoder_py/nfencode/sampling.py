@@ -130,7 +130,7 @@ class SurfaceSampler:
         free_edge = edge_table(faces).free  # (F, 3): face f's edge from corner k to k + 1
         free_vertex = np.zeros(len(vertices), bool)
         for k in range(3):
-            free_vertex[faces[free_edge[:, k], k]] = True
+            free_vertex[faces[free_edge[:, k], k]] = free_vertex[faces[free_edge[:, k], (k + 1) % 3]] = True
         on = np.zeros(len(face), bool)
         for k in range(3):
             at = free_edge[face, k]

@@ -162,10 +162,10 @@ def fit(
 
     def batches() -> Iterator[Batch]:
         nonlocal epoch
-        is_signed = epoch < signed
+        is_signed = epoch < signed and data.sides is not None
         epoch += 1
         model.output = "identity" if is_signed else output
-        targets = data.distances * data.sides if is_signed and data.sides is not None else data.distances
+        targets = data.distances * data.sides if is_signed else data.distances
         order = torch.from_numpy(draw_epoch(pool, rng)).to(data.encoded.device)
         for batch in order.split(batch_size):
             yield data.encoded[batch], targets[batch]
