@@ -92,10 +92,11 @@ Point clouds have no faces, hence no sides, and train as the UDF throughout."""
 UDF_SIGNED_MIN_ORIENTED = 0.9
 """The signed start needs faces whose orientation means something: the share of edges between two
 faces that the two traverse in opposite directions must be at least this (sampling.oriented_share;
-every mesh in shared/data: 1.0). Measured on the bunny with faces flipped at random (w32, seed 0):
-2% flipped (share 0.96) CD 0.00862, 20% (0.68) 0.00873, 50% (0.50, a soup with no orientation)
-0.0559 with 849k boundary edges, far worse than no signed start (0.01225). The margin below 0.9 is
-left unused on purpose: real meshes are either oriented or not."""
+every mesh in shared/data: 1.0), or reach it once each edge-connected patch is reoriented by BFS
+(SurfaceSampler.orient_consistently); a soup with no shared edge trains unsigned. Measured on the
+bunny with faces flipped at random (w32, seed 0): 50% flipped (share 0.50) took as it was: CD 0.0559,
+849k boundary edges, far worse than no signed start (0.01225); reoriented first: 0.00864, 0 boundary
+edges, as with its own faces."""
 
 DEFAULT_BITS = 8
 DEFAULT_WIDTH = 32  # hidden layer width of `nfc encode` without --width or a target; --target-cd's start

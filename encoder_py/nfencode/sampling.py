@@ -12,8 +12,9 @@ clamps at d*), so queries are bounded there, which makes far uniform points ~5x 
 
 A UDF of a mesh also gets each point's *side* (±1): which side of the nearest surface it lies on, by
 the faces' orientation, which open surfaces have too (libigl's pseudonormal test; +1 where the
-nearest surface point is on a free edge), when the faces are consistently oriented
-(`oriented_share`). Training starts from the field signed by it (train.fit).
+nearest surface point is on a free edge), when the faces are consistently oriented or can be made so
+(`oriented_share`, `SurfaceSampler.orient_consistently`). Training starts from the field signed by it
+(train.fit).
 """
 
 from __future__ import annotations
@@ -150,6 +151,21 @@ class SurfaceSampler:
         assert self.faces is not None
         self.faces = np.ascontiguousarray(self.faces[:, ::-1])
 
+    def orient_consistently(self) -> None:
+        """Reorients faces so that neighbours agree (libigl's BFS over each edge-connected patch), each
+        patch keeping the orientation most of its faces had. Distances do not depend on orientation;
+        sides do."""
+        assert self.faces is not None
+        before = self.faces
+        after, patch = igl.bfs_orient(before)
+        kept = np.zeros(len(before), bool)  # whether face f's orientation is unchanged
+        for k in range(3):
+            kept |= (after[:, 0] == before[:, k]) & (after[:, 1] == before[:, (k + 1) % 3])
+        votes = np.bincount(patch, weights=np.where(kept, -1.0, 1.0))
+        back = votes[patch] > 0  # most of the patch was turned: turn it all back
+        after[back] = after[back][:, ::-1]
+        self.faces = np.ascontiguousarray(after)
+
 
 class EdgeTable(NamedTuple):
     """A mesh's edges: `edge[f, k]` the index of face f's edge from corner k to k + 1, `uses` how many
@@ -249,6 +265,8 @@ def build_pool(
     points, distances, off_surface = _samples(sampler, field, counts, rng)
     validation_points, validation_distances, _ = _samples(sampler, field, epoch_counts(config.VALIDATION_FRACTION), rng)
     sides = None
+    if field == "udf" and sampler.is_mesh and oriented_share(sampler.faces) < config.UDF_SIGNED_MIN_ORIENTED:
+        sampler.orient_consistently()
     if field == "udf" and sampler.is_mesh and oriented_share(sampler.faces) >= config.UDF_SIGNED_MIN_ORIENTED:
         n_uniform, n_surface, _ = counts
         queried = sampler.sides(off_surface)  # on the surface itself the side does not matter

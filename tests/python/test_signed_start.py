@@ -53,7 +53,7 @@ def test_only_the_udf_pool_of_a_mesh_carries_sides() -> None:
     assert build_pool(cloud, "udf", rng).sides is None
 
 
-def test_a_mesh_without_a_consistent_orientation_gets_no_sides() -> None:
+def test_a_mesh_without_a_consistent_orientation_is_oriented_first_or_gets_no_sides() -> None:
     ball = sphere()
     assert oriented_share(ball.faces) == 1.0 and oriented_share(ball.faces[:, ::-1]) == 1.0
     rng = np.random.default_rng(0)
@@ -62,9 +62,20 @@ def test_a_mesh_without_a_consistent_orientation_gets_no_sides() -> None:
     soup[flipped] = soup[flipped][:, ::-1]
     assert 0.4 < oriented_share(soup) < 0.6
     assert oriented_share(np.arange(12).reshape(4, 3)) == 0.0  # no edge shared: nothing to tell
-    # Its sides would be noise (bench/RESULTS.md: far worse than no signed start), so it trains unsigned.
-    assert build_pool(SurfaceSampler(ball.vertices, soup), "udf", rng).sides is None
-    assert build_pool(SurfaceSampler(ball.vertices, ball.faces[:, ::-1]), "udf", rng).sides is not None
+    # Its sides would be noise (bench/RESULTS.md: far worse than no signed start): the pool orients it
+    # first, each edge-connected patch by the majority of its faces, and takes the sides of that.
+    reoriented = SurfaceSampler(ball.vertices, soup)
+    reoriented.orient_consistently()
+    assert oriented_share(reoriented.faces) == 1.0
+    pool = build_pool(SurfaceSampler(ball.vertices, soup), "udf", rng)
+    assert pool.sides is not None
+    radius = np.linalg.norm(pool.points, axis=1)  # one side inside, the other outside, whichever is which
+    inner, outer = pool.sides[radius < 0.99], pool.sides[radius > 1.01]
+    assert abs(float(inner.mean())) == 1.0 and float(outer.mean()) == -float(inner.mean())
+    # A soup without a shared edge cannot be oriented: it trains unsigned.
+    triangles = ball.vertices[ball.faces].reshape(-1, 3)
+    unshared = SurfaceSampler(triangles, np.arange(len(triangles)).reshape(-1, 3))
+    assert build_pool(unshared, "udf", rng).sides is None
 
 
 def inner_field_at(model: torch.nn.Module, radius: float) -> torch.Tensor:
