@@ -24,10 +24,10 @@ def sphere(radius: float = 1.0) -> Shape:
     return Shape(np.asarray(m.vertices, np.float64), np.asarray(m.faces, np.int64), None, "sphere")
 
 
-def test_sides_follow_the_faces_orientation_near_and_beyond_the_query_bound() -> None:
+def test_sides_follow_the_faces_orientation_near_and_far() -> None:
     ball = sphere(0.5)
     points = np.array([[0.45, 0, 0], [0, 0.55, 0], [0.0, 0.0, 0.0], [0.95, 0, 0], [0, 0, -0.9]])
-    assert 0.5 > FAR  # the centre and the last two points take the nearest face's normal
+    assert 0.5 > FAR  # the centre and the last two points lie beyond the distances' query bound
     assert SurfaceSampler(ball.vertices, ball.faces).sides(points).tolist() == [-1, 1, -1, 1, 1]
     # An open sheet in z = 0 wound toward +z: its sides are its two half-spaces, near and far.
     v = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]], np.float64)
