@@ -163,6 +163,8 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
     sampler = SurfaceSampler(to_unit(shape.vertices, train_center, train_scale), shape.faces)
     field, field_reason = resolve_field(sampler, cfg.field, rng)
     pool = build_pool(sampler, field, rng)
+    if pool.sides_note:
+        field_reason = f"{field_reason}; {pool.sides_note}"
     model = Siren(cfg.width, "identity" if field == "sdf" else "abs", num_frequencies=cfg.frequencies,
                   generator=generator)
     data = prepare_data(model, pool)

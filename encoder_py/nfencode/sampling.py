@@ -51,6 +51,7 @@ class DistancePool:
     validation_points: np.ndarray
     validation_distances: np.ndarray
     sides: np.ndarray | None = None
+    sides_note: str = ""  # a UDF of a mesh: whether and how its sides were taken, for the log
 
 
 class SurfaceSampler:
@@ -264,14 +265,26 @@ def build_pool(
     counts = epoch_counts(pool_epochs)
     points, distances, off_surface = _samples(sampler, field, counts, rng)
     validation_points, validation_distances, _ = _samples(sampler, field, epoch_counts(config.VALIDATION_FRACTION), rng)
-    sides = None
-    if field == "udf" and sampler.is_mesh and oriented_share(sampler.faces) < config.UDF_SIGNED_MIN_ORIENTED:
+    sides, note = _mesh_sides(sampler, off_surface, counts) if field == "udf" and sampler.is_mesh else (None, "")
+    return DistancePool(points, distances, counts, validation_points, validation_distances, sides, note)
+
+
+def _mesh_sides(
+    sampler: SurfaceSampler, off_surface: np.ndarray, counts: tuple[int, int, int]
+) -> tuple[np.ndarray | None, str]:
+    """A UDF pool's sides (DistancePool.sides; faces reoriented first where they disagree) and what
+    was done, for the log."""
+    assert sampler.faces is not None
+    share = oriented_share(sampler.faces)
+    note = "signed start from the faces' orientation"
+    if share < config.UDF_SIGNED_MIN_ORIENTED:
         sampler.orient_consistently()
-    if field == "udf" and sampler.is_mesh and oriented_share(sampler.faces) >= config.UDF_SIGNED_MIN_ORIENTED:
-        n_uniform, n_surface, _ = counts
-        queried = sampler.sides(off_surface)  # on the surface itself the side does not matter
-        sides = np.concatenate([queried[:n_uniform], np.ones(n_surface, np.float32), queried[n_uniform:]])
-    return DistancePool(points, distances, counts, validation_points, validation_distances, sides)
+        if oriented_share(sampler.faces) < config.UDF_SIGNED_MIN_ORIENTED:
+            return None, f"no signed start: the faces have no orientation ({share:.0%} of shared edges agree)"
+        note = f"signed start from the faces reoriented by patch ({share:.0%} of shared edges agreed)"
+    n_uniform, n_surface, _ = counts
+    queried = sampler.sides(off_surface)  # on the surface itself the side does not matter
+    return np.concatenate([queried[:n_uniform], np.ones(n_surface, np.float32), queried[n_uniform:]]), note
 
 
 def draw_epoch(pool: DistancePool, rng: np.random.Generator) -> np.ndarray:

@@ -68,14 +68,15 @@ def test_a_mesh_without_a_consistent_orientation_is_oriented_first_or_gets_no_si
     reoriented.orient_consistently()
     assert oriented_share(reoriented.faces) == 1.0
     pool = build_pool(SurfaceSampler(ball.vertices, soup), "udf", rng)
-    assert pool.sides is not None
+    assert pool.sides is not None and "reoriented" in pool.sides_note
     radius = np.linalg.norm(pool.points, axis=1)  # one side inside, the other outside, whichever is which
     inner, outer = pool.sides[radius < 0.99], pool.sides[radius > 1.01]
     assert abs(float(inner.mean())) == 1.0 and float(outer.mean()) == -float(inner.mean())
     # A soup without a shared edge cannot be oriented: it trains unsigned.
     triangles = ball.vertices[ball.faces].reshape(-1, 3)
     unshared = SurfaceSampler(triangles, np.arange(len(triangles)).reshape(-1, 3))
-    assert build_pool(unshared, "udf", rng).sides is None
+    unsigned = build_pool(unshared, "udf", rng)
+    assert unsigned.sides is None and "no signed start" in unsigned.sides_note
 
 
 def inner_field_at(model: torch.nn.Module, radius: float) -> torch.Tensor:
@@ -102,6 +103,7 @@ def is_signed_like_the_sphere(model: torch.nn.Module) -> bool:
 def test_a_udf_fit_starts_from_the_sides_and_ends_as_a_udf() -> None:
     prep = prepare(sphere(), EncodeConfig(field="udf", width=16, quiet=True), torch.device("cpu"))
     assert prep.model.output == "abs" and prep.data.sides is not None
+    assert prep.field_reason == "requested; signed start from the faces' orientation"  # what `nfc encode` prints
     fit(prep.model, prep.data, prep.pool, epochs=6, lr=1e-3, cosine=True, batch_size=500, rng=prep.rng, signed=6,
         quiet=True)
     assert prep.model.output == "abs"
