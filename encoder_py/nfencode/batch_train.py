@@ -156,11 +156,11 @@ def fit_many(
     stale = torch.zeros(k, dtype=torch.int64, device=data.encoded.device)
     step = 0
     absolute = net.absolute
+    signed_targets = data.distances * data.sides if signed > 0 else data.distances  # sides: 1 without them
     for epoch in range(epochs):
         order = torch.from_numpy(np.stack([draw_epoch(p.pool, p.rng) for p in preps])).to(data.encoded.device)
-        signing = data.has_sides & (epoch < signed)
-        targets = torch.where(signing[:, None], data.distances * data.sides, data.distances)
-        net.absolute = absolute & ~signing
+        targets = signed_targets if epoch < signed else data.distances
+        net.absolute = absolute & ~(data.has_sides & (epoch < signed))
         for batch in order.split(batch_size, dim=1):
             if cosine:
                 for group in optimizer.param_groups:

@@ -81,7 +81,7 @@ UDF_SIGNED_EPOCHS = 1 / 3
 """A UDF of a mesh trains the first third of its epochs as a signed field: the output before its
 `abs` fitted to the distances signed by the side of the surface each point lies on (the faces'
 orientation; +1 where the nearest surface point is on a free edge, so that the signed field does
-not continue a sheet past its edge: sampling.SurfaceSampler.sides), then as the UDF, in one
+not continue a sheet past its edge: sampling.SurfaceSampler.unsigned_distances_and_sides), then as the UDF, in one
 learning-rate schedule (train.fit). Measured (fast preset, seed 0, CD at 256, bench/RESULTS.md "The
 signed start"): bunny UDF w32 0.01225 -> 0.00867 (its SDF: 0.00841), T-shirt w32 0.00992 -> 0.00760,
 Pants1 w32 0.00776 -> 0.00660; at w16 all five garments below the decimated-Draco envelope; boundary

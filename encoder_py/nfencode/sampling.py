@@ -42,7 +42,7 @@ class DistancePool:
     """Training samples, the three kinds stored one after the other, plus a held-out validation set.
 
     points (n, 3) float32 in the unit frame; distances (n,) float32 with |d| clamped to at most FAR;
-    sides (n,) float32 ±1 for a UDF of a mesh (SurfaceSampler.sides), else None.
+    sides (n,) float32 ±1 for a UDF of a mesh (SurfaceSampler.unsigned_distances_and_sides), else None.
     """
 
     points: np.ndarray
@@ -110,19 +110,20 @@ class SurfaceSampler:
                 d[far] = FAR
         return np.clip(d, -FAR, FAR)
 
-    def sides(self, points: np.ndarray) -> np.ndarray:
-        """±1 (float32): the side of the surface each point lies on, by the faces' orientation
-        (libigl's pseudonormal test: the angle-weighted normal of the nearest feature), and +1 where
-        the nearest surface point lies on the mesh's free boundary: beyond a free edge the sheet does
-        not go on, and a side there would make the signed start continue it (bench/RESULTS.md).
-        Meshes only; an unbounded query, since far points need a side too. 0 counts as +1."""
+    def unsigned_distances_and_sides(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`distances(points, signed=False)` (the same values), and ±1 (float32): the side of the
+        surface each point lies on, by the faces' orientation (libigl's pseudonormal test: the
+        angle-weighted normal of the nearest feature), +1 where the nearest surface point lies on the
+        mesh's free boundary: beyond a free edge the sheet does not go on, and a side there would make
+        the signed start continue it (bench/RESULTS.md). Meshes only; one unbounded query, since far
+        points need a side too. 0 counts as +1."""
         assert self.faces is not None
         points = np.ascontiguousarray(points, dtype=np.float64)
         d, face, closest, *_ = igl.signed_distance(points, self.vertices, self.faces,
                                                    sign_type=igl.SIGNED_DISTANCE_TYPE_PSEUDONORMAL)
         side = np.where(d < 0.0, -1.0, 1.0).astype(np.float32)
         side[self._on_free_boundary(face, closest)] = 1.0
-        return side
+        return np.minimum(np.abs(d), FAR), side
 
     def _on_free_boundary(self, face: np.ndarray, closest: np.ndarray) -> np.ndarray:
         """Whether each point `closest` of face `face` lies on a free edge or a free vertex (an end of
@@ -242,18 +243,23 @@ def epoch_counts(scale: float) -> tuple[int, int, int]:
 
 
 def _samples(
-    sampler: SurfaceSampler, field: str, counts: tuple[int, int, int], rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Points, distances, and the points uniform and near the surface (whose sides may be asked)."""
+    sampler: SurfaceSampler, field: str, counts: tuple[int, int, int], rng: np.random.Generator, sided: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Points, distances, and with `sided` (a UDF of an oriented mesh) their sides."""
     n_uniform, n_surface, n_near = counts
     uniform = rng.uniform(-1.0, 1.0, (n_uniform, 3))
     surface = sampler.surface_points(n_surface, rng)
     near = sampler.near_points(n_near, config.NEAR_SURFACE_SIGMA[field], rng)
     off_surface = np.concatenate([uniform, near])
-    queried = sampler.distances(off_surface, signed=field == "sdf")
+    if sided:
+        queried, side = sampler.unsigned_distances_and_sides(off_surface)
+    else:
+        queried, side = sampler.distances(off_surface, signed=field == "sdf"), None
     points = np.concatenate([uniform, surface, near]).astype(np.float32)
     distances = np.concatenate([queried[:n_uniform], np.zeros(n_surface), queried[n_uniform:]]).astype(np.float32)
-    return points, distances, off_surface
+    # On the surface itself the side does not matter.
+    sides = None if side is None else np.concatenate([side[:n_uniform], np.ones(n_surface, np.float32), side[n_uniform:]])
+    return points, distances, sides
 
 
 def build_pool(
@@ -263,28 +269,23 @@ def build_pool(
     if field not in ("sdf", "udf") or (field == "sdf" and not sampler.is_mesh):
         raise ValueError(f"cannot build a {field!r} pool for this input")
     counts = epoch_counts(pool_epochs)
-    points, distances, off_surface = _samples(sampler, field, counts, rng)
+    sided, note = _orient_for_sides(sampler) if field == "udf" and sampler.is_mesh else (False, "")
+    points, distances, sides = _samples(sampler, field, counts, rng, sided)
     validation_points, validation_distances, _ = _samples(sampler, field, epoch_counts(config.VALIDATION_FRACTION), rng)
-    sides, note = _mesh_sides(sampler, off_surface, counts) if field == "udf" and sampler.is_mesh else (None, "")
     return DistancePool(points, distances, counts, validation_points, validation_distances, sides, note)
 
 
-def _mesh_sides(
-    sampler: SurfaceSampler, off_surface: np.ndarray, counts: tuple[int, int, int]
-) -> tuple[np.ndarray | None, str]:
-    """A UDF pool's sides (DistancePool.sides; faces reoriented first where they disagree) and what
-    was done, for the log."""
+def _orient_for_sides(sampler: SurfaceSampler) -> tuple[bool, str]:
+    """Whether a UDF pool of this mesh takes sides (DistancePool.sides; faces reoriented first where
+    they disagree), and what was done, for the log."""
     assert sampler.faces is not None
     share = oriented_share(sampler.faces)
-    note = "signed start from the faces' orientation"
-    if share < config.UDF_SIGNED_MIN_ORIENTED:
-        sampler.orient_consistently()
-        if oriented_share(sampler.faces) < config.UDF_SIGNED_MIN_ORIENTED:
-            return None, f"no signed start: the faces have no orientation ({share:.0%} of shared edges agree)"
-        note = f"signed start from the faces reoriented by patch ({share:.0%} of shared edges agreed)"
-    n_uniform, n_surface, _ = counts
-    queried = sampler.sides(off_surface)  # on the surface itself the side does not matter
-    return np.concatenate([queried[:n_uniform], np.ones(n_surface, np.float32), queried[n_uniform:]]), note
+    if share >= config.UDF_SIGNED_MIN_ORIENTED:
+        return True, "signed start from the faces' orientation"
+    sampler.orient_consistently()
+    if oriented_share(sampler.faces) < config.UDF_SIGNED_MIN_ORIENTED:
+        return False, f"no signed start: the faces have no orientation ({share:.0%} of shared edges agree)"
+    return True, f"signed start from the faces reoriented by patch ({share:.0%} of shared edges agreed)"
 
 
 def draw_epoch(pool: DistancePool, rng: np.random.Generator) -> np.ndarray:

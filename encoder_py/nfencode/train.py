@@ -158,14 +158,15 @@ def fit(
     sides, the inner field is near the surface a signed distance, whose only zero set is the surface
     (bench/RESULTS.md, issue 6)."""
     output = model.output
+    signed_targets = data.distances * data.sides if signed > 0 and data.sides is not None else None
     epoch = 0
 
     def batches() -> Iterator[Batch]:
         nonlocal epoch
-        is_signed = epoch < signed and data.sides is not None
+        is_signed = epoch < signed and signed_targets is not None
         epoch += 1
         model.output = "identity" if is_signed else output
-        targets = data.distances * data.sides if is_signed else data.distances
+        targets = signed_targets if is_signed else data.distances
         order = torch.from_numpy(draw_epoch(pool, rng)).to(data.encoded.device)
         for batch in order.split(batch_size):
             yield data.encoded[batch], targets[batch]

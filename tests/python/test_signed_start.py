@@ -28,16 +28,16 @@ def test_sides_follow_the_faces_orientation_near_and_far() -> None:
     ball = sphere(0.5)
     points = np.array([[0.45, 0, 0], [0, 0.55, 0], [0.0, 0.0, 0.0], [0.95, 0, 0], [0, 0, -0.9]])
     assert 0.5 > FAR  # the centre and the last two points lie beyond the distances' query bound
-    assert SurfaceSampler(ball.vertices, ball.faces).sides(points).tolist() == [-1, 1, -1, 1, 1]
+    assert SurfaceSampler(ball.vertices, ball.faces).unsigned_distances_and_sides(points)[1].tolist() == [-1, 1, -1, 1, 1]
     # An open sheet in z = 0 wound toward +z: its sides are its two half-spaces, near and far.
     v = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]], np.float64)
     sheet = SurfaceSampler(v, np.array([[0, 1, 2], [0, 2, 3]], np.int64))
     above_below = np.array([[0.1, 0.2, 0.05], [0.1, 0.2, -0.05], [0, 0, 0.7], [0.3, 0, -0.7]])
-    assert sheet.sides(above_below).tolist() == [1, -1, 1, -1]
+    assert sheet.unsigned_distances_and_sides(above_below)[1].tolist() == [1, -1, 1, -1]
     # Beyond its free edges and corners the sheet does not go on: no side there, so +1 on both sides
     # of its plane (the signed start then fits the unsigned distance; its extension is no surface).
     beyond = np.array([[0.8, 0.1, 0.05], [0.8, 0.1, -0.05], [-0.9, 0.0, -0.3], [0.7, 0.7, -0.02], [0.0, -0.6, -0.5]])
-    assert sheet.sides(beyond).tolist() == [1, 1, 1, 1, 1]
+    assert sheet.unsigned_distances_and_sides(beyond)[1].tolist() == [1, 1, 1, 1, 1]
 
 
 def test_only_the_udf_pool_of_a_mesh_carries_sides() -> None:
@@ -122,3 +122,20 @@ def test_a_batch_starts_only_its_shapes_with_sides_from_them() -> None:
     assert net.absolute.tolist() == [True, True]
     net.write_back(preps, net.snapshot())
     assert is_signed_like_the_sphere(preps[0].model)
+
+
+def test_sides_of_a_hostile_mesh_are_finite_and_the_pool_is_built() -> None:
+    """Zero-area faces, a face repeating a vertex, an edge of three faces and a lone triangle: the
+    sides are ±1, the distances those of `distances`, and a UDF pool is built."""
+    ball = sphere()
+    faces = np.concatenate([ball.faces, [[0, 0, 1], [2, 2, 2], ball.faces[0], ball.faces[0][::-1],
+                                         [ball.faces[0][0], ball.faces[0][1], 5]]])
+    v = np.concatenate([ball.vertices, [[0.0, 0.0, 0.0]]])  # an unused vertex at the centre
+    for sampler in (SurfaceSampler(v, faces), SurfaceSampler(v[:3] * 2.0, np.array([[0, 1, 2]]))):
+        points = np.random.default_rng(1).uniform(-1.0, 1.0, (500, 3))
+        distances, sides = sampler.unsigned_distances_and_sides(points)
+        assert set(np.unique(sides).tolist()) <= {-1.0, 1.0}
+        assert np.array_equal(distances, sampler.distances(points, signed=False))
+        pool = build_pool(sampler, "udf", np.random.default_rng(0))
+        assert np.all(np.isfinite(pool.distances))
+        assert pool.sides is None or set(np.unique(pool.sides).tolist()) <= {-1.0, 1.0}
