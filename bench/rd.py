@@ -6,6 +6,8 @@ seconds), Draco as the lower envelope over quadric decimation x quantization (`d
 6..14 -cl 10` on `fast-simplification` decimations), and the G-PCC figures of
 ../shared/baselines/baselines.csv. Prints markdown tables, writes bench/out/rd_<shape>.csv and a
 log-log plot bench/plots/rd_<shape>.png. Metric: ../shared/docs/metrics.md (nfencode.metrics).
+Shapes that ../shared/baselines has no G-PCC figures for (the range scans) get them from a TMC13
+binary when --tmc3 names one (`run_gpcc_cloud`; the shared figures were measured with TMC13 v23).
 
     .venv/bin/python bench/rd.py --shapes bunny armadillo --widths 16 24 32 48 64 96 --presets fast paper
 """
@@ -53,6 +55,9 @@ SHAPES: dict[str, tuple[str, str, str]] = {
 DRACO_CLOUD_POINTS = (500, 1000, 2000, 5000, 10000, 20000)
 DRACO_FACES = (500, 1000, 2000, 5000, 10000)
 DRACO_QP = range(6, 15)
+GPCC_BITS = 10  # the cloud on a 10-bit voxel grid, as the shared "-surf10" / "vox10" rows
+GPCC_OCTREE_SCALES = range(0, 8)  # positionQuantizationScale 1 / 2^k
+GPCC_TRISOUP_NODES = (2, 3, 4, 5, 6)  # trisoupNodeSizeLog2
 SEED = 0
 
 
@@ -165,6 +170,45 @@ def run_draco_cloud(gt: Shape) -> list[Point]:
     return points
 
 
+def run_gpcc_cloud(gt: Shape, tmc3: Path) -> list[Point]:
+    """MPEG G-PCC (TMC13) on a point cloud, geometry only, with the common test conditions'
+    geometry tools (planar mode, neighbour availability 2^8, intra prediction up to 2^6 nodes):
+    octree at position scales 1 .. 1/128, and trisoup (scale 1) at node sizes 2^2 .. 2^6, which
+    reconstructs a surface and samples it. The cloud is first put on a GPCC_BITS voxel grid over
+    its bounding box (the offset and scale, 16 bytes, are not counted); decoded points are mapped
+    back to the original frame."""
+    lo = gt.vertices.min(axis=0)
+    extent = float((gt.vertices.max(axis=0) - lo).max())
+    top = (1 << GPCC_BITS) - 1
+    settings = [(f"octree s=1/{1 << k}", ["--trisoupNodeSizeLog2=0",
+                                          f"--positionQuantizationScale={1 / (1 << k)}"])
+                for k in GPCC_OCTREE_SCALES]
+    settings += [(f"trisoup node={n}", [f"--trisoupNodeSizeLog2={n}",
+                                        "--positionQuantizationScale=1",
+                                        "--trisoupQuantizationBits=2",
+                                        "--trisoupCentroidResidualEnabled=1",
+                                        "--trisoupFaceVertexEnabled=1",
+                                        "--trisoupImprovedEncoderEnabled=1"])
+                 for n in GPCC_TRISOUP_NODES]
+    common = ["--mergeDuplicatedPoints=1", "--planarEnabled=1", "--neighbourAvailBoundaryLog2=8",
+              "--intra_pred_max_node_size_log2=6", "--disableAttributeCoding=1"]
+    points: list[Point] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        src, stream, rec = Path(tmp) / "in.ply", Path(tmp) / "out.bin", Path(tmp) / "rec.ply"
+        save_points(str(src), np.round((gt.vertices - lo) / extent * top))
+        for name, flags in settings:
+            subprocess.run([str(tmc3), "--mode=0", f"--uncompressedDataPath={src}",
+                            f"--compressedStreamPath={stream}", *common, *flags],
+                           check=True, capture_output=True)
+            subprocess.run([str(tmc3), "--mode=1", f"--compressedStreamPath={stream}",
+                            f"--reconstructedDataPath={rec}"], check=True, capture_output=True)
+            decoded = load_shape(str(rec))
+            decoded.vertices = decoded.vertices / top * extent + lo
+            points.append(Point("gpcc", f"{name} ({GPCC_BITS}-bit)", stream.stat().st_size,
+                                chamfer_distance(gt, decoded, seed=SEED)))
+    return points
+
+
 def shared_baseline(baseline_name: str, codec: str) -> list[Point]:
     """Rows of ../shared/baselines/baselines.csv (same metric, decoded surface vs ground truth)."""
     rows = csv.DictReader(open(SHARED / "baselines" / "baselines.csv"))
@@ -174,17 +218,18 @@ def shared_baseline(baseline_name: str, codec: str) -> list[Point]:
             if r["shape"] == baseline_name and r["codec"] == codec and r["cd_surf"]]
 
 
-def load_csv(path: Path) -> tuple[list[Point], list[Point]]:
-    """nfc and own-Draco points of an earlier run (to re-render tables without re-encoding)."""
-    ours, draco = [], []
+def load_csv(path: Path) -> tuple[list[Point], list[Point], list[Point]]:
+    """nfc, own-Draco and own-G-PCC points of an earlier run (to re-render tables without
+    re-encoding)."""
+    ours, draco, gpcc = [], [], []
     for r in csv.DictReader(open(path)):
         p = Point(r["codec"], r["setting"], int(r["bytes"]), float(r["cd"]), float(r["encode_s"]),
                   r.get("surface", ""))
         if r["codec"] == "nfc":
             ours.append(p)
-        elif r["codec"] == "draco" and "(shared)" not in r["setting"]:
-            draco.append(p)
-    return ours, draco
+        elif "(shared)" not in r["setting"]:
+            {"draco": draco, "gpcc": gpcc}[r["codec"]].append(p)
+    return ours, draco, gpcc
 
 
 def lower_envelope(points: list[Point]) -> list[Point]:
@@ -206,7 +251,7 @@ def interpolate_cd(envelope: list[Point], size: int) -> float | None:
 
 
 def verdict(cd: float, draco: float | None, gpcc: float | None, has_gpcc: bool = True) -> str:
-    """has_gpcc=False: ../shared/baselines has no G-PCC figure for the shape (the range scans)."""
+    """has_gpcc=False: no G-PCC figure for the shape (the range scans without --tmc3)."""
     pairs = (("Draco", draco), ("G-PCC", gpcc)) if has_gpcc else (("Draco", draco),)
     wins = [name + (" (none this small)" if other is None else "")
             for name, other in pairs if other is None or cd < other]
@@ -264,6 +309,9 @@ def main() -> None:
                         help=f"L of the geometry encoding (default {NUM_FREQUENCIES}; format 1.0 files: 16)")
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--no-draco", action="store_true", help="skip the Draco runs")
+    parser.add_argument("--tmc3", type=Path,
+                        help="a TMC13 (G-PCC) binary: measure G-PCC on point clouds that "
+                             "../shared/baselines has no figures for")
     parser.add_argument("--append", action="store_true",
                         help="add to the nfc/Draco points of bench/out/rd_<shape>.csv")
     parser.add_argument("--from-csv", action="store_true",
@@ -282,7 +330,7 @@ def main() -> None:
         floor = sampling_floor(gt, seed=SEED)
         csv_path = out_dir / f"rd_{shape}.csv"
         reuse = (args.from_csv or args.append or args.decode_only) and csv_path.exists()
-        ours, draco = load_csv(csv_path) if reuse else ([], [])
+        ours, draco, own_gpcc = load_csv(csv_path) if reuse else ([], [], [])
         if args.decode_only:
             encode_seconds = {p.setting: p.seconds for p in ours}
             names = [setting_name(p, w, args.frequencies) for p in args.presets for w in args.widths]
@@ -298,6 +346,9 @@ def main() -> None:
         # the stronger baseline at every size.
         draco_all = draco + shared_baseline(baseline_name, "draco")
         gpcc = shared_baseline(baseline_name, "gpcc")
+        if not gpcc and not own_gpcc and args.tmc3 and gt.faces is None and not args.from_csv:
+            own_gpcc = run_gpcc_cloud(gt, args.tmc3)
+        gpcc += own_gpcc
         draco_env, gpcc_env = lower_envelope(draco_all), lower_envelope(gpcc)
 
         print(f"\n### {shape} ({rel}, {field.upper()}; floor {floor:.4g}, seed {SEED}; "

@@ -11,7 +11,8 @@ It is the one-by-one pipeline of `encoder.compress`, shape by shape, not an appr
 - each shape draws its own epochs from its own pool (per-shape sampling) with its own stream;
 - the objective is the sum of the K per-shape objectives (truncated loss + λ·Σ|θ|), so each shape's
   gradient is its own, and Adam is elementwise, so each shape's update is what it would be alone;
-- a UDF of a mesh trains its first epochs as the signed field of its sides, as `train.fit` does;
+- a UDF with sides (a mesh's, or an oriented cloud's) trains its first epochs as the signed field
+  of its sides, as `train.fit` does;
 - QAT quantizes each shape's tensors on their own grids (per shape, per tensor), and each shape keeps
   whichever of its pre- and post-QAT networks validates better.
 

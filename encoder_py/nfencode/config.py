@@ -78,7 +78,7 @@ L1_WEIGHT = 1e-8
 """λ of the λ·Σ|θ| term (paper)."""
 
 UDF_SIGNED_EPOCHS = 1 / 3
-"""A UDF of a mesh trains the first third of its epochs as a signed field: the output before its
+"""A UDF trains the first third of its epochs as a signed field: the output before its
 `abs` fitted to the distances signed by the side of the surface each point lies on (the faces'
 orientation; +1 where the nearest surface point is on a free edge, so that the signed field does
 not continue a sheet past its edge: sampling.SurfaceSampler.unsigned_distances_and_sides), then as the UDF, in one
@@ -87,16 +87,29 @@ signed start"): bunny UDF w32 0.01225 -> 0.00867 (its SDF: 0.00841), T-shirt w32
 Pants1 w32 0.00776 -> 0.00660; at w16 all five garments below the decimated-Draco envelope; boundary
 edges 59k -> 11 on the bunny. A third, a sixth or two thirds of the epochs (the schedule restarted
 between the phases, T-shirt w32, before the free-edge rule): 0.00790 / 0.00790 / 0.00815.
-Point clouds have no faces, hence no sides, and train as the UDF throughout."""
+A point cloud's sides come from its normals, estimated and consistently oriented
+(CLOUD_NORMAL_NEIGHBOURS), where they agree (UDF_SIGNED_MIN_ORIENTED): the bunny's range scans
+w24 0.0107 -> 0.00760, w32 0.00910 -> 0.00719 (CD against the cloud)."""
 
 UDF_SIGNED_MIN_ORIENTED = 0.9
 """The signed start needs faces whose orientation means something: the share of edges between two
 faces that the two traverse in opposite directions must be at least this (sampling.oriented_share;
 every mesh in shared/data: 1.0), or reach it once each edge-connected patch is reoriented by BFS
-(SurfaceSampler.orient_consistently); a soup with no shared edge trains unsigned. Measured on the
+(SurfaceSampler.orient_consistently); a soup with no shared edge trains unsigned. Likewise a cloud's
+oriented normals: the share of clearly related neighbours (|cos| > 0.5) whose normals agree
+(cloud_normals; the bunny's range scans: 0.9999). Measured on the
 bunny with faces flipped at random (w32, seed 0): 50% flipped (share 0.50) took as it was: CD 0.0559,
 849k boundary edges, far worse than no signed start (0.01225); reoriented first: 0.00864, 0 boundary
 edges, as with its own faces."""
+
+CLOUD_NORMAL_NEIGHBOURS = 16
+"""A cloud point's normal is the least-variance direction of this many nearest neighbours
+(cloud_normals)."""
+
+CLOUD_SIDE_COSINE = 0.5
+"""A point gets side -1 from a cloud only where its offset from the nearest cloud point leans against
+that point's normal by more than this share of its length (60°); along the surface it gets +1, as
+past a mesh's free edge."""
 
 DEFAULT_BITS = 8
 DEFAULT_WIDTH = 32  # hidden layer width of `nfc encode` without --width or a target; --target-cd's start

@@ -10,11 +10,13 @@ the fast generalized winding number, which tolerates the small holes of real sca
 the nearest-neighbour distance (UDF only). Beyond 2·d* the exact value is never needed (the loss
 clamps at d*), so queries are bounded there, which makes far uniform points ~5x cheaper.
 
-A UDF of a mesh also gets each point's *side* (±1): which side of the nearest surface it lies on, by
-the faces' orientation, which open surfaces have too (libigl's pseudonormal test; +1 where the
+A UDF also gets each point's *side* (±1): which side of the nearest surface it lies on. A mesh's by
+its faces' orientation, which open surfaces have too (libigl's pseudonormal test; +1 where the
 nearest surface point is on a free edge), when the faces are consistently oriented or can be made so
-(`oriented_share`, `SurfaceSampler.orient_consistently`). Training starts from the field signed by it
-(train.fit).
+(`oriented_share`, `SurfaceSampler.orient_consistently`); a cloud's by the normal of its nearest
+point, once the cloud's normals are estimated and consistently oriented (cloud_normals; +1 where
+the offset runs along the surface rather than away from it, as past the edge of an open sheet).
+Training starts from the field signed by it (train.fit).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import config
+from .cloud_normals import oriented_normals
 from .errors import InputError
 
 FAR = 2.0 * config.TRUNCATION
@@ -42,7 +45,7 @@ class DistancePool:
     """Training samples, the three kinds stored one after the other, plus a held-out validation set.
 
     points (n, 3) float32 in the unit frame; distances (n,) float32 with |d| clamped to at most FAR;
-    sides (n,) float32 ±1 for a UDF of a mesh (SurfaceSampler.unsigned_distances_and_sides), else None.
+    sides (n,) float32 ±1 for a UDF with sides (SurfaceSampler.unsigned_distances_and_sides), else None.
     """
 
     points: np.ndarray
@@ -51,7 +54,7 @@ class DistancePool:
     validation_points: np.ndarray
     validation_distances: np.ndarray
     sides: np.ndarray | None = None
-    sides_note: str = ""  # a UDF of a mesh: whether and how its sides were taken, for the log
+    sides_note: str = ""  # a UDF: whether and how its sides were taken, for the log
 
 
 class SurfaceSampler:
@@ -60,6 +63,7 @@ class SurfaceSampler:
     def __init__(self, vertices: np.ndarray, faces: np.ndarray | None) -> None:
         self.vertices = np.ascontiguousarray(vertices, dtype=np.float64)
         self.faces = None if faces is None else np.ascontiguousarray(faces, dtype=np.int64)
+        self.normals: np.ndarray | None = None  # a cloud's, once orient_cloud_normals ran
         if self.faces is not None:
             a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
             areas = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
@@ -112,13 +116,21 @@ class SurfaceSampler:
 
     def unsigned_distances_and_sides(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """`distances(points, signed=False)` (the same values), and ±1 (float32): the side of the
-        surface each point lies on, by the faces' orientation (libigl's pseudonormal test: the
-        angle-weighted normal of the nearest feature), +1 where the nearest surface point lies on the
-        mesh's free boundary: beyond a free edge the sheet does not go on, and a side there would make
-        the signed start continue it (bench/RESULTS.md). Meshes only; one unbounded query, since far
+        surface each point lies on. A mesh's by the faces' orientation (libigl's pseudonormal test:
+        the angle-weighted normal of the nearest feature), +1 where the nearest surface point lies on
+        the mesh's free boundary: beyond a free edge the sheet does not go on, and a side there would
+        make the signed start continue it (bench/RESULTS.md). A cloud's by its nearest point's
+        oriented normal (orient_cloud_normals), -1 only where the offset from that point leans
+        against the normal by more than config.CLOUD_SIDE_COSINE of its length: an offset along the
+        surface is what points past the edge of an open sheet have. One unbounded query, since far
         points need a side too. 0 counts as +1."""
-        assert self.faces is not None
         points = np.ascontiguousarray(points, dtype=np.float64)
+        if self.faces is None:
+            assert self.normals is not None, "orient_cloud_normals first"
+            d, nearest = self._tree.query(points, workers=-1)  # type: ignore[union-attr]
+            along = np.einsum("ij,ij->i", points - self.vertices[nearest], self.normals[nearest])
+            side = np.where(along < -config.CLOUD_SIDE_COSINE * d, -1.0, 1.0).astype(np.float32)
+            return np.minimum(d, FAR), side
         d, face, closest, *_ = igl.signed_distance(points, self.vertices, self.faces,
                                                    sign_type=igl.SIGNED_DISTANCE_TYPE_PSEUDONORMAL)
         side = np.where(d < 0.0, -1.0, 1.0).astype(np.float32)
@@ -148,6 +160,13 @@ class SurfaceSampler:
 
     def near_points(self, n: int, sigma: float, rng: np.random.Generator) -> np.ndarray:
         return self.surface_points(n, rng) + rng.normal(0.0, sigma, (n, 3))
+
+    def orient_cloud_normals(self) -> float:
+        """A cloud's consistently oriented normals (cloud_normals), kept for its sides; returns the
+        share of clearly related neighbours whose normals agree."""
+        assert self.faces is None
+        self.normals, agreement = oriented_normals(self.vertices, config.CLOUD_NORMAL_NEIGHBOURS)
+        return agreement
 
     def flip_orientation(self) -> None:
         assert self.faces is not None
@@ -269,16 +288,20 @@ def build_pool(
     if field not in ("sdf", "udf") or (field == "sdf" and not sampler.is_mesh):
         raise ValueError(f"cannot build a {field!r} pool for this input")
     counts = epoch_counts(pool_epochs)
-    sided, note = _orient_for_sides(sampler) if field == "udf" and sampler.is_mesh else (False, "")
+    sided, note = _orient_for_sides(sampler) if field == "udf" else (False, "")
     points, distances, sides = _samples(sampler, field, counts, rng, sided)
     validation_points, validation_distances, _ = _samples(sampler, field, epoch_counts(config.VALIDATION_FRACTION), rng)
     return DistancePool(points, distances, counts, validation_points, validation_distances, sides, note)
 
 
 def _orient_for_sides(sampler: SurfaceSampler) -> tuple[bool, str]:
-    """Whether a UDF pool of this mesh takes sides (DistancePool.sides; faces reoriented first where
-    they disagree), and what was done, for the log."""
-    assert sampler.faces is not None
+    """Whether a UDF pool of this input takes sides (DistancePool.sides; a mesh's faces reoriented
+    first where they disagree, a cloud's normals estimated), and what was done, for the log."""
+    if sampler.faces is None:
+        agreement = sampler.orient_cloud_normals()
+        if agreement < config.UDF_SIGNED_MIN_ORIENTED:
+            return False, f"no signed start: the cloud's normals do not agree ({agreement:.0%} of neighbours)"
+        return True, f"signed start from the cloud's oriented normals ({agreement:.1%} of neighbours agree)"
     share = oriented_share(sampler.faces)
     if share >= config.UDF_SIGNED_MIN_ORIENTED:
         return True, "signed start from the faces' orientation"

@@ -26,7 +26,7 @@ ENCODE_CHUNK = 100_000
 @dataclass
 class TrainingData:
     """Encoded pool (n, 3 + 6L) and distances (n,), the same for the validation set, and the pool's
-    sides (n,) where it has them (a UDF of a mesh: DistancePool.sides)."""
+    sides (n,) where it has them (a UDF with sides: DistancePool.sides)."""
 
     encoded: torch.Tensor
     distances: torch.Tensor

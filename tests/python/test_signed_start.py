@@ -40,17 +40,16 @@ def test_sides_follow_the_faces_orientation_near_and_far() -> None:
     assert sheet.unsigned_distances_and_sides(beyond)[1].tolist() == [1, 1, 1, 1, 1]
 
 
-def test_only_the_udf_pool_of_a_mesh_carries_sides() -> None:
+def test_the_udf_pool_of_a_mesh_carries_sides_and_the_sdf_pool_none() -> None:
     ball = sphere()
-    mesh, cloud = SurfaceSampler(ball.vertices, ball.faces), SurfaceSampler(ball.vertices, None)
+    mesh = SurfaceSampler(ball.vertices, ball.faces)
     rng = np.random.default_rng(0)
     udf = build_pool(mesh, "udf", rng)
     assert udf.sides is not None and udf.sides.shape == udf.distances.shape
     assert set(np.unique(udf.sides).tolist()) == {-1.0, 1.0}
     inside = np.linalg.norm(udf.points, axis=1) < 0.99
     assert np.all(udf.sides[inside] == -1.0) and np.all(udf.sides[np.linalg.norm(udf.points, axis=1) > 1.01] == 1.0)
-    assert build_pool(mesh, "sdf", rng).sides is None
-    assert build_pool(cloud, "udf", rng).sides is None
+    assert build_pool(mesh, "sdf", rng).sides is None  # clouds: test_cloud_normals.py
 
 
 def test_a_mesh_without_a_consistent_orientation_is_oriented_first_or_gets_no_sides() -> None:
@@ -114,7 +113,9 @@ def test_a_batch_starts_only_its_shapes_with_sides_from_them() -> None:
     from nfencode.batch_train import _prepare_stacked
 
     ball = sphere()
-    shapes = [ball, Shape(ball.vertices, None, None, "cloud")]
+    # A cloud that is no surface: its normals do not agree, so it has no sides (test_cloud_normals.py).
+    volume = np.random.default_rng(0).uniform(-1.0, 1.0, (2000, 3))
+    shapes = [ball, Shape(volume, None, None, "volume")]
     preps, data = _prepare_stacked(shapes, EncodeConfig(field="udf", width=16, quiet=True), torch.device("cpu"))
     assert data.has_sides.tolist() == [True, False] and bool((data.sides[1] == 1).all())
     net = StackedSiren.stack(preps, torch.device("cpu"))

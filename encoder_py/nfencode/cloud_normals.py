@@ -1,0 +1,92 @@
+"""Consistently oriented normals of a point cloud, for the sides of a UDF's signed start.
+
+A cloud has no faces to say which side of the surface a point lies on, but a scanned surface is
+smooth at the scale of a few neighbours: each point's normal is the least-variance direction of its
+k nearest neighbours (PCA), and neighbouring normals are made to agree by propagating an orientation
+along the minimum spanning tree of the k-nearest-neighbour graph weighted by 1 - |n_i . n_j|, so that
+it crosses where neighbours are nearly parallel first and sharp creases last (Hoppe et al. 1992,
+"Surface reconstruction from unorganized points"). Each connected piece starts from its point
+farthest from its centroid, whose normal points away from the centroid (outward for a closed blob).
+
+`agreement` says whether the result means anything: the share of neighbour pairs with clearly
+related normals (|n_i . n_j| > 0.5) whose orientations agree. Smooth scans reach ~1; a cloud that is
+no surface (noise, a volume) does not.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
+from scipy.spatial import cKDTree
+
+
+TREE_NEIGHBOURS = 8
+"""The orientation spreads over each point's nearest 8 of its PCA neighbours: enough to connect a
+scan (the bunny's range scans: one piece), and half the sorting of the spanning tree over all 16
+(1.5 s instead of 3 s on those 362k points, the same agreement)."""
+
+
+class OrientedNormals(NamedTuple):
+    normals: np.ndarray  # (n, 3) float64, unit
+    agreement: float  # share of clearly related neighbour pairs that agree
+
+
+def oriented_normals(points: np.ndarray, neighbours: int) -> OrientedNormals:
+    """Unit normals of `points` (n, 3), consistently oriented over each connected piece of the
+    k-nearest-neighbour graph (k = `neighbours`)."""
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    k = min(neighbours, len(points) - 1)
+    _, nearest = cKDTree(points).query(points, k + 1, workers=-1)
+    nearest = nearest[:, 1:]
+    around = points[nearest] - points[nearest].mean(axis=1, keepdims=True)
+    _, vectors = np.linalg.eigh(np.matmul(around.transpose(0, 2, 1), around))
+    normals = np.ascontiguousarray(vectors[:, :, 0])  # eigh sorts ascending: least variance first
+
+    g = min(TREE_NEIGHBOURS, k)
+    rows, cols = np.repeat(np.arange(len(points)), g), nearest[:, :g].ravel()
+    cosines = np.einsum("ij,ij->i", normals[rows], normals[cols])
+    # + a little, so that parallel neighbours keep their edge (a zero weight is no edge).
+    graph = coo_matrix((1.0 - np.abs(cosines) + 1e-6, (rows, cols)), shape=(len(points),) * 2).tocsr()
+    tree = minimum_spanning_tree(graph.maximum(graph.T))
+    normals[_flips_along(tree + tree.T, points, normals)] *= -1.0
+
+    rows, cols = np.repeat(np.arange(len(points)), k), nearest.ravel()
+    cosines = np.einsum("ij,ij->i", normals[rows], normals[cols])
+    related = np.abs(cosines) > 0.5
+    agreement = float((cosines[related] > 0.0).mean()) if related.any() else 0.0
+    return OrientedNormals(normals, agreement)
+
+
+def _flips_along(tree, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Which normals to turn so that each agrees with its parent in `tree` (a symmetric spanning
+    forest), each piece's root pointing away from its centroid."""
+    n = len(points)
+    pieces, piece = connected_components(tree, directed=False)
+    centroid = np.zeros((pieces, 3))
+    np.add.at(centroid, piece, points)
+    centroid /= np.bincount(piece, minlength=pieces)[:, None]
+    reach = np.linalg.norm(points - centroid[piece], axis=1)
+    order = np.lexsort((reach, piece))  # by piece, the farthest point last
+    roots = order[np.r_[np.flatnonzero(np.diff(piece[order])), n - 1]]
+    # One search for every piece: from an extra node n joined to each root.
+    joined = coo_matrix((np.ones(pieces), (np.full(pieces, n), roots)), shape=(n + 1,) * 2)
+    tree = tree.tocoo()
+    whole = coo_matrix((np.r_[tree.data, joined.data], (np.r_[tree.row, joined.row], np.r_[tree.col, joined.col])),
+                       shape=(n + 1,) * 2).tocsr()
+    _, predecessors = breadth_first_order(whole, n, directed=False)
+    parent = predecessors[:n].copy()
+    parent[roots] = -1
+    flip = np.zeros(n, bool)  # relative to the parent; for a root, absolute
+    child = parent >= 0
+    flip[child] = np.einsum("ij,ij->i", normals[child], normals[parent[child]]) < 0.0
+    flip[roots] = np.einsum("ij,ij->i", normals[roots], points[roots] - centroid[piece[roots]]) < 0.0
+    # XOR of the flips up to the root, by pointer jumping: after step s, `up` is 2^s levels higher.
+    up = parent.copy()
+    while (up >= 0).any():
+        climbing = up >= 0
+        flip[climbing] ^= flip[up[climbing]]
+        up[climbing] = up[up[climbing]]
+    return flip
