@@ -8,9 +8,11 @@ it crosses where neighbours are nearly parallel first and sharp creases last (Ho
 "Surface reconstruction from unorganized points"). Each connected piece starts from its point
 farthest from its centroid, whose normal points away from the centroid (outward for a closed blob).
 
-`agreement` says whether the result means anything: the share of neighbour pairs with clearly
-related normals (|n_i . n_j| > 0.5) whose orientations agree. Smooth scans reach ~1; a cloud that is
-no surface (noise, a volume) does not.
+A normal means something only where the neighbourhood is flat: its least variance at most
+FLATNESS times the middle one (a line, a clump of duplicates or a volume has no such direction).
+`flat` marks those points, and `agreement` is the share of neighbour pairs of flat points with
+clearly related normals (|n_i . n_j| > 0.5) whose orientations agree. Smooth scans reach ~1 on both;
+a cloud that is no surface (noise, a volume, a curve) does not.
 """
 
 from __future__ import annotations
@@ -23,6 +25,10 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, mini
 from scipy.spatial import cKDTree
 
 
+FLATNESS = 0.5
+"""A neighbourhood is flat when its least variance is at most this share of the middle one: 97.7-99.8%
+of the points of the bunny's scans, loot, the milk and office clouds (median 0.05-0.11)."""
+
 TREE_NEIGHBOURS = 8
 """The orientation spreads over each point's nearest 8 of its PCA neighbours: enough to connect a
 scan (the bunny's range scans: one piece), and half the sorting of the spanning tree over all 16
@@ -31,7 +37,8 @@ scan (the bunny's range scans: one piece), and half the sorting of the spanning 
 
 class OrientedNormals(NamedTuple):
     normals: np.ndarray  # (n, 3) float64, unit
-    agreement: float  # share of clearly related neighbour pairs that agree
+    flat: np.ndarray  # (n,) bool: the neighbourhood is flat, so the normal means something
+    agreement: float  # share of clearly related neighbour pairs of flat points that agree
 
 
 def oriented_normals(points: np.ndarray, neighbours: int) -> OrientedNormals:
@@ -42,8 +49,10 @@ def oriented_normals(points: np.ndarray, neighbours: int) -> OrientedNormals:
     _, nearest = cKDTree(points).query(points, k + 1, workers=-1)
     nearest = nearest[:, 1:]
     around = points[nearest] - points[nearest].mean(axis=1, keepdims=True)
-    _, vectors = np.linalg.eigh(np.matmul(around.transpose(0, 2, 1), around))
+    variances, vectors = np.linalg.eigh(np.matmul(around.transpose(0, 2, 1), around))
     normals = np.ascontiguousarray(vectors[:, :, 0])  # eigh sorts ascending: least variance first
+    # The middle variance must be more than rounding of the largest: a curve or a clump has none.
+    flat = (variances[:, 1] > 1e-6 * variances[:, 2]) & (variances[:, 0] <= FLATNESS * variances[:, 1])
 
     g = min(TREE_NEIGHBOURS, k)
     rows, cols = np.repeat(np.arange(len(points)), g), nearest[:, :g].ravel()
@@ -55,9 +64,9 @@ def oriented_normals(points: np.ndarray, neighbours: int) -> OrientedNormals:
 
     rows, cols = np.repeat(np.arange(len(points)), k), nearest.ravel()
     cosines = np.einsum("ij,ij->i", normals[rows], normals[cols])
-    related = np.abs(cosines) > 0.5
+    related = (np.abs(cosines) > 0.5) & flat[rows] & flat[cols]
     agreement = float((cosines[related] > 0.0).mean()) if related.any() else 0.0
-    return OrientedNormals(normals, agreement)
+    return OrientedNormals(normals, flat, agreement)
 
 
 def _flips_along(tree, points: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -89,7 +89,7 @@ edges 59k -> 11 on the bunny. A third, a sixth or two thirds of the epochs (the 
 between the phases, T-shirt w32, before the free-edge rule): 0.00790 / 0.00790 / 0.00815.
 A point cloud's sides come from its normals, estimated and consistently oriented
 (CLOUD_NORMAL_NEIGHBOURS), where they agree (UDF_SIGNED_MIN_ORIENTED): the bunny's range scans
-w24 0.0107 -> 0.00760, w32 0.00910 -> 0.00719 (CD against the cloud)."""
+w24 0.0107 -> 0.00757, w32 0.00910 -> 0.00719 (CD against the cloud)."""
 
 UDF_SIGNED_MIN_ORIENTED = 0.9
 """The signed start needs faces whose orientation means something: the share of edges between two
@@ -105,6 +105,11 @@ edges, as with its own faces."""
 CLOUD_NORMAL_NEIGHBOURS = 16
 """A cloud point's normal is the least-variance direction of this many nearest neighbours
 (cloud_normals)."""
+
+CLOUD_MIN_FLAT_SHARE = 0.5
+"""A cloud takes sides only when at least half its points have a flat neighbourhood (cloud_normals.
+FLATNESS; scanned surfaces: 98-100%): a curve, a clump of duplicates or a volume of points has no
+sides, and an arbitrary plane through it would only mislead the signed start."""
 
 CLOUD_SIDE_COSINE = 0.5
 """A point gets side -1 from a cloud only where its offset from the nearest cloud point leans against

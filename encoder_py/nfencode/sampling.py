@@ -63,7 +63,8 @@ class SurfaceSampler:
     def __init__(self, vertices: np.ndarray, faces: np.ndarray | None) -> None:
         self.vertices = np.ascontiguousarray(vertices, dtype=np.float64)
         self.faces = None if faces is None else np.ascontiguousarray(faces, dtype=np.int64)
-        self.normals: np.ndarray | None = None  # a cloud's, once orient_cloud_normals ran
+        self.normals: np.ndarray | None = None  # a cloud's, once orient_cloud_normals ran: 0 where
+        # the neighbourhood is not flat, so that no side is taken from it
         if self.faces is not None:
             a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
             areas = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
@@ -129,6 +130,7 @@ class SurfaceSampler:
             assert self.normals is not None, "orient_cloud_normals first"
             d, nearest = self._tree.query(points, workers=-1)  # type: ignore[union-attr]
             along = np.einsum("ij,ij->i", points - self.vertices[nearest], self.normals[nearest])
+            # A point whose neighbourhood is not flat has a zero normal: no side from it (+1).
             side = np.where(along < -config.CLOUD_SIDE_COSINE * d, -1.0, 1.0).astype(np.float32)
             return np.minimum(d, FAR), side
         d, face, closest, *_ = igl.signed_distance(points, self.vertices, self.faces,
@@ -161,12 +163,14 @@ class SurfaceSampler:
     def near_points(self, n: int, sigma: float, rng: np.random.Generator) -> np.ndarray:
         return self.surface_points(n, rng) + rng.normal(0.0, sigma, (n, 3))
 
-    def orient_cloud_normals(self) -> float:
+    def orient_cloud_normals(self) -> tuple[float, float]:
         """A cloud's consistently oriented normals (cloud_normals), kept for its sides; returns the
-        share of clearly related neighbours whose normals agree."""
+        share of its points whose neighbourhood is flat, and of clearly related flat neighbours
+        whose normals agree."""
         assert self.faces is None
-        self.normals, agreement = oriented_normals(self.vertices, config.CLOUD_NORMAL_NEIGHBOURS)
-        return agreement
+        normals, flat, agreement = oriented_normals(self.vertices, config.CLOUD_NORMAL_NEIGHBOURS)
+        self.normals = np.where(flat[:, None], normals, 0.0)
+        return float(flat.mean()), agreement
 
     def flip_orientation(self) -> None:
         assert self.faces is not None
@@ -298,7 +302,9 @@ def _orient_for_sides(sampler: SurfaceSampler) -> tuple[bool, str]:
     """Whether a UDF pool of this input takes sides (DistancePool.sides; a mesh's faces reoriented
     first where they disagree, a cloud's normals estimated), and what was done, for the log."""
     if sampler.faces is None:
-        agreement = sampler.orient_cloud_normals()
+        flat, agreement = sampler.orient_cloud_normals()
+        if flat < config.CLOUD_MIN_FLAT_SHARE:
+            return False, f"no signed start: the cloud is no surface ({flat:.0%} of its points lie flat)"
         if agreement < config.UDF_SIGNED_MIN_ORIENTED:
             return False, f"no signed start: the cloud's normals do not agree ({agreement:.0%} of neighbours)"
         return True, f"signed start from the cloud's oriented normals ({agreement:.1%} of neighbours agree)"
