@@ -35,6 +35,9 @@ from .errors import InputError
 FAR = 2.0 * config.TRUNCATION
 """Distance stored for points farther than the query bound (only its sign and |d| > d* matter)."""
 
+CLOUD_FAR_SAMPLE = 20_000
+"""Points of the coarse subsample that gives a cloud's sides beyond FAR (about; every n // this-th)."""
+
 ON_BOUNDARY = 1e-9
 """How near (unit frame) a closest point must be to a free edge to count as on it: float64 rounding of
 libigl's closest points, which land on the edge itself."""
@@ -65,6 +68,8 @@ class SurfaceSampler:
         self.faces = None if faces is None else np.ascontiguousarray(faces, dtype=np.int64)
         self.normals: np.ndarray | None = None  # a cloud's, once orient_cloud_normals ran: 0 where
         # the neighbourhood is not flat, so that no side is taken from it
+        self._coarse: cKDTree | None = None  # every so many of a cloud's points, for far sides
+        self._coarse_index = np.zeros(0, np.int64)
         if self.faces is not None:
             a, b, c = (self.vertices[self.faces[:, i]] for i in range(3))
             areas = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
@@ -123,15 +128,22 @@ class SurfaceSampler:
         make the signed start continue it (bench/RESULTS.md). A cloud's by its nearest point's
         oriented normal (orient_cloud_normals), -1 only where the offset from that point leans
         against the normal by more than config.CLOUD_SIDE_COSINE of its length: an offset along the
-        surface is what points past the edge of an open sheet have. One unbounded query, since far
-        points need a side too. 0 counts as +1."""
+        surface is what points past the edge of an open sheet have; beyond FAR, the nearest of a
+        coarse subsample of the cloud decides (a far point's side does not depend on finer detail,
+        and an unbounded query of the whole cloud made loot's pool ~40 s slower). Meshes: one
+        unbounded query, since far points need a side too. 0 counts as +1."""
         points = np.ascontiguousarray(points, dtype=np.float64)
         if self.faces is None:
-            assert self.normals is not None, "orient_cloud_normals first"
-            d, nearest = self._tree.query(points, workers=-1)  # type: ignore[union-attr]
-            along = np.einsum("ij,ij->i", points - self.vertices[nearest], self.normals[nearest])
+            assert self.normals is not None and self._coarse is not None, "orient_cloud_normals first"
+            d, nearest = self._tree.query(points, distance_upper_bound=FAR, workers=-1)  # type: ignore[union-attr]
+            far = nearest == len(self.vertices)  # nothing within the bound
+            _, coarse = self._coarse.query(points[far], workers=-1)
+            nearest[far] = self._coarse_index[coarse]
+            offset = points - self.vertices[nearest]
+            along = np.einsum("ij,ij->i", offset, self.normals[nearest])
+            reach = np.where(far, np.linalg.norm(offset, axis=1), d)
             # A point whose neighbourhood is not flat has a zero normal: no side from it (+1).
-            side = np.where(along < -config.CLOUD_SIDE_COSINE * d, -1.0, 1.0).astype(np.float32)
+            side = np.where(along < -config.CLOUD_SIDE_COSINE * reach, -1.0, 1.0).astype(np.float32)
             return np.minimum(d, FAR), side
         d, face, closest, *_ = igl.signed_distance(points, self.vertices, self.faces,
                                                    sign_type=igl.SIGNED_DISTANCE_TYPE_PSEUDONORMAL)
@@ -163,14 +175,17 @@ class SurfaceSampler:
     def near_points(self, n: int, sigma: float, rng: np.random.Generator) -> np.ndarray:
         return self.surface_points(n, rng) + rng.normal(0.0, sigma, (n, 3))
 
-    def orient_cloud_normals(self) -> tuple[float, float]:
-        """A cloud's consistently oriented normals (cloud_normals), kept for its sides; returns the
-        share of its points whose neighbourhood is flat, and of clearly related flat neighbours
-        whose normals agree."""
+    def orient_cloud_normals(self) -> tuple[float, float, float]:
+        """A cloud's consistently oriented normals (cloud_normals), kept for its sides, but none
+        (zero) where the neighbourhood is not flat, which then gives no side; returns the shares
+        of its points that are flat and that are edge points, and of clearly related flat
+        neighbours whose normals agree."""
         assert self.faces is None
-        normals, flat, agreement = oriented_normals(self.vertices, config.CLOUD_NORMAL_NEIGHBOURS)
+        normals, flat, edge, agreement = oriented_normals(self.vertices, config.CLOUD_NORMAL_NEIGHBOURS)
         self.normals = np.where(flat[:, None], normals, 0.0)
-        return float(flat.mean()), agreement
+        self._coarse_index = np.arange(0, len(self.vertices), max(1, len(self.vertices) // CLOUD_FAR_SAMPLE))
+        self._coarse = cKDTree(self.vertices[self._coarse_index])
+        return float(flat.mean()), float(edge.mean()), agreement
 
     def flip_orientation(self) -> None:
         assert self.faces is not None
@@ -302,9 +317,12 @@ def _orient_for_sides(sampler: SurfaceSampler) -> tuple[bool, str]:
     """Whether a UDF pool of this input takes sides (DistancePool.sides; a mesh's faces reoriented
     first where they disagree, a cloud's normals estimated), and what was done, for the log."""
     if sampler.faces is None:
-        flat, agreement = sampler.orient_cloud_normals()
+        flat, edge, agreement = sampler.orient_cloud_normals()
         if flat < config.CLOUD_MIN_FLAT_SHARE:
             return False, f"no signed start: the cloud is no surface ({flat:.0%} of its points lie flat)"
+        if edge > config.CLOUD_MAX_EDGE_SHARE:
+            return False, (f"no signed start: the cloud is open like a single-view scan "
+                           f"({edge:.2%} of its points on an edge)")
         if agreement < config.UDF_SIGNED_MIN_ORIENTED:
             return False, f"no signed start: the cloud's normals do not agree ({agreement:.0%} of neighbours)"
         return True, f"signed start from the cloud's oriented normals ({agreement:.1%} of neighbours agree)"
