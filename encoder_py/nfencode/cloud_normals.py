@@ -50,12 +50,15 @@ class OrientedNormals(NamedTuple):
     agreement: float  # share of clearly related neighbour pairs of flat points that agree
 
 
-def oriented_normals(points: np.ndarray, neighbours: int) -> OrientedNormals:
+def oriented_normals(points: np.ndarray, neighbours: int, tree: cKDTree | None = None) -> OrientedNormals:
     """Unit normals of `points` (n, 3), consistently oriented over each connected piece of the
-    k-nearest-neighbour graph (k = `neighbours`)."""
+    k-nearest-neighbour graph (k = `neighbours`); `tree`: a KD-tree of `points` already built."""
     points = np.ascontiguousarray(points, dtype=np.float64)
-    k = min(neighbours, len(points) - 1)
-    distances, nearest = cKDTree(points).query(points, k + 1, workers=-1)
+    n = len(points)
+    k = min(neighbours, n - 1)
+    if k < 1:  # one point: no neighbourhood, so nothing flat and no normal that means anything
+        return OrientedNormals(np.zeros((n, 3)), np.zeros(n, bool), np.zeros(n, bool), 0.0)
+    distances, nearest = (tree or cKDTree(points)).query(points, k + 1, workers=-1)
     distances, nearest = distances[:, 1:], nearest[:, 1:]
     around = points[nearest]
     centroid = around.mean(axis=1)
@@ -69,24 +72,24 @@ def oriented_normals(points: np.ndarray, neighbours: int) -> OrientedNormals:
     shift -= np.einsum("ij,ij->i", shift, normals)[:, None] * normals
     edge = np.linalg.norm(shift, axis=1) > EDGE_SHIFT * distances.mean(axis=1)
 
-    g = min(TREE_NEIGHBOURS, k)
-    rows, cols = np.repeat(np.arange(len(points)), g), nearest[:, :g].ravel()
+    rows, cols = np.repeat(np.arange(n), k), nearest.ravel()
     cosines = np.einsum("ij,ij->i", normals[rows], normals[cols])
-    # + a little, so that parallel neighbours keep their edge (a zero weight is no edge).
-    graph = coo_matrix((1.0 - np.abs(cosines) + 1e-6, (rows, cols)), shape=(len(points),) * 2).tocsr()
-    tree = minimum_spanning_tree(graph.maximum(graph.T))
-    normals[_flips_along(tree + tree.T, points, normals)] *= -1.0
+    # The spanning tree over each point's nearest TREE_NEIGHBOURS; + a little, so that parallel
+    # neighbours keep their edge (a zero weight is no edge).
+    near = (np.arange(n * k) % k) < TREE_NEIGHBOURS
+    graph = coo_matrix((1.0 - np.abs(cosines[near]) + 1e-6, (rows[near], cols[near])), shape=(n, n)).tocsr()
+    flip = _flips_along(minimum_spanning_tree(graph.maximum(graph.T)), points, normals)
+    normals[flip] *= -1.0
+    cosines[flip[rows] != flip[cols]] *= -1.0  # the pairs with one end turned
 
-    rows, cols = np.repeat(np.arange(len(points)), k), nearest.ravel()
-    cosines = np.einsum("ij,ij->i", normals[rows], normals[cols])
     related = (np.abs(cosines) > 0.5) & flat[rows] & flat[cols]
     agreement = float((cosines[related] > 0.0).mean()) if related.any() else 0.0
     return OrientedNormals(normals, flat, edge, agreement)
 
 
 def _flips_along(tree, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """Which normals to turn so that each agrees with its parent in `tree` (a symmetric spanning
-    forest), each piece's root pointing away from its centroid."""
+    """Which normals to turn so that each agrees with its parent in `tree` (a spanning forest, each
+    edge stored once, read both ways), each piece's root pointing away from its centroid."""
     n = len(points)
     pieces, piece = connected_components(tree, directed=False)
     centroid = np.zeros((pieces, 3))

@@ -181,7 +181,7 @@ class SurfaceSampler:
         of its points that are flat and that are edge points, and of clearly related flat
         neighbours whose normals agree."""
         assert self.faces is None
-        normals, flat, edge, agreement = oriented_normals(self.vertices, config.CLOUD_NORMAL_NEIGHBOURS)
+        normals, flat, edge, agreement = oriented_normals(self.vertices, config.CLOUD_NORMAL_NEIGHBOURS, self._tree)
         self.normals = np.where(flat[:, None], normals, 0.0)
         self._coarse_index = np.arange(0, len(self.vertices), max(1, len(self.vertices) // CLOUD_FAR_SAMPLE))
         self._coarse = cKDTree(self.vertices[self._coarse_index])

@@ -48,7 +48,7 @@ def test_a_sheet_is_oriented_one_way_and_a_volume_curve_or_clump_is_no_surface()
     assert edge.sum() >= 4 and np.mean(rim[edge] < 0.05) > 0.8
     line = np.column_stack([np.linspace(-1, 1, 500), 1e-3 * rng.normal(size=(500, 2))])  # a noisy curve
     clumps = np.repeat(rng.uniform(-1, 1, (5, 3)), 40, axis=0)
-    for cloud in (rng.uniform(-0.5, 0.5, (4000, 3)), line, clumps, clumps[:2]):
+    for cloud in (rng.uniform(-0.5, 0.5, (4000, 3)), line, clumps, clumps[:2], clumps[:1]):
         normals, flat, _, _ = oriented_normals(cloud, 16)
         assert np.isfinite(normals).all() and flat.mean() < config.CLOUD_MIN_FLAT_SHARE
 
