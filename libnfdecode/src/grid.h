@@ -38,10 +38,12 @@ uint32_t refinement_levels(uint32_t resolution);
 //   corners change sign: a surface point inside the cell is within h*sqrt(3)/2 of its nearest
 //   corner, so a field whose mean slope along that segment is at most the margin cannot hide a
 //   surface from the test. NaN corners fail every comparison: such cells are dropped rather than
-//   meshed from garbage. SDF margin 1, a distance field's slope. UDF margin 2: the UDF mesher needs
-//   the near cells too (udf_cell_is_near), which lie beside the surface, and fields learned from
-//   point clouds are steeper: margin 1 loses near cells of the milk cloud at 512, and 1.5 saves
-//   only 3% of the points.
+//   meshed from garbage. SDF margin 1, a distance field's slope. UDF margin 1.5: the UDF mesher
+//   needs the near cells too (udf_cell_is_near), which lie beside the surface, and fields learned
+//   from point clouds are steeper: margin 1 loses near cells of the shirt (paper preset) at 128
+//   and 256, 1.25 of the milk cloud at 512; 1.5 finds every near cell that 2 finds on the 40 UDF
+//   files of bench/RESULTS.md ("0.12.2": garments, scans, clouds, meshes; 128, 256 and 512, band
+//   and surface following) with 17% fewer band evaluations at 256.
 //
 // - UDF: surface following (grid_follow.cpp), the SDF's schedule below with the UDF mesher's valid
 //   edges (udf_edge_limit) in place of sign changes. A level visits the cells reached from
@@ -103,7 +105,7 @@ uint32_t refinement_levels(uint32_t resolution);
 //   11, 21 and 5 at 64 and 128, 0.11.1; the band: 0-3%). GridBuilder's `band`
 //   (nfd_mesh_options.sample_band) keeps the keep rule.
 constexpr float kSdfKeepMargin = 1.0f;
-constexpr float kUdfKeepMargin = 2.0f;
+constexpr float kUdfKeepMargin = 1.5f;
 constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
 // Surface following's near-zero cells (step 2 above), in cell edges: half a cell, the largest
 // bound that a distance field's slope never stays under at all eight corners.

@@ -101,7 +101,7 @@ TEST(Extract, CoarseToFineSchedule) {
 TEST(Extract, CellKeepTest) {
     const float h = 0.01f, keep = keep_threshold(FieldType::Sdf, h);
     EXPECT_EQ(keep, h * kHalfDiagonal);  // a distance field's slope
-    EXPECT_EQ(keep_threshold(FieldType::Udf, h), 2.0f * h * kHalfDiagonal);
+    EXPECT_EQ(keep_threshold(FieldType::Udf, h), 1.5f * h * kHalfDiagonal);
     float f[8];
     std::fill(f, f + 8, 1.0f);
     EXPECT_FALSE(cell_may_contain_surface(f, keep));

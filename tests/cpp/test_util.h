@@ -232,7 +232,7 @@ inline GeomSpec random_colour_siren(uint32_t width, uint8_t bits, uint32_t seed)
 // A closed SDF-like field with a known zero set: f = s * sin(w0 * (a * sum_j cos(2 u_j) + c)),
 // built from exact SIREN layers (sin(x + pi/2) = cos x). Inside (f < 0) is the rounded-cube blob
 // sum_j cos(2 u_j) > T with T = cos(1.2) + 2 (it crosses the axes at |u| = 0.6); the gradient
-// norm stays below 1.8, inside the extractor's Lipschitz margin of 2. Positional-encoding inputs
+// norm stays below 1.8. Positional-encoding inputs
 // are present (L = 2) but weighted zero, so the full input path is exercised.
 inline GeomSpec closed_blob(float scale = 1.0f, const float* center = nullptr) {
     GeomSpec s;

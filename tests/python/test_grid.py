@@ -47,7 +47,7 @@ def test_vertex_coordinates_are_the_f32_formula() -> None:
 def test_keep_rule_thresholds_are_f32() -> None:
     h = np.float32(2.0) / np.float32(64)
     threshold = keep_threshold(False, h)
-    assert threshold == h * HALF_DIAGONAL and keep_threshold(True, h) == np.float32(2.0) * h * HALF_DIAGONAL
+    assert threshold == h * HALF_DIAGONAL and keep_threshold(True, h) == np.float32(1.5) * h * HALF_DIAGONAL
     above = np.nextafter(threshold, np.float32(1.0))
     cells = np.array([
         [threshold] * 8,  # at the threshold: kept
