@@ -84,8 +84,14 @@
 #define NFD_B_ABOVE_GRADIENTS 30   // that list's (value, gradient) per point
 #define NFD_B_FRESH_GRADIENTS 31   // (value, gradient) of the points the list above lacks
 #define NFD_NOT_LISTED 0xffffffffu // a corner gradient the level above did not evaluate
+// A UDF's finest level: its new points that are likely corners of near cells (udf_predict.comp),
+// evaluated with their gradients in the value pass, which the gradient list then copies. The
+// level's value list (NFD_B_OWNED ...) holds the others.
+#define NFD_B_PREDICTED_OWNED 32   // per parent, 27-bit mask (NFD_B_OWNED's layout)
+#define NFD_B_PREDICTED_OFFSETS 33
+#define NFD_B_PREDICTED 34         // (value, gradient) per point, field_eval's gradient output
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel
-#define NFD_LEVEL_PUSH_BYTES 56    // extract.glsl's LevelPush
+#define NFD_LEVEL_PUSH_BYTES 60    // extract.glsl's LevelPush
 
 #endif

@@ -43,6 +43,7 @@ layout(push_constant) uniform LevelPush {
     float edge_limit;   // UDF: the largest f_a + f_b of a valid edge (grid.h, udf_edge_limit)
     uint first;         // refine_points: the first point of its chunk
     uint count_slot;    // the counter with the items' total (counters.glsl), or NFD_NO_COUNTER
+    uint tally_slot;    // udf_gradient_count (CARRIED): the counter of the points it copies
 } push;
 
 uint item_count() { return counted_items(push.count, push.count_slot, push.first); }
@@ -170,10 +171,26 @@ uvec3 listed_point(uint i) {
     return 2u * p + uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
 }
 
+// Compiled with NFD_PREDICTED_VALUES (the variants that read a UDF's finest level after
+// udf_predict.comp), some new points are in the predicted list instead of the value list.
+#ifdef NFD_PREDICTED_VALUES
+layout(std430, binding = NFD_B_PREDICTED_OWNED) readonly buffer PredictedOwned {
+    uint predicted_owned[];
+};
+layout(std430, binding = NFD_B_PREDICTED_OFFSETS) readonly buffer PredictedOffsets {
+    uint predicted_offsets[];
+};
+layout(std430, binding = NFD_B_PREDICTED) readonly buffer Predicted { vec4 predicted[]; };
+#endif
+
 // Value at child-grid point v, not a corner of its kept cell, from its owner o (rank ko).
 float owned_value(uvec3 v, uvec3 o, uint ko) {
-    uint below = (1u << local_index(v - 2u * o)) - 1u;
-    return values[offsets[ko] + bitCount(owned[ko] & below)];
+    uint bit = 1u << local_index(v - 2u * o);
+#ifdef NFD_PREDICTED_VALUES
+    if ((predicted_owned[ko] & bit) != 0u)
+        return predicted[predicted_offsets[ko] + bitCount(predicted_owned[ko] & (bit - 1u))].x;
+#endif
+    return values[offsets[ko] + bitCount(owned[ko] & (bit - 1u))];
 }
 // Value at point l of the child grid of kept cell p (rank k) at level r; with `around`
 // (kept_around) for a kernel that reads many points of p.

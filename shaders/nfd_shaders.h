@@ -30,9 +30,13 @@ extern const Spirv scan_add;            // adds scanned block totals back
 extern const Spirv mc_classify;         // SDF, per finest-level parent: cases, owned edges
 extern const Spirv mc_emit;             // per finest-level parent: vertex edges, triangles
 extern const Spirv mc_vertices;         // SDF, per vertex: position (edge crossing), normal
+extern const Spirv udf_predict;         // UDF, finest level: likely near-cell corners, own list
 extern const Spirv udf_near;            // UDF, per finest-level parent: near children
+extern const Spirv udf_near_predicted;  // the same, the level's values in two lists
 extern const Spirv udf_gradient_count;  // UDF: which points each parent evaluates a gradient at
+extern const Spirv udf_gradient_count_predicted;  // the same, the predicted points copied
 extern const Spirv udf_gradient_merge;  // UDF levels: fresh and carried gradients into one list
+extern const Spirv udf_gradient_merge_predicted;  // the same, predicted ones too
 extern const Spirv udf_corner_gradients;  // UDF levels: the next level's corners in this list
 extern const Spirv udf_classify;        // UDF, per finest-level parent: pseudo-signed cases
 extern const Spirv udf_vertices;        // UDF, per vertex: position (|f| minimum), normal

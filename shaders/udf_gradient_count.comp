@@ -1,16 +1,18 @@
 // UDF, the gradient list (udf.glsl): per parent, which of its 27 child-grid points it owns and are
 // a corner of a near cell (of any parent: the up to 8 finest cells around the point). The host
 // prefix-sums the masks' popcounts, refine_points.comp writes the points, field_eval.comp
-// (WITH_GRADIENT) evaluates them. With CARRIED (progressive levels), the corners of the parent
-// that the level above listed (NFD_B_CORNER_GRADIENTS) are copied instead (udf_gradient_merge):
-// NFD_B_OWNED then receives the mask of the points to evaluate.
+// (WITH_GRADIENT) evaluates them. Points another list has are copied instead (udf_gradient_merge),
+// and NFD_B_OWNED then receives the mask of the points to evaluate: with a counter in
+// push.tally_slot (progressive levels) the corners of the parent that the level above listed
+// (NFD_B_CORNER_GRADIENTS), whose number it adds there (a progressive level's gradient count is
+// the list's size less those, on every path); compiled with NFD_PREDICTED_VALUES, the points of
+// the finest level's predicted list (udf_predict.comp), whose owners are the same.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
 #include "udf.glsl"
-layout(constant_id = 0) const bool CARRIED = false;
 layout(std430, binding = NFD_B_CORNER_GRADIENTS) readonly buffer CornerGradients {
     uint corner_gradients[];
 };
@@ -18,6 +20,7 @@ layout(std430, binding = NFD_B_CORNER_GRADIENTS) readonly buffer CornerGradients
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
     if (k >= item_count()) return;
+    bool carried_above = push.tally_slot != NFD_NO_COUNTER;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     uint around = kept_around(p, r);
@@ -38,7 +41,14 @@ void main() {
             else near.y |= 1u << (bit - 32u);
         }
     }
-    uint mask = 0u, fresh = 0u;
+    uint mask = 0u, fresh = 0u, carried_points = 0u;
+#ifdef NFD_PREDICTED_VALUES
+    uint copied = predicted_owned[k];
+    bool copies = true;
+#else
+    uint copied = 0u;
+    bool copies = carried_above;
+#endif
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 local = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         if (!child_point_exists(2u * p + local) ||
@@ -52,10 +62,12 @@ void main() {
         }
         if (!needed) continue;
         mask |= 1u << l;
-        if (!CARRIED || !is_corner(local) ||
-            corner_gradients[8u * k + corner_index(local)] == NFD_NOT_LISTED)
-            fresh |= 1u << l;
+        bool carried = carried_above && is_corner(local) &&
+                       corner_gradients[8u * k + corner_index(local)] != NFD_NOT_LISTED;
+        if (carried) ++carried_points;
+        else if ((copied & (1u << l)) == 0u) fresh |= 1u << l;
     }
+    if (carried_points != 0u) atomicAdd(counters[push.tally_slot], carried_points);
     gradient_owned[k] = mask;
-    if (CARRIED) owned[k] = fresh;
+    if (copies) owned[k] = fresh;
 }

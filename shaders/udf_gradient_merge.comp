@@ -1,7 +1,8 @@
-// Progressive UDF levels: the gradient list of a level whose parents' corners the level above
-// listed (udf_gradient_count.comp with CARRIED). Per parent, in list order, each point's (value,
-// gradient) from the fresh evaluations (NFD_B_OWNED, NFD_B_OFFSETS: their mask and offsets) or,
-// for a corner the level above listed, from that list: the same f32 point (child-grid point v of
+// The gradient list of a level some of whose points another list has (udf_gradient_count.comp).
+// Per parent, in list order, each point's (value, gradient) from the fresh evaluations
+// (NFD_B_OWNED, NFD_B_OFFSETS: their mask and offsets); compiled with NFD_PREDICTED_VALUES, from
+// the finest level's predicted list, evaluated by the same kernel; else, a corner that the level
+// above listed (progressive levels), from that list: the same f32 point (child-grid point v of
 // this level is fine vertex v << l, the level above's 2v' << (l - 1)), so the same bits.
 #version 450
 #extension GL_GOOGLE_include_directive : require
@@ -30,8 +31,15 @@ void main() {
         uint bit = 1u << l;
         if ((mask & bit) == 0u) continue;
         uvec3 local = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
-        gradients[to++] = (fresh & bit) != 0u
-                              ? fresh_gradients[from++]
-                              : above_gradients[corner_gradients[8u * k + corner_index(local)]];
+        if ((fresh & bit) != 0u) {
+            gradients[to++] = fresh_gradients[from++];
+#ifdef NFD_PREDICTED_VALUES
+        } else if ((predicted_owned[k] & bit) != 0u) {
+            gradients[to++] = predicted[predicted_offsets[k] +
+                                        bitCount(predicted_owned[k] & (bit - 1u))];
+#endif
+        } else {
+            gradients[to++] = above_gradients[corner_gradients[8u * k + corner_index(local)]];
+        }
     }
 }

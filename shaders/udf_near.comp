@@ -1,6 +1,7 @@
 // UDF, step 1 (udf.glsl): per parent, which of its existing children are near cells: all corners
 // finite and valid edges (f_a + f_b <= push.edge_limit, step 5) that include the three edges of
 // some triangle of the table (grid.h, udf_cell_is_near).
+// With NFD_PREDICTED_VALUES the level's new values are in two lists (udf_predict.comp).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"

@@ -513,6 +513,39 @@ TEST_F(Gpu, UdfMeshMatchesCpu) {
     expect_same_mesh(m, siren, 64);
 }
 
+// A UDF's finest level evaluates the points it expects to be near-cell corners with their
+// gradients, which the mesher copies (levels.h, FinestLevel::predicted), unless that list would
+// exceed the device's predicted_list_bytes: the same mesh and counts both ways, bit for bit, on
+// every UDF golden vector and at a resolution whose finest level has more predicted points than
+// one evaluation chunk.
+TEST_F(Gpu, PredictedGradientsGiveTheSameMesh) {
+    std::unique_ptr<gpu::Device> unpredicted;
+    ASSERT_EQ(gpu::create_device(nullptr, false, &unpredicted), NFD_SUCCESS);
+    unpredicted->predicted_list_bytes = 0;
+    std::vector<std::pair<std::string, uint32_t>> cases;
+    for (const std::string& name : golden_names())
+        if (name.find("_udf_") != std::string::npos) cases.emplace_back(name, 128u);
+    ASSERT_GE(cases.size(), 3u);
+    cases.emplace_back("tshirt_udf_w16", 512u);
+    for (const auto& [name, resolution] : cases) {
+        SCOPED_TRACE(name + " at " + std::to_string(resolution));
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        MeshData predicted_mesh, plain_mesh;
+        ExtractStats predicted_stats, plain_stats;
+        ASSERT_EQ(gpu::extract_mesh(device(), g, resolution, &predicted_mesh, &predicted_stats),
+                  NFD_SUCCESS);
+        ASSERT_EQ(gpu::extract_mesh(*unpredicted, g, resolution, &plain_mesh, &plain_stats),
+                  NFD_SUCCESS);
+        ASSERT_GT(plain_mesh.triangle_count(), 0u);
+        EXPECT_EQ(predicted_mesh.positions, plain_mesh.positions);
+        EXPECT_EQ(predicted_mesh.normals, plain_mesh.normals);
+        EXPECT_EQ(predicted_mesh.indices, plain_mesh.indices);
+        EXPECT_EQ(predicted_stats.points_evaluated, plain_stats.points_evaluated);
+        EXPECT_EQ(predicted_stats.gradients_evaluated, plain_stats.gradients_evaluated);
+        EXPECT_EQ(predicted_stats.active_cells, plain_stats.active_cells);
+    }
+}
+
 // A network's shape read ahead of its weights (peek_geometry_network, as nfd_stream does for
 // nfd_stream_options.prepare_context) compiles the very pipelines its decode uses: the value
 // kernel's, and for a UDF the gradient kernel's. The decode then compiles nothing, and its mesh

@@ -34,22 +34,30 @@ static_assert(uint64_t(NFD_MAX_RECORDING_CELLS) < 1ull << 26, "mc_emit's parent 
 
 namespace {
 
-constexpr uint32_t B(uint32_t binding) { return 1u << binding; }
-constexpr uint32_t kLevel =
+constexpr BindingMask B(uint32_t binding) { return BindingMask(1) << binding; }
+constexpr BindingMask kLevel =
     B(NFD_B_KEPT_BITS) | B(NFD_B_KEPT_PREFIX) | B(NFD_B_KEPT_CELLS) | B(NFD_B_COUNTERS);
-constexpr uint32_t kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
-constexpr uint32_t kGradients =
+constexpr BindingMask kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
+constexpr BindingMask kGradients =
     B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_GRADIENTS);
 // The UDF gradient list's masks; NFD_B_OWNED and NFD_B_CORNER_GRADIENTS serve the carried variant.
-constexpr uint32_t kGradientCount = kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADIENT_OWNED) |
+constexpr BindingMask kGradientCount = kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADIENT_OWNED) |
                                     B(NFD_B_OWNED) | B(NFD_B_CORNER_GRADIENTS);
-constexpr uint32_t kFieldLayers = ((1u << NFD_GPU_MAX_LAYERS) - 1) << NFD_B_FIELD_LAYER0;
-constexpr uint32_t kField =
+// A UDF finest level's predicted list (udf_predict.comp).
+constexpr BindingMask kPredicted =
+    B(NFD_B_PREDICTED_OWNED) | B(NFD_B_PREDICTED_OFFSETS) | B(NFD_B_PREDICTED);
+constexpr BindingMask kUdfNear =
+    kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS);
+constexpr BindingMask kGradientMerge = B(NFD_B_COUNTERS) | kGradients | B(NFD_B_OWNED) |
+                                       B(NFD_B_OFFSETS) | B(NFD_B_CORNER_GRADIENTS) |
+                                       B(NFD_B_ABOVE_GRADIENTS) | B(NFD_B_FRESH_GRADIENTS);
+constexpr BindingMask kFieldLayers = ((1u << NFD_GPU_MAX_LAYERS) - 1) << NFD_B_FIELD_LAYER0;
+constexpr BindingMask kField =
     B(NFD_B_FIELD_POINTS) | B(NFD_B_FIELD_VALUES) | B(NFD_B_FIELD_COUNTERS);
-constexpr uint32_t kDenseLookup = B(NFD_B_KEPT_CELLS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) |
+constexpr BindingMask kDenseLookup = B(NFD_B_KEPT_CELLS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) |
                                   B(NFD_B_DENSE_VALUES) | B(NFD_B_POINTS) | B(NFD_B_COUNTERS);
-constexpr uint32_t kTotal = B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_COUNTERS);
-constexpr uint32_t kArgs = B(NFD_B_SCAN_COUNTERS) | B(NFD_B_ARGS);
+constexpr BindingMask kTotal = B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_COUNTERS);
+constexpr BindingMask kArgs = B(NFD_B_SCAN_COUNTERS) | B(NFD_B_ARGS);
 static_assert(NFD_B_FIELD_COUNTERS >= NFD_B_FIELD_LAYER0 + NFD_GPU_MAX_LAYERS, "after the layers");
 constexpr uint32_t kNoSpecialization = UINT32_MAX;
 
@@ -76,7 +84,7 @@ constexpr uint32_t counters_binding(Kernel kernel) {
 struct KernelDesc {
     Kernel kernel;  // the row's own index, checked below
     const shaders::Spirv& spirv;
-    uint32_t storage, uniform;  // binding masks
+    BindingMask storage, uniform;
     uint32_t push_bytes, local_size;
     uint32_t constant0 = kNoSpecialization;  // value of constant_id 0, if the kernel has one
 };
@@ -143,18 +151,22 @@ constexpr KernelDesc kKernels[] = {
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) | B(NFD_B_NORMALS),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // UDF (udf.glsl).
-    {Kernel::UdfNear, shaders::udf_near,
-     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS), 0,
+    {Kernel::UdfPredict, shaders::udf_predict,
+     B(NFD_B_COUNTERS) | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_PREDICTED_OWNED), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfNear, shaders::udf_near, kUdfNear, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfNearPredicted, shaders::udf_near_predicted, kUdfNear | kPredicted, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    // Copying from the level above's list (progressive levels: the corners it has for this one)
+    // and, Predicted, from the finest level's predicted list (udf.glsl).
     {Kernel::UdfGradientCount, shaders::udf_gradient_count, kGradientCount, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE, 0},
-    // Progressive levels: the corners a level's gradient list has for the next (udf.glsl).
-    {Kernel::UdfGradientCountCarried, shaders::udf_gradient_count, kGradientCount, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE, 1},
-    {Kernel::UdfGradientMerge, shaders::udf_gradient_merge,
-     B(NFD_B_COUNTERS) | kGradients | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) |
-         B(NFD_B_CORNER_GRADIENTS) | B(NFD_B_ABOVE_GRADIENTS) | B(NFD_B_FRESH_GRADIENTS),
-     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfGradientCountPredicted, shaders::udf_gradient_count_predicted,
+     kGradientCount | B(NFD_B_PREDICTED_OWNED), 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfGradientMerge, shaders::udf_gradient_merge, kGradientMerge, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfGradientMergePredicted, shaders::udf_gradient_merge_predicted,
+     kGradientMerge | kPredicted, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfCornerGradients, shaders::udf_corner_gradients,
      kLevel | B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_CHILD_CELLS) |
          B(NFD_B_CORNER_GRADIENTS),
@@ -220,8 +232,8 @@ nfd_result warm_kernels(Device& d) {
         for (size_t i = 0; i < kKernelCount && r == NFD_SUCCESS; ++i) {
             if (is_field_kernel(Kernel(i))) continue;
             std::vector<Bind> binds;
-            const uint32_t mask = kKernels[i].storage | kKernels[i].uniform;
-            for (uint32_t b = 0; b < 32; ++b)
+            const BindingMask mask = kKernels[i].storage | kKernels[i].uniform;
+            for (uint32_t b = 0; b < kBindingNumbers; ++b)
                 if (mask >> b & 1) binds.push_back({b, *zeros});
             r = vk.dispatch(batch, d.kernels[i], binds, push, 1);
         }

@@ -39,8 +39,9 @@ enum class Kernel : uint32_t {
     CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseValues, DenseGradients,
     RefineCount, RefinePoints, RefineCells, GatherCorners,
     McClassify, McEmit, McVertices,
-    UdfNear, UdfGradientCount, UdfGradientCountCarried, UdfGradientMerge, UdfCornerGradients,
-    UdfClassify, UdfVertices,
+    UdfPredict, UdfNear, UdfNearPredicted,
+    UdfGradientCount, UdfGradientCountPredicted, UdfGradientMerge, UdfGradientMergePredicted,
+    UdfCornerGradients, UdfClassify, UdfVertices,
     Count
 };
 constexpr size_t kKernelCount = size_t(Kernel::Count);
@@ -88,6 +89,11 @@ public:
     // NFD_FORCE_SHARED_WEIGHTS to run it on lavapipe.
     bool shared_weight_kernels = false;
     unsigned host_threads = 0;  // gpu_decode.h, set_host_threads
+    // The largest predicted list of a UDF's finest level (levels.h, FinestLevel::predicted; 16
+    // bytes a point): above it (resolution 1024 with a large surface) that level is evaluated as
+    // the others are, and its gradients after it, so that its peak memory does not grow. Tests
+    // set 0 to run that path at small resolutions.
+    uint64_t predicted_list_bytes = 64ull << 20;
     // Jobs on several threads share the device: the field pipelines, the networks and their
     // pipeline choices are made under this lock (field.cpp).
     std::mutex mutex;

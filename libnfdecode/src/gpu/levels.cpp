@@ -22,6 +22,14 @@ std::vector<Bind> with(std::vector<Bind> b, std::initializer_list<Bind> more) {
 
 constexpr uint32_t kNewPointsPerParent = 19;  // of a child grid's 27, the 8 corners are known
 
+// udf_predict.comp's guess, in fine cell edges: a new point of a UDF's finest level whose
+// trilinear interpolation of its parent's corners is at most this is evaluated with its gradient.
+// The UDF mesher needs a gradient at every corner of a near cell (one with a valid edge, f_a +
+// f_b <= 1.5 h). On the bunny UDF w32 at 256 (dense field, bench/RESULTS.md "0.12.2") 2 h
+// predicts 99.1% of the new points that need one, and 15% of those it predicts do not: at 0.59
+// and 0.91 us a value and a value + gradient on lavapipe, the cheapest of 1.5 to 5 h.
+constexpr float kPredictedCorner = 2.0f;
+
 // Records the evaluation of the new points of the child grids of all kept cells of `parent` into
 // `g` (its buffers from `buffers`, temporaries from `scratch`): which points each parent owns
 // (refine_count), their offsets (a scan over the parents' capacity, zero past their count), the
@@ -288,6 +296,53 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
     return NFD_SUCCESS;
 }
 
+// A UDF's finest level in an own job: refine_count's lists of new points split by udf_predict
+// into the value list (level_.grid) and the predicted list, evaluated with their gradients; the
+// predicted count is read back between two batches to size that list exactly. Leaves the second
+// batch open, as evaluate_child_grids does.
+nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scratch) {
+    const Level& parents = level_.parents;
+    const uint32_t k = parents.capacity;
+    PointList& g = level_.grid;
+    PointList& p = level_.predicted;
+    Buffer* counts;
+    NFD_TRY(level_.buffers.make(VkDeviceSize(k) * 4, &g.owned));
+    NFD_TRY(level_.buffers.make(VkDeviceSize(k) * 4, &g.offsets));
+    NFD_TRY(level_.predicted_buffers.make(VkDeviceSize(k) * 4, &p.owned));
+    NFD_TRY(level_.predicted_buffers.make(VkDeviceSize(k) * 4, &p.offsets));
+    NFD_TRY(scratch.make(VkDeviceSize(k) * 4, &counts));
+    NFD_TRY(job_.new_slot(&g.slot));
+    NFD_TRY(job_.new_slot(&p.slot));
+    const std::vector<Bind> count = with(level_bindings(parents), {{NFD_B_OWNED, *g.owned},
+                                                                   {NFD_B_COUNTS, *counts}});
+    NFD_TRY(job_.dispatch(Kernel::RefineCount, count, &push, parents.count()));
+    LevelPush predict = push;
+    predict.threshold = kPredictedCorner * step_;
+    NFD_TRY(job_.dispatch(Kernel::UdfPredict,
+                          {{NFD_B_CORNERS, *parents.corners},
+                           {NFD_B_OWNED, *g.owned},
+                           {NFD_B_PREDICTED_OWNED, *p.owned}},
+                          &predict, parents.count()));
+    NFD_TRY(record_scan(job_, scratch, *p.owned, *p.offsets, k, true));
+    NFD_TRY(job_.total(*p.owned, *p.offsets, k, true, p.slot, UINT32_MAX));
+    NFD_TRY(job_.sync());
+    p.count = p.capacity = job_.counter(p.slot);
+    if (uint64_t(p.capacity) * 16 > job_.device.predicted_list_bytes) {
+        // refine_count again: the value list whole, as on the other levels.
+        NFD_TRY(job_.dispatch(Kernel::RefineCount, count, &push, parents.count()));
+        level_.predicted_buffers.release();
+        p = PointList();
+    }
+    NFD_TRY(record_scan(job_, scratch, *g.owned, *g.offsets, k, true));
+    g.capacity = uint32_t(std::min<uint64_t>(uint64_t(k) * kNewPointsPerParent, UINT32_MAX));
+    NFD_TRY(job_.total(*g.owned, *g.offsets, k, true, g.slot, g.capacity));
+    NFD_TRY(level_.buffers.make(VkDeviceSize(g.capacity) * 4, &g.values));
+    NFD_TRY(record_list(job_, net_, parents, g, *g.values, false, push, scratch));
+    if (!p.owned) return NFD_SUCCESS;
+    NFD_TRY(level_.predicted_buffers.make(VkDeviceSize(p.capacity) * 16, &p.values));
+    return record_list(job_, net_, parents, p, *p.values, true, push, scratch);
+}
+
 nfd_result LevelBuilder::step(CarriedGradients* carried) {
     Buffers scratch(*job_.device.vk);
     if (stepped_) {
@@ -311,8 +366,11 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
     const bool empty = !plan_ && parents.kept == 0;  // own jobs: nothing kept above
     if (!empty) {
         const LevelPush push = refine_push(l, parents.cells, parents.count());
-        NFD_TRY(evaluate_child_grids(job_, net_, parents, push, level_.buffers, scratch,
-                                     level_.top.values, &level_.grid));
+        if (l == 0 && field_ == FieldType::Udf && !plan_ && !level_.top.values)
+            NFD_TRY(evaluate_finest_udf(push, scratch));
+        else
+            NFD_TRY(evaluate_child_grids(job_, net_, parents, push, level_.buffers, scratch,
+                                         level_.top.values, &level_.grid));
         try {
             point_slots_.push_back(level_.grid.slot);
             if (l > 0) kept_slots_.reserve(kept_slots_.size() + 1);
@@ -342,7 +400,7 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
     NFD_TRY(job_.submit());
     if (job_.own && !empty) {
         level_.grid.count = job_.counter(level_.grid.slot);
-        level_.points_evaluated += level_.grid.count;
+        level_.points_evaluated += level_.grid.count + level_.predicted.count;
         if (l > 0) kept_.kept = job_.counter(kept_.slot);
     }
     return NFD_SUCCESS;
@@ -383,6 +441,10 @@ uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf, bool carried)
         // UDF: near masks, gradient masks, counts, offsets; value + gradient of at most 27
         // points per parent; a points chunk.
         if (udf) bytes += 16 * k + 16 * 27 * k + 12 * std::min(27 * k, chunk) + scan(k);
+        // A UDF's finest level: the predicted list (masks, offsets, values), capped.
+        if (udf && child_level == 0)
+            bytes += 8 * k + std::min<uint64_t>(job_.device.predicted_list_bytes,
+                                                16 * kNewPointsPerParent * k);
         // Carried: the corners' indices in the list above, the fresh points' masks, offsets and
         // values, the second scan.
         if (udf && carried) bytes += 32 * k + 8 * k + 16 * 27 * k + scan(k);

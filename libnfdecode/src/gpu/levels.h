@@ -18,6 +18,7 @@ struct LevelPush {
     uint32_t parent_cells = 0, child_cells = 0, count = 0, child_level = 0;
     float step = 0, threshold = 0, scale = 1, edge_limit = 0;
     uint32_t first = 0, count_slot = NFD_NO_COUNTER;
+    uint32_t tally_slot = NFD_NO_COUNTER;
     void set(Count c) {
         count = c.capacity;
         count_slot = c.slot;
@@ -84,11 +85,17 @@ struct HostTop {
 // `step` this level's cell edge: the same f32 coordinates, grid.h's GridLevel::coord; the count
 // that of the parents).
 struct FinestLevel {
-    explicit FinestLevel(Context& vk) : parents(vk), buffers(vk) {}
+    explicit FinestLevel(Context& vk) : parents(vk), buffers(vk), predicted_buffers(vk) {}
     Level parents;
     PointList grid;
     LevelPush push;
     Buffers buffers;  // grid's
+    // A UDF's finest level in own jobs (LevelBuilder::evaluate_finest_udf): the new points that
+    // udf_predict.comp expects to be near-cell corners, with their (value, gradient) as vec4s,
+    // which `grid` then lacks; empty (no `owned`) otherwise. The UDF mesher reads its values there
+    // and copies its gradients, then frees it.
+    PointList predicted;
+    Buffers predicted_buffers;
     uint64_t points_evaluated = 0;  // own jobs; recorded ones: LevelBuilder::point_slots()
     HostTop top;                    // the coarsest level's (its values in `buffers`), else empty
     // The meshers free the level's storage as soon as they have read it (peak memory), unless
@@ -115,8 +122,8 @@ struct CarriedGradients {
 // into a host's command buffer. The top step evaluates the coarsest level on the host (HostTop)
 // and makes it the child grids of the level above, every cell of which is kept, so that every
 // level, the coarsest included, is a FinestLevel. Own jobs run each step in the context's
-// batches (two: the kept list of the level before, then the level's values and keep rule) and
-// read its counts after them; with a plan (recorded jobs) the sizes are the plan's and nothing
+// batches (two: the kept list of the level before, then the level's values and keep rule; a
+// UDF's finest level reads its predicted count between two) and read its counts after them; with a plan (recorded jobs) the sizes are the plan's and nothing
 // is read.
 class LevelBuilder {
 public:
@@ -140,6 +147,7 @@ public:
 private:
     LevelPush refine_push(uint32_t child_level, uint32_t parent_cells, Count parents) const;
     nfd_result evaluate_top_on_host();
+    nfd_result evaluate_finest_udf(const LevelPush& push, Buffers& scratch);
     nfd_result gather_kept(CarriedGradients* carried);
 
     Job& job_;

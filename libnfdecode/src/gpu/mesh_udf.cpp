@@ -1,6 +1,7 @@
 // The UDF mesher on the device, the GPU side of mesh_udf_cpu.cpp (extract.h, steps 1-7; udf.glsl):
 // near children (udf_near), the gradient list (udf_gradient_count, refine_points, the field's
-// gradient kernel; for progressive levels udf_gradient_merge with the level above's list),
+// gradient kernel; udf_gradient_merge where the level above's list or the finest level's
+// predicted list has some of its points),
 // pseudo-signed marching cubes with the edge filter (udf_classify), then the
 // shared emit_mesh with udf_vertices.comp. Own jobs read the gradient count between batches and
 // size the list exactly; a mesh left on the device takes the plan's capacity.
@@ -17,7 +18,10 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     push.edge_limit = udf_edge_limit(push.step);
     const CarriedGradients* above =
         carried.above && carried.above->corners ? carried.above : nullptr;
-    if (above && !job.own) return NFD_ERROR_INTERNAL;  // no such caller: recordings are one-shot
+    const PointList* predicted = finest.predicted.owned ? &finest.predicted : nullptr;
+    // No such callers: recordings are one-shot and size nothing by read-backs.
+    if ((above || predicted) && !job.own) return NFD_ERROR_INTERNAL;
+    const bool copies = above || predicted;
 
     // Near children and the points that need a gradient; with `above`, those it lacks (`fresh`).
     Buffers list(vk);
@@ -30,20 +34,27 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     NFD_TRY(list.make(VkDeviceSize(k) * 4, &near));
     NFD_TRY(kept.make(VkDeviceSize(k) * 4, &owned));
     NFD_TRY(kept.make(VkDeviceSize(k) * 4, &offsets));
-    if (above) {
+    if (copies) {
         NFD_TRY(list.make(VkDeviceSize(k) * 4, &fresh_owned));
         NFD_TRY(list.make(VkDeviceSize(k) * 4, &fresh_offsets));
     }
     std::vector<Bind> near_bindings = child_grid_bindings(parents, finest.grid);
     near_bindings.insert(near_bindings.end(),
                          {{NFD_B_MC_TABLES, job.device.mc_tables}, {NFD_B_NEAR_MASKS, *near}});
+    std::vector<Bind> predicted_bindings;
+    if (predicted)
+        predicted_bindings = {{NFD_B_PREDICTED_OWNED, *predicted->owned},
+                              {NFD_B_PREDICTED_OFFSETS, *predicted->offsets},
+                              {NFD_B_PREDICTED, *predicted->values}};
+    near_bindings.insert(near_bindings.end(), predicted_bindings.begin(), predicted_bindings.end());
     std::vector<Bind> count_bindings = level_bindings(parents);
-    // Without `above` the carried variant's two roles are bound to the list's masks, unused.
+    // Without `above` (no tally_slot) no corner index is read: that role is bound to the masks.
     count_bindings.insert(count_bindings.end(),
                           {{NFD_B_NEAR_MASKS, *near},
                            {NFD_B_GRADIENT_OWNED, *owned},
-                           {NFD_B_OWNED, above ? *fresh_owned : *owned},
+                           {NFD_B_OWNED, copies ? *fresh_owned : *owned},
                            {NFD_B_CORNER_GRADIENTS, above ? *above->corners : *owned}});
+    if (predicted) count_bindings.push_back(predicted_bindings[0]);
     PointList gradient_list, fresh_list;
     gradient_list.owned = owned;
     gradient_list.offsets = offsets;
@@ -55,22 +66,25 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     } else {
         NFD_TRY(job.new_slot(&gradient_list.slot));
         gradient_list.capacity = UINT32_MAX;  // sized below, once counted
-        if (above) {
+        if (copies) {
             NFD_TRY(job.new_slot(&fresh_list.slot));
             fresh_list.capacity = UINT32_MAX;
         }
+        if (above) NFD_TRY(job.new_slot(&push.tally_slot));
     }
     {
         Buffers scratch(vk);
         NFD_TRY(job.begin());
         job.fill(*owned, 0);  // the scans and totals run on the capacity
-        if (above) job.fill(*fresh_owned, 0);
-        NFD_TRY(job.dispatch(Kernel::UdfNear, near_bindings, &push, parents.count()));
-        NFD_TRY(job.dispatch(above ? Kernel::UdfGradientCountCarried : Kernel::UdfGradientCount,
-                             count_bindings, &push, parents.count()));
+        if (copies) job.fill(*fresh_owned, 0);
+        NFD_TRY(job.dispatch(predicted ? Kernel::UdfNearPredicted : Kernel::UdfNear, near_bindings,
+                             &push, parents.count()));
+        NFD_TRY(job.dispatch(
+            predicted ? Kernel::UdfGradientCountPredicted : Kernel::UdfGradientCount,
+            count_bindings, &push, parents.count()));
         NFD_TRY(record_scan(job, scratch, *owned, *offsets, k, true));
         NFD_TRY(job.total(*owned, *offsets, k, true, gradient_list.slot, gradient_list.capacity));
-        if (above) {
+        if (copies) {
             NFD_TRY(record_scan(job, scratch, *fresh_owned, *fresh_offsets, k, true));
             NFD_TRY(job.total(*fresh_owned, *fresh_offsets, k, true, fresh_list.slot,
                               fresh_list.capacity));
@@ -78,9 +92,12 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         NFD_TRY(job.submit());
     }
     if (!target.device) gradient_list.capacity = job.counter(gradient_list.slot);
-    if (above) fresh_list.capacity = job.counter(fresh_list.slot);
+    if (copies) fresh_list.capacity = job.counter(fresh_list.slot);
+    // The points of the list not copied from the level above, as on the CPU (predicted ones
+    // included: the finest level's value pass evaluated their gradients, and ~15% more).
     if (job.own)
-        stats->gradients_evaluated += above ? fresh_list.capacity : gradient_list.capacity;
+        stats->gradients_evaluated +=
+            gradient_list.capacity - (above ? job.counter(push.tally_slot) : 0u);
     // From here on the list holds every value the mesher reads (udf.glsl): the child grids' sparse
     // storage goes (at resolution 1024, ~200 MB for ~2M parents).
     if (!finest.keep) {
@@ -96,26 +113,31 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     {
         Buffers scratch(vk);
         NFD_TRY(job.begin());
-        if (above) {
+        if (copies) {
             Buffer* fresh;
             NFD_TRY(scratch.make(VkDeviceSize(fresh_list.capacity) * 16, &fresh));
             NFD_TRY(record_list(job, net, parents, fresh_list, *fresh, true, push, scratch));
-            NFD_TRY(job.dispatch(Kernel::UdfGradientMerge,
-                                 {{NFD_B_GRADIENT_OWNED, *owned},
-                                  {NFD_B_GRADIENT_OFFSETS, *offsets},
-                                  {NFD_B_GRADIENTS, *gradients},
-                                  {NFD_B_OWNED, *fresh_owned},
-                                  {NFD_B_OFFSETS, *fresh_offsets},
-                                  {NFD_B_FRESH_GRADIENTS, *fresh},
-                                  {NFD_B_CORNER_GRADIENTS, *above->corners},
-                                  {NFD_B_ABOVE_GRADIENTS, *above->gradients}},
-                                 &push, parents.count()));
+            // Without `above` its two roles are bound to other lists, unused.
+            std::vector<Bind> merge = {{NFD_B_GRADIENT_OWNED, *owned},
+                                       {NFD_B_GRADIENT_OFFSETS, *offsets},
+                                       {NFD_B_GRADIENTS, *gradients},
+                                       {NFD_B_OWNED, *fresh_owned},
+                                       {NFD_B_OFFSETS, *fresh_offsets},
+                                       {NFD_B_FRESH_GRADIENTS, *fresh},
+                                       {NFD_B_CORNER_GRADIENTS, above ? *above->corners : *owned},
+                                       {NFD_B_ABOVE_GRADIENTS, above ? *above->gradients : *fresh}};
+            merge.insert(merge.end(), predicted_bindings.begin(), predicted_bindings.end());
+            NFD_TRY(job.dispatch(
+                predicted ? Kernel::UdfGradientMergePredicted : Kernel::UdfGradientMerge, merge,
+                &push, parents.count()));
         } else {
             NFD_TRY(record_list(job, net, parents, gradient_list, *gradients, true, push, scratch,
                                 top_gradient_values));
         }
         NFD_TRY(job.submit());
     }
+    finest.predicted_buffers.release();
+    finest.predicted = PointList();
     if (carried.carry) {
         CarriedGradients& c = *carried.carry;
         c.owned = owned;

@@ -469,7 +469,7 @@ void Context::destroy(Buffer& b) {
 nfd_result Context::create_pipeline(const PipelineDesc& desc, Pipeline* out) {
     *out = Pipeline{};
     if ((desc.storage_bindings & desc.uniform_bindings) ||
-        __builtin_popcount(desc.storage_bindings | desc.uniform_bindings) > int(kMaxBindings))
+        __builtin_popcountll(desc.storage_bindings | desc.uniform_bindings) > int(kMaxBindings))
         return NFD_ERROR_INTERNAL;
     Pipeline p;
     p.storage_bindings = desc.storage_bindings;
@@ -482,7 +482,7 @@ nfd_result Context::create_pipeline(const PipelineDesc& desc, Pipeline* out) {
         return to_result(r);
     };
     std::vector<VkDescriptorSetLayoutBinding> bindings;
-    for (uint32_t b = 0; b < 32; ++b) {
+    for (uint32_t b = 0; b < kBindingNumbers; ++b) {
         const bool storage = desc.storage_bindings >> b & 1;
         const bool uniform = desc.uniform_bindings >> b & 1;
         if (storage || uniform)
@@ -615,10 +615,10 @@ void Context::barrier(VkCommandBuffer commands) {
 nfd_result Context::bind(Batch& batch, const Pipeline& pipeline, const Bind* buffers,
                          size_t count, const void* push) {
     if (!batch.recording) return NFD_ERROR_INTERNAL;
-    uint32_t given = 0;
+    BindingMask given = 0;
     for (const Bind* b = buffers; b != buffers + count; ++b) {
-        if (b->binding >= 32 || (given >> b->binding & 1)) return NFD_ERROR_INTERNAL;
-        given |= 1u << b->binding;
+        if (b->binding >= kBindingNumbers || (given >> b->binding & 1)) return NFD_ERROR_INTERNAL;
+        given |= BindingMask(1) << b->binding;
     }
     if (given != (pipeline.storage_bindings | pipeline.uniform_bindings)) return NFD_ERROR_INTERNAL;
     VkDescriptorSet set;

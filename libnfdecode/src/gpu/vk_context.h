@@ -103,13 +103,16 @@ struct Bind {
 };
 
 constexpr uint32_t kNoCounters = UINT32_MAX;
+// Bit b: binding b (shaders/bindings.h numbers them below 64).
+using BindingMask = uint64_t;
+constexpr uint32_t kBindingNumbers = 64;
 
 // A pipeline's descriptor set holds the bindings of two masks (bit b: binding b), nothing else.
 struct Pipeline {
     VkPipeline pipeline = VK_NULL_HANDLE;
     VkPipelineLayout layout = VK_NULL_HANDLE;
     VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
-    uint32_t storage_bindings = 0, uniform_bindings = 0;
+    BindingMask storage_bindings = 0, uniform_bindings = 0;
     uint32_t push_constant_bytes = 0;
     uint32_t local_size = 0;  // invocations per workgroup (x only)
     uint32_t counters_binding = kNoCounters;  // where the job's counters bind (device.h, Job)
@@ -140,7 +143,7 @@ struct Batch {
 
 struct PipelineDesc {
     const shaders::Spirv* spirv = nullptr;
-    uint32_t storage_bindings = 0, uniform_bindings = 0;
+    BindingMask storage_bindings = 0, uniform_bindings = 0;
     uint32_t push_constant_bytes = 0;
     uint32_t local_size = 64;                  // must match the shader's local_size_x
     uint32_t local_size_id = kFixedLocalSize;  // constant_id of local_size_x, if specialized
