@@ -208,11 +208,20 @@ float child_grid_value(uvec3 p, uint k, uint around, uvec3 l, uint r) {
 
 // Kept cell p's (rank k) whole child grid into `grid` (index local_index(l); 0 where a point does
 // not exist). Returns kept_around(p), which the kernel may use again for owners of edges.
+// p's own points (most of them) take its mask and offset, loaded once (on llvmpipe each load is
+// an 8-lane gather).
 uint load_child_grid(uvec3 p, uint k, uint r, out float grid[27]) {
     uint around = kept_around(p, r);
+    uint own_mask = owned[k], own_offset = offsets[k];
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
-        grid[l] = child_point_exists(2u * p + lv) ? child_grid_value(p, k, around, lv, r) : 0.0;
+        uint bit = 1u << l;
+        if (!child_point_exists(2u * p + lv))
+            grid[l] = 0.0;
+        else if ((own_mask & bit) != 0u)
+            grid[l] = values[own_offset + bitCount(own_mask & (bit - 1u))];
+        else
+            grid[l] = child_grid_value(p, k, around, lv, r);
     }
     return around;
 }

@@ -21,6 +21,8 @@ void main() {
     uvec3 p = cell_coords(kept_cells[k], r);
     uint near = near_masks[k];
     uint around = near != 0u ? kept_around(p, r) : 0u;
+    uint own_mask = near != 0u ? gradient_owned[k] : 0u;
+    uint own_offset = near != 0u ? gradient_offsets[k] : 0u;
     uint triangles = 0u, busy = 0u;
     uvec4 c = uvec4(0u);
     for (uint child = 0u; child < 8u; ++child) {
@@ -30,7 +32,15 @@ void main() {
         vec3 g[8];
         uint nearest = 0u;
         for (uint i = 0u; i < 8u; ++i) {
-            vec4 fg = field_at(p, k, around, d + corner_offset(i), r);
+            uvec3 l = d + corner_offset(i);
+            uvec3 o = owner_around(around, l, 3u);
+            vec4 fg;
+            if (all(equal(o, uvec3(1u)))) {  // p's own point: its mask and offset loaded once
+                uint bit = 1u << local_index(l);
+                fg = gradients[own_offset + bitCount(own_mask & (bit - 1u))];
+            } else {
+                fg = field_at(p, k, around, l, r);
+            }
             f[i] = fg.x;
             g[i] = fg.yzw;
             if (f[i] < f[nearest]) nearest = i;
