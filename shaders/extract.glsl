@@ -43,7 +43,8 @@ layout(push_constant) uniform LevelPush {
     float edge_limit;   // UDF: the largest f_a + f_b of a valid edge (grid.h, udf_edge_limit)
     uint first;         // refine_points: the first point of its chunk
     uint count_slot;    // the counter with the items' total (counters.glsl), or NFD_NO_COUNTER
-    uint tally_slot;    // udf_gradient_count (CARRIED): the counter of the points it copies
+    uint tally_slot;    // udf_gradient_count, progressive levels: the counter of the corners it
+                        // copies from the level above (else NFD_NO_COUNTER)
 } push;
 
 uint item_count() { return counted_items(push.count, push.count_slot, push.first); }

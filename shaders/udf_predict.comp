@@ -4,7 +4,7 @@
 // kernel evaluates (value and gradient, the value bit-identical to the value kernel's), and leave
 // the value list. A guess only decides which kernel evaluates a point, never a value: the
 // trilinear interpolation of the parent's corner values at the point at most push.threshold
-// (negative: nothing is predicted; NaN corners: the point is not).
+// (NaN corners: the point is not predicted).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"

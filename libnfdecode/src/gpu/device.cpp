@@ -40,7 +40,8 @@ constexpr BindingMask kLevel =
 constexpr BindingMask kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
 constexpr BindingMask kGradients =
     B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_GRADIENTS);
-// The UDF gradient list's masks; NFD_B_OWNED and NFD_B_CORNER_GRADIENTS serve the carried variant.
+// The UDF gradient list's masks; NFD_B_OWNED and NFD_B_CORNER_GRADIENTS serve copying from other
+// lists (udf_gradient_count.comp).
 constexpr BindingMask kGradientCount = kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADIENT_OWNED) |
                                     B(NFD_B_OWNED) | B(NFD_B_CORNER_GRADIENTS);
 // A UDF finest level's predicted list (udf_predict.comp).
