@@ -16,7 +16,7 @@ struct ExtractStats {
     uint64_t points_evaluated = 0;     // field evaluations over all levels (values only)
     // Value + gradient evaluations (UDF): the points of the mesher's gradient list not copied from
     // the level above, the same on every path (the Vulkan path's finest level evaluates most of
-    // them, and ~15% more points, in its value pass: gpu/levels.h, FinestLevel::predicted).
+    // them, and ~13% more points, in its value pass: gpu/levels.h, FinestLevel::predicted).
     uint64_t gradients_evaluated = 0;
     uint64_t active_cells = 0;         // finest-level cells that produced triangles
     double seconds_field = 0;          // coarse-to-fine evaluation (the grid stage)

@@ -26,7 +26,7 @@ constexpr uint32_t kNewPointsPerParent = 19;  // of a child grid's 27, the 8 cor
 // trilinear interpolation of its parent's corners is at most this is evaluated with its gradient.
 // The UDF mesher needs a gradient at every corner of a near cell (one with a valid edge, f_a +
 // f_b <= 1.5 h). On the bunny UDF w32 at 256 (dense field, bench/RESULTS.md "0.12.2") 2 h
-// predicts 99.1% of the new points that need one, and 15% of those it predicts do not: at 0.59
+// predicts 99.1% of the new points that need one, and 13% of those it predicts do not: at 0.59
 // and 0.91 us a value and a value + gradient on lavapipe, the cheapest of 1.5 to 5 h.
 constexpr float kPredictedCorner = 2.0f;
 

@@ -94,7 +94,7 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     if (!target.device) gradient_list.capacity = job.counter(gradient_list.slot);
     if (copies) fresh_list.capacity = job.counter(fresh_list.slot);
     // The points of the list not copied from the level above, as on the CPU (predicted ones
-    // included: the finest level's value pass evaluated their gradients, and ~15% more).
+    // included: the finest level's value pass evaluated their gradients, and ~13% more).
     if (job.own)
         stats->gradients_evaluated +=
             gradient_list.capacity - (above ? job.counter(push.tally_slot) : 0u);
