@@ -30,29 +30,48 @@ constexpr uint32_t kNewPointsPerParent = 19;  // of a child grid's 27, the 8 cor
 // and 0.91 us a value and a value + gradient on lavapipe, the cheapest of 1.5 to 5 h.
 constexpr float kPredictedCorner = 2.0f;
 
+// A point list over the kept cells of `parent`: its masks (zero past their count) and offsets from
+// `buffers`, and a fresh counter for its total.
+nfd_result make_point_list(Job& job, const Level& parent, Buffers& buffers, PointList* g) {
+    NFD_TRY(buffers.make(VkDeviceSize(parent.capacity) * 4, &g->owned));
+    NFD_TRY(buffers.make(VkDeviceSize(parent.capacity) * 4, &g->offsets));
+    job.fill(*g->owned, 0);
+    return job.new_slot(&g->slot);
+}
+
+// refine_count: which new points of each kept parent's child grid it owns, into g.owned (the
+// per-parent counts it also writes go to `scratch`: offsets scan the masks).
+nfd_result record_refine_count(Job& job, const Level& parent, const LevelPush& push,
+                               const PointList& g, Buffers& scratch) {
+    Buffer* counts;
+    NFD_TRY(scratch.make(VkDeviceSize(parent.capacity) * 4, &counts));
+    return job.dispatch(Kernel::RefineCount,
+                        with(level_bindings(parent), {{NFD_B_OWNED, *g.owned},
+                                                      {NFD_B_COUNTS, *counts}}),
+                        &push, parent.count());
+}
+
+// The values of point list `g` once its masks are set: the offsets (a scan of the masks'
+// popcounts over the parents' capacity), the total into its counter, then the list evaluated into
+// values from `buffers` (with `dense`, copied: record_list).
+nfd_result record_values(Job& job, DeviceNetwork& net, const Level& parent, const LevelPush& push,
+                         Buffers& buffers, Buffers& scratch, const Buffer* dense, PointList* g) {
+    const uint32_t k = parent.capacity;
+    g->capacity = uint32_t(std::min<uint64_t>(uint64_t(k) * kNewPointsPerParent, UINT32_MAX));
+    NFD_TRY(buffers.make(VkDeviceSize(g->capacity) * 4, &g->values));
+    NFD_TRY(record_scan(job, scratch, *g->owned, *g->offsets, k, true));
+    NFD_TRY(job.total(*g->owned, *g->offsets, k, true, g->slot, g->capacity));
+    return record_list(job, net, parent, *g, *g->values, false, push, scratch, dense);
+}
+
 // Records the evaluation of the new points of the child grids of all kept cells of `parent` into
-// `g` (its buffers from `buffers`, temporaries from `scratch`): which points each parent owns
-// (refine_count), their offsets (a scan over the parents' capacity, zero past their count), the
-// total into a fresh counter, then the list itself.
+// `g` (its buffers from `buffers`, temporaries from `scratch`).
 nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& parent,
                                 const LevelPush& push, Buffers& buffers, Buffers& scratch,
                                 const Buffer* dense, PointList* g) {
-    const uint32_t k = parent.capacity;
-    Buffer* counts;
-    NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &g->owned));
-    NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &g->offsets));
-    NFD_TRY(scratch.make(VkDeviceSize(k) * 4, &counts));
-    g->capacity = uint32_t(std::min<uint64_t>(uint64_t(k) * kNewPointsPerParent, UINT32_MAX));
-    NFD_TRY(buffers.make(VkDeviceSize(g->capacity) * 4, &g->values));
-    NFD_TRY(job.new_slot(&g->slot));
-    job.fill(*counts, 0);
-    NFD_TRY(job.dispatch(Kernel::RefineCount,
-                         with(level_bindings(parent), {{NFD_B_OWNED, *g->owned},
-                                                       {NFD_B_COUNTS, *counts}}),
-                         &push, parent.count()));
-    NFD_TRY(record_scan(job, scratch, *counts, *g->offsets, k, false));
-    NFD_TRY(job.total(*counts, *g->offsets, k, false, g->slot, g->capacity));
-    return record_list(job, net, parent, *g, *g->values, false, push, scratch, dense);
+    NFD_TRY(make_point_list(job, parent, buffers, g));
+    NFD_TRY(record_refine_count(job, parent, push, *g, scratch));
+    return record_values(job, net, parent, push, buffers, scratch, dense, g);
 }
 
 // The coarsest level's vertices that `wanted` marks (all when it is empty), evaluated by the C++
@@ -305,17 +324,9 @@ nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scr
     const uint32_t k = parents.capacity;
     PointList& g = level_.grid;
     PointList& p = level_.predicted;
-    Buffer* counts;
-    NFD_TRY(level_.buffers.make(VkDeviceSize(k) * 4, &g.owned));
-    NFD_TRY(level_.buffers.make(VkDeviceSize(k) * 4, &g.offsets));
-    NFD_TRY(level_.predicted_buffers.make(VkDeviceSize(k) * 4, &p.owned));
-    NFD_TRY(level_.predicted_buffers.make(VkDeviceSize(k) * 4, &p.offsets));
-    NFD_TRY(scratch.make(VkDeviceSize(k) * 4, &counts));
-    NFD_TRY(job_.new_slot(&g.slot));
-    NFD_TRY(job_.new_slot(&p.slot));
-    const std::vector<Bind> count = with(level_bindings(parents), {{NFD_B_OWNED, *g.owned},
-                                                                   {NFD_B_COUNTS, *counts}});
-    NFD_TRY(job_.dispatch(Kernel::RefineCount, count, &push, parents.count()));
+    NFD_TRY(make_point_list(job_, parents, level_.buffers, &g));
+    NFD_TRY(make_point_list(job_, parents, level_.predicted_buffers, &p));
+    NFD_TRY(record_refine_count(job_, parents, push, g, scratch));
     LevelPush predict = push;
     predict.threshold = kPredictedCorner * step_;
     NFD_TRY(job_.dispatch(Kernel::UdfPredict,
@@ -329,15 +340,11 @@ nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scr
     p.count = p.capacity = job_.counter(p.slot);
     if (uint64_t(p.capacity) * 16 > job_.device.predicted_list_bytes) {
         // refine_count again: the value list whole, as on the other levels.
-        NFD_TRY(job_.dispatch(Kernel::RefineCount, count, &push, parents.count()));
+        NFD_TRY(record_refine_count(job_, parents, push, g, scratch));
         level_.predicted_buffers.release();
         p = PointList();
     }
-    NFD_TRY(record_scan(job_, scratch, *g.owned, *g.offsets, k, true));
-    g.capacity = uint32_t(std::min<uint64_t>(uint64_t(k) * kNewPointsPerParent, UINT32_MAX));
-    NFD_TRY(job_.total(*g.owned, *g.offsets, k, true, g.slot, g.capacity));
-    NFD_TRY(level_.buffers.make(VkDeviceSize(g.capacity) * 4, &g.values));
-    NFD_TRY(record_list(job_, net_, parents, g, *g.values, false, push, scratch));
+    NFD_TRY(record_values(job_, net_, parents, push, level_.buffers, scratch, nullptr, &g));
     if (!p.owned) return NFD_SUCCESS;
     NFD_TRY(level_.predicted_buffers.make(VkDeviceSize(p.capacity) * 16, &p.values));
     return record_list(job_, net_, parents, p, *p.values, true, push, scratch);
