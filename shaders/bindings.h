@@ -51,7 +51,7 @@
 #define NFD_B_OWNED 4              // per parent, 27-bit mask of its local points in the list
 #define NFD_B_OFFSETS 5            // per parent, its first point's index in the list
 #define NFD_B_VALUES 6             // field values of the new points
-#define NFD_B_COUNTS 7             // per parent, the number of points it owns
+// 7: unused (refine_count's per-parent counts until 0.12.2; offsets scan the masks' popcounts)
 #define NFD_B_POINTS 8             // unit-frame xyz of the listed points; dense_lookup:
                                    // their values (1 or 4 floats each)
 #define NFD_B_CHILD_BITS 9         // the child level's kept bitmap

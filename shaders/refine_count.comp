@@ -1,10 +1,9 @@
 // Refinement, step 1: for each kept parent, which of the new points of its child grid it owns
-// (extract.glsl), and how many; the host prefix-sums the counts into `offsets`.
+// (extract.glsl); the host prefix-sums the masks' popcounts into `offsets`.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "extract.glsl"
-layout(std430, binding = NFD_B_COUNTS) writeonly buffer Counts { uint counts[]; };
 
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
@@ -21,5 +20,4 @@ void main() {
             mask |= 1u << l;
     }
     owned[k] = mask;
-    counts[k] = bitCount(mask);
 }

@@ -126,7 +126,7 @@ constexpr KernelDesc kKernels[] = {
      NFD_LOCAL_SIZE, 4},
     // Refinement (extract.glsl). RefinePoints also lists the UDF's gradient points: the caller
     // binds that list's masks and offsets at NFD_B_OWNED and NFD_B_OFFSETS.
-    {Kernel::RefineCount, shaders::refine_count, kLevel | B(NFD_B_OWNED) | B(NFD_B_COUNTS), 0,
+    {Kernel::RefineCount, shaders::refine_count, kLevel | B(NFD_B_OWNED), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::RefinePoints, shaders::refine_points,
      B(NFD_B_KEPT_CELLS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) | B(NFD_B_POINTS) |

@@ -39,16 +39,12 @@ nfd_result make_point_list(Job& job, const Level& parent, Buffers& buffers, Poin
     return job.new_slot(&g->slot);
 }
 
-// refine_count: which new points of each kept parent's child grid it owns, into g.owned (the
-// per-parent counts it also writes go to `scratch`: offsets scan the masks).
+// refine_count: which new points of each kept parent's child grid it owns, into g.owned.
 nfd_result record_refine_count(Job& job, const Level& parent, const LevelPush& push,
-                               const PointList& g, Buffers& scratch) {
-    Buffer* counts;
-    NFD_TRY(scratch.make(VkDeviceSize(parent.capacity) * 4, &counts));
+                               const PointList& g) {
     return job.dispatch(Kernel::RefineCount,
-                        with(level_bindings(parent), {{NFD_B_OWNED, *g.owned},
-                                                      {NFD_B_COUNTS, *counts}}),
-                        &push, parent.count());
+                        with(level_bindings(parent), {{NFD_B_OWNED, *g.owned}}), &push,
+                        parent.count());
 }
 
 // The values of point list `g` once its masks are set: the offsets (a scan of the masks'
@@ -70,7 +66,7 @@ nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& paren
                                 const LevelPush& push, Buffers& buffers, Buffers& scratch,
                                 const Buffer* dense, PointList* g) {
     NFD_TRY(make_point_list(job, parent, buffers, g));
-    NFD_TRY(record_refine_count(job, parent, push, *g, scratch));
+    NFD_TRY(record_refine_count(job, parent, push, *g));
     return record_values(job, net, parent, push, buffers, scratch, dense, g);
 }
 
@@ -326,7 +322,7 @@ nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scr
     PointList& p = level_.predicted;
     NFD_TRY(make_point_list(job_, parents, level_.buffers, &g));
     NFD_TRY(make_point_list(job_, parents, level_.predicted_buffers, &p));
-    NFD_TRY(record_refine_count(job_, parents, push, g, scratch));
+    NFD_TRY(record_refine_count(job_, parents, push, g));
     LevelPush predict = push;
     predict.threshold = kPredictedCorner * step_;
     NFD_TRY(job_.dispatch(Kernel::UdfPredict,
@@ -340,7 +336,7 @@ nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scr
     p.count = p.capacity = job_.counter(p.slot);
     if (uint64_t(p.capacity) * 16 > job_.device.predicted_list_bytes) {
         // refine_count again: the value list whole, as on the other levels.
-        NFD_TRY(record_refine_count(job_, parents, push, g, scratch));
+        NFD_TRY(record_refine_count(job_, parents, push, g));
         level_.predicted_buffers.release();
         p = PointList();
     }
