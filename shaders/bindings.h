@@ -90,6 +90,16 @@
 #define NFD_B_PREDICTED_OWNED 32   // per parent, 27-bit mask (NFD_B_OWNED's layout)
 #define NFD_B_PREDICTED_OFFSETS 33
 #define NFD_B_PREDICTED 34         // (value, gradient) per point, field_eval's gradient output
+// A UDF's finest level by surface following (udf_flood.comp), whose evaluated points are the
+// predicted list's, in the slots of all owned points.
+#define NFD_B_FLOOD_VISITED 35     // per parent, 8 bits: its children the flood visited
+#define NFD_B_FLOOD_FRESH 36       // per parent: children first visited in the wave before
+#define NFD_B_FLOOD_NEXT 37        // per parent: children first visited in this wave
+#define NFD_B_FLOOD_CLAIMED 38     // per parent: its owned points claimed for evaluation;
+                                   // bit 31: a seed came from its edges
+#define NFD_B_FLOOD_POINTS 39      // claimed points in claim order: owner rank << 5 | local
+#define NFD_B_FLOOD_FRONTIER 40    // parent ranks with fresh children, wave after wave
+#define NFD_B_FLOOD_RESULTS 41     // (value, gradient) of a chunk of claimed points
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel
 #define NFD_LEVEL_PUSH_BYTES 60    // extract.glsl's LevelPush

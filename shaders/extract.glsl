@@ -181,12 +181,17 @@ layout(std430, binding = NFD_B_PREDICTED_OWNED) readonly buffer PredictedOwned {
 layout(std430, binding = NFD_B_PREDICTED_OFFSETS) readonly buffer PredictedOffsets {
     uint predicted_offsets[];
 };
+#ifndef NFD_PREDICTED_WRITTEN  // udf_flood.comp declares it writable
 layout(std430, binding = NFD_B_PREDICTED) readonly buffer Predicted { vec4 predicted[]; };
+#endif
 #endif
 
 // Value at child-grid point v, not a corner of its kept cell, from its owner o (rank ko).
 float owned_value(uvec3 v, uvec3 o, uint ko) {
     uint bit = 1u << local_index(v - 2u * o);
+#ifdef NFD_PREDICTED_ONLY  // udf_flood.comp: every owned point has its slot there
+    return predicted[predicted_offsets[ko] + bitCount(predicted_owned[ko] & (bit - 1u))].x;
+#endif
 #ifdef NFD_PREDICTED_VALUES
     if ((predicted_owned[ko] & bit) != 0u)
         return predicted[predicted_offsets[ko] + bitCount(predicted_owned[ko] & (bit - 1u))].x;

@@ -31,6 +31,10 @@ extern const Spirv mc_classify;         // SDF, per finest-level parent: cases, 
 extern const Spirv mc_emit;             // per finest-level parent: vertex edges, triangles
 extern const Spirv mc_vertices;         // SDF, per vertex: position (edge crossing), normal
 extern const Spirv udf_predict;         // UDF, finest level: likely near-cell corners, own list
+// UDF, finest level: surface following (udf_flood.comp's modes 0-6)
+extern const Spirv udf_flood_seed_midpoints, udf_flood_seed_children, udf_flood_seed_isolated;
+extern const Spirv udf_flood_claim_corners, udf_flood_faces;
+extern const Spirv udf_flood_list_points, udf_flood_store_values;
 extern const Spirv udf_near;            // UDF, per finest-level parent: near children
 extern const Spirv udf_near_predicted;  // the same, the level's values in two lists
 extern const Spirv udf_gradient_count;  // UDF: which points each parent evaluates a gradient at

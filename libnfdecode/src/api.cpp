@@ -640,7 +640,8 @@ nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
         } else {
 #if NFD_WITH_VULKAN
             if (context->gpu)
-                r = nfd::gpu::extract_mesh(*context->gpu, g, resolution, &mesh->data, &mesh->stats);
+                r = nfd::gpu::extract_mesh(*context->gpu, g, resolution, &mesh->data, &mesh->stats,
+                                           opts.sample_band != 0);
             else
 #endif
                 r = nfd::extract_mesh_cpu(g, resolution, &mesh->data, &mesh->stats,
@@ -771,7 +772,8 @@ nfd_result nfd_extraction_create(nfd_context* context, const nfd_asset* asset,
 #if NFD_WITH_VULKAN
         if (context->gpu) {
             const nfd_result r =
-                nfd::gpu::make_extraction(*context->gpu, g, resolution, mask, &extraction->impl);
+                nfd::gpu::make_extraction(*context->gpu, g, resolution, mask,
+                                          opts.sample_band != 0, &extraction->impl);
             if (r != NFD_SUCCESS) return r;
         } else
 #endif

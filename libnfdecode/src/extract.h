@@ -87,9 +87,10 @@ uint64_t mesh_bytes_bound(const LevelSize& level);
 nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshData* mesh,
                           ExtractStats* stats);
 
-// Grid then mesh_level_cpu on its finest level. `threads` as for evaluate_cpu; `band` as for
-// GridBuilder (an SDF's levels by the keep rule: the GPU path's schedule, for its tests).
+// Grid then mesh_level_cpu on its finest level. `threads` as for evaluate_cpu; `band` and
+// `follow_finest` as for GridBuilder (with both, the GPU path's schedule, for its tests).
 nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshData* mesh,
-                            ExtractStats* stats, unsigned threads = 0, bool band = false);
+                            ExtractStats* stats, unsigned threads = 0, bool band = false,
+                            bool follow_finest = false);
 
 }  // namespace nfd

@@ -44,10 +44,10 @@ nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshDa
 }
 
 nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshData* mesh,
-                            ExtractStats* stats, unsigned threads, bool band) {
+                            ExtractStats* stats, unsigned threads, bool band, bool follow_finest) {
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
         return NFD_ERROR_LIMIT_EXCEEDED;
-    GridBuilder builder(geometry, resolution, threads, band);
+    GridBuilder builder(geometry, resolution, threads, band, follow_finest);
     do builder.step();
     while (!builder.done());
     ExtractStats st;

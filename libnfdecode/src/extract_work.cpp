@@ -71,7 +71,8 @@ nfd_result ExtractWork::step(StepResult* out) {
 #if NFD_WITH_VULKAN
         if (device_) {
             const nfd_result r =
-                gpu::make_extraction(*device_, geometry_, resolution_, mesh_mask_, &extraction_);
+                gpu::make_extraction(*device_, geometry_, resolution_, mesh_mask_, band_,
+                                     &extraction_);
             if (r != NFD_SUCCESS) return r;
         } else
 #endif

@@ -227,9 +227,10 @@ bool udf_cell_is_near(const float corner_values[8], float h) {
 
 // ---- the builder ---------------------------------------------------------------------------
 
-GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band)
+GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band,
+                         bool follow_finest)
     : network_(geometry.network), threads_(threads),
-      follow_(!band) {
+      follow_(!band), follow_finest_(band && follow_finest && geometry.field == FieldType::Udf) {
     grid_.resolution = resolution;
     grid_.step = 2.0f / float(resolution);
     grid_.field = geometry.field;
@@ -245,7 +246,7 @@ void GridBuilder::step() {
     level.cells_per_axis = cells_at_level(grid_.resolution, l);
     level.cell_size = grid_.step * float(1u << l);
     const GridLevel* parent = stepped_ ? &grid_.levels[l + 1] : nullptr;
-    if (parent && follow_) {
+    if (parent && (follow_ || (follow_finest_ && l == 0))) {
         follow_surface(network_, grid_, *parent, region_, next_.blocks, threads_, &level,
                        &grid_.stats.points_evaluated);
         region_ = FollowRegion();
@@ -262,8 +263,10 @@ void GridBuilder::step() {
         }
         evaluate_level(network_, grid_, parent, threads_, &level, &grid_.stats.points_evaluated);
     }
-    if (l > 0 && follow_) follow_region(grid_, level, &region_, &next_);
-    if (l > 0 && !follow_) kept_ = keep_cells(grid_, level, &next_);
+    if (l > 0 && (follow_ || (follow_finest_ && l == 1)))
+        follow_region(grid_, level, &region_, &next_, !follow_);
+    else if (l > 0)
+        kept_ = keep_cells(grid_, level, &next_);
     current_ = l;
     stepped_ = true;
     grid_.stats.seconds +=
@@ -333,12 +336,13 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
     // coarsest level; unless it is the finest, what decides the level after: the keep rule's
     // verdicts on it and the bitmap of the blocks of the level after (keep_cells), or the region.
     const uint64_t flood =
-        follow_ && stepped_
+        (follow_ || (follow_finest_ && level == 0)) && stepped_
             ? follow_surface_bytes_bound(next, grid_.levels[current_].vertices.size())
             : 0;
     uint64_t refine = 0;
-    if (level > 0 && follow_) {
-        refine = follow_region_bytes_bound(next, cells_at_level(grid_.resolution, level - 1));
+    if (level > 0 && (follow_ || (follow_finest_ && level == 1))) {
+        refine = follow_region_bytes_bound(next, cells_at_level(grid_.resolution, level - 1),
+                                           !follow_);
     } else if (level > 0) {
         refine = next.cells + ChildLevelSize::bytes(cells_at_level(grid_.resolution, level - 1));
     }

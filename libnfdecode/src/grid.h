@@ -1,9 +1,11 @@
 // The sparse grid: the product of coarse-to-fine field sampling, shared by every output (the SDF
 // mesher, the UDF mesher, the VDB narrow band, progressive levels). The CPU reference builds it in
-// grid.cpp and grid_follow.cpp. The GPU path (gpu/) still applies the keep rule, the CPU's `band`
+// grid.cpp and grid_follow.cpp. The GPU path (gpu/) applies the keep rule, the CPU's `band`
 // (per-parent child grids, a fixed number of dispatches per level, where surface following grows
 // a level in waves), which finds the cells surface following finds (SDF: and the voids below)
-// from about 2 (UDF) to 2.5 (SDF) times the evaluations.
+// from about 2 (UDF) to 2.5 (SDF) times the evaluations; but a UDF's finest level, where most of
+// them are, follows the surface within the kept cells of level 1 (GridBuilder's
+// `follow_finest`, gpu/levels.h's evaluate_finest_flood: about 0.6 of the band's evaluations).
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -341,9 +343,14 @@ struct FollowRegion {
                                        // their 26 neighbours
     nfd::vector<uint32_t> refine_all;  // the isolated cells above (step 3), packed
 };
-// The region below `level` (level.level > 0), and the size of the level it bounds.
+// The region below `level` (level.level > 0), and the size of the level it bounds. With
+// `within_kept` (the GPU UDF mesher's finest level, GridBuilder's `follow_finest`), the region is
+// the level's cells that the keep rule keeps, the followed ones among them, instead of the
+// followed cells and their 26 neighbours: the band's parents, whose child grids the GPU path
+// stores. Its isolated cells are then the kept ones with no followed cell among their 26
+// neighbours, as without it.
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
-                   LevelSize* next);
+                   LevelSize* next, bool within_kept = false);
 // Visits and evaluates level `out` (level, cells_per_axis and cell_size set) below `parent`;
 // `blocks`: its LevelSize::blocks, from follow_region.
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
@@ -352,7 +359,8 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
 // What follow_region on a level of size `level` allocates, and what follow_surface allocates
 // for a level of size `next` below a level of `parent_vertices` vertices beyond its cells, vertex
 // set, values and evaluator.
-uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells);
+uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
+                                   bool within_kept = false);
 uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices);
 
 // CPU reference of the coarse-to-fine evaluation, one level per step(): build_grid_cpu steps it
@@ -363,8 +371,12 @@ public:
     // `resolution` within NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION; `threads` as for evaluate_cpu.
     // `band`: the levels by the keep rule, for a band of values several cells deep on each side of
     // the surface (nfd_grid_extract's product), instead of surface following (the meshers', which
-    // need only the sign-change or near cells).
-    GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band = false);
+    // need only the sign-change or near cells). `follow_finest` (with `band`, UDF): the finest
+    // level follows the surface within the kept cells of the level above (follow_region's
+    // `within_kept`), as the GPU path does for the UDF mesher (gpu/levels.h,
+    // evaluate_finest_flood).
+    GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band = false,
+                bool follow_finest = false);
     // Evaluates the next level (the coarse one first: all its cells; then the children of the
     // kept cells of the level before, or the cells surface following finds), then, unless it is
     // the finest, what decides the level after: the keep rule on its cells, or the region.
@@ -388,7 +400,8 @@ public:
 private:
     const Network& network_;
     const unsigned threads_;
-    const bool follow_;  // surface following: without `band`
+    const bool follow_;         // surface following: without `band`
+    const bool follow_finest_;  // band, then surface following at the finest level
     SparseGrid grid_;
     uint32_t current_ = 0;
     bool stepped_ = false;

@@ -199,18 +199,27 @@ private:
 }  // namespace
 
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
-                   LevelSize* next) {
+                   LevelSize* next, bool within_kept) {
     const uint32_t n = level.cells_per_axis;
     const float threshold = keep_threshold(grid.field, level.cell_size);
     region->parents = VertexSet(n + 1);
     region->refine_all = nfd::vector<uint32_t>();  // first the keep rule's cells not followed
+    VertexSet followed(within_kept ? n + 1 : 0);    // within_kept: the followed cells alone
     for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];
         unpack_coords(level.cells[i], c);
         float f[8];
         level.corners(c, f);
         if (!is_followed(grid.field, f, level.cell_size)) {
-            if (cell_may_contain_surface(f, threshold)) region->refine_all.push_back(level.cells[i]);
+            if (cell_may_contain_surface(f, threshold)) {
+                region->refine_all.push_back(level.cells[i]);
+                if (within_kept) region->parents.insert(c[0], c[1], c[2]);
+            }
+            continue;
+        }
+        if (within_kept) {  // a followed cell is kept (a valid edge's ends average <= 0.75 h)
+            followed.insert(c[0], c[1], c[2]);
+            region->parents.insert(c[0], c[1], c[2]);
             continue;
         }
         for (uint32_t z = c[2] ? c[2] - 1 : 0; z <= std::min(c[2] + 1, n - 1); ++z)
@@ -219,36 +228,49 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
                     region->parents.insert(x, y, z);
     }
     region->parents.finish();
-    // Of those, the isolated ones: no followed neighbour, so not in the region.
-    auto in_region = [&](uint32_t packed) {
+    followed.finish();
+    // Of those, the isolated ones: no followed neighbour (so not in the region, without
+    // `within_kept`).
+    auto beside_followed = [&](uint32_t packed) {
         uint32_t c[3], r;
         unpack_coords(packed, c);
-        return region->parents.find(c[0], c[1], c[2], &r);
+        if (!within_kept) return region->parents.find(c[0], c[1], c[2], &r);
+        for (int k = 0; k < 27; ++k) {
+            const int64_t x = int64_t(c[0]) + k % 3 - 1, y = int64_t(c[1]) + k / 3 % 3 - 1,
+                          z = int64_t(c[2]) + k / 9 - 1;
+            if (followed.find(x, y, z, &r)) return true;
+        }
+        return false;
     };
     nfd::vector<uint32_t>& cells = region->refine_all;
-    cells.erase(std::remove_if(cells.begin(), cells.end(), in_region), cells.end());
+    cells.erase(std::remove_if(cells.begin(), cells.end(), beside_followed), cells.end());
 
-    // The next level's size: the children of the region's cells.
+    // The next level's size: the children of the region's cells (within_kept: the isolated
+    // cells are among them).
     ChildLevelSize size(cells_at_level(grid.resolution, level.level - 1));
     region->parents.for_each([&](uint32_t, uint32_t x, uint32_t y, uint32_t z) {
         const uint32_t c[3] = {x, y, z};
         size.add_parent(c);
     });
-    for (uint32_t packed : region->refine_all) {
+    for (size_t i = 0; !within_kept && i < region->refine_all.size(); ++i) {
         uint32_t c[3];
-        unpack_coords(packed, c);
+        unpack_coords(region->refine_all[i], c);
         size.add_parent(c);
     }
     *next = size.size();
 }
 
-uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells) {
+uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
+                                   bool within_kept) {
     // The region's cell set, whose cells lie in the level's vertex blocks or beside them; the
-    // refine-all list (grown by doubling); the next level's block bitmap.
+    // refine-all list (grown by doubling); the next level's block bitmap; within_kept, the set of
+    // followed cells, inside the level's blocks.
     const uint64_t per_axis = (level.cells_per_axis + 1 + 7) / 8;
     const uint64_t region_blocks = std::min(27 * level.blocks, per_axis * per_axis * per_axis);
+    const uint64_t followed =
+        within_kept ? VertexSet::bytes_bound(level.cells_per_axis + 1, level.blocks) : 0;
     return VertexSet::bytes_bound(level.cells_per_axis + 1, region_blocks) + 8 * level.cells +
-           ChildLevelSize::bytes(child_cells);
+           ChildLevelSize::bytes(child_cells) + followed;
 }
 
 uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices) {

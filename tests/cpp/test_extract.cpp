@@ -494,7 +494,8 @@ TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
 
 // UDF surface following (grid.h): every near cell of the dense grid (one that can carry a
 // triangle) is visited on the golden UDF vectors, at 128 and 150, from fewer evaluations than the
-// keep rule's band, and the mesh is the band's.
+// keep rule's band, and the mesh is the band's; so too by the band down to level 1 and following
+// at the finest level within its kept cells (follow_finest, the GPU path's schedule).
 TEST(Extract, GoldenUdfVectorsLoseNoNearCellAgainstTheDenseGrid) {
     const std::vector<GoldenVector> udf = golden_vectors(FieldType::Udf);
     for (const auto& [name, g] : udf) {
@@ -504,24 +505,31 @@ TEST(Extract, GoldenUdfVectorsLoseNoNearCellAgainstTheDenseGrid) {
             for_each_dense_cell(dense_values(g.network, r), r, [&](const float f[8]) {
                 dense += udf_cell_is_near(f, step);
             });
-            GridBuilder builder(g, r, 0);
-            do builder.step();
-            while (!builder.done());
-            const GridLevel& finest = builder.grid().finest();
-            for (uint32_t packed : finest.cells) {
-                uint32_t c[3];
-                unpack_coords(packed, c);
-                float f[8];
-                finest.corners(c, f);
-                found += udf_cell_is_near(f, finest.cell_size);
+            for (bool follow_finest : {false, true}) {
+                GridBuilder builder(g, r, 0, /*band=*/follow_finest, follow_finest);
+                do builder.step();
+                while (!builder.done());
+                const GridLevel& finest = builder.grid().finest();
+                found = 0;
+                for (uint32_t packed : finest.cells) {
+                    uint32_t c[3];
+                    unpack_coords(packed, c);
+                    float f[8];
+                    finest.corners(c, f);
+                    found += udf_cell_is_near(f, finest.cell_size);
+                }
+                EXPECT_EQ(found, dense) << name << " at " << r << ", finest " << follow_finest;
             }
-            EXPECT_EQ(found, dense) << name << " at " << r;
-            MeshData followed, band;
-            ExtractStats followed_stats, band_stats;
+            MeshData followed, band, finest_followed;
+            ExtractStats followed_stats, band_stats, finest_stats;
             ASSERT_EQ(extract_mesh_cpu(g, r, &followed, &followed_stats, 0, false), NFD_SUCCESS);
             ASSERT_EQ(extract_mesh_cpu(g, r, &band, &band_stats, 0, true), NFD_SUCCESS);
+            ASSERT_EQ(extract_mesh_cpu(g, r, &finest_followed, &finest_stats, 0, true, true),
+                      NFD_SUCCESS);
             EXPECT_EQ(followed.triangle_count(), band.triangle_count()) << name << " at " << r;
+            EXPECT_EQ(finest_followed.triangle_count(), band.triangle_count()) << name << r;
             EXPECT_LT(followed_stats.points_evaluated, band_stats.points_evaluated) << name;
+            EXPECT_LT(finest_stats.points_evaluated, band_stats.points_evaluated) << name;
             std::printf("%s at %u: %llu near cells, %.2f evaluations per near cell (band %.2f)\n",
                         name.c_str(), r, (unsigned long long)dense,
                         double(followed_stats.points_evaluated) / double(dense),

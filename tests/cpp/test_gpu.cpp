@@ -270,8 +270,11 @@ struct MeshPair {
 
 MeshPair extract_both(gpu::Device& device, const Geometry& g, uint32_t resolution) {
     MeshPair m;
-    // The CPU twin of the GPU's schedule: an SDF's levels by the keep rule too (grid.h).
-    EXPECT_EQ(extract_mesh_cpu(g, resolution, &m.cpu, &m.cpu_stats, 0, /*band=*/true), NFD_SUCCESS);
+    // The CPU twin of the GPU's schedule: the levels by the keep rule (grid.h), a UDF's finest
+    // level by surface following within the kept parents.
+    EXPECT_EQ(extract_mesh_cpu(g, resolution, &m.cpu, &m.cpu_stats, 0, /*band=*/true,
+                               /*follow_finest=*/true),
+              NFD_SUCCESS);
     EXPECT_EQ(gpu::extract_mesh(device, g, resolution, &m.gpu, &m.gpu_stats), NFD_SUCCESS);
     return m;
 }
@@ -513,12 +516,15 @@ TEST_F(Gpu, UdfMeshMatchesCpu) {
     expect_same_mesh(m, siren, 64);
 }
 
-// A UDF's finest level evaluates the points it expects to be near-cell corners with their
-// gradients, which the mesher copies (levels.h, FinestLevel::predicted), unless that list would
-// exceed the device's predicted_list_bytes: the same mesh and counts both ways, bit for bit, on
-// every UDF golden vector and at a resolution whose finest level has more predicted points than
-// one evaluation chunk.
-TEST_F(Gpu, PredictedGradientsGiveTheSameMesh) {
+// A UDF's finest level follows the surface within the kept parents (levels.h,
+// evaluate_finest_flood), or with `band` evaluates all their child grids, those points it expects
+// to be near-cell corners with their gradients, which the mesher copies (FinestLevel::predicted),
+// unless that list would exceed the device's predicted_list_bytes: the same mesh, bit for bit,
+// all three ways, on every UDF golden vector and at a resolution whose finest level has more
+// points to evaluate than one evaluation chunk; the two band paths the same counts, the flood
+// its CPU twin's (GridBuilder's follow_finest, to the evaluators' last bits) and far fewer
+// evaluations.
+TEST_F(Gpu, FloodAndPredictedGradientsGiveTheSameMesh) {
     std::unique_ptr<gpu::Device> unpredicted;
     ASSERT_EQ(gpu::create_device(nullptr, false, &unpredicted), NFD_SUCCESS);
     unpredicted->predicted_list_bytes = 0;
@@ -530,19 +536,33 @@ TEST_F(Gpu, PredictedGradientsGiveTheSameMesh) {
     for (const auto& [name, resolution] : cases) {
         SCOPED_TRACE(name + " at " + std::to_string(resolution));
         const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
-        MeshData predicted_mesh, plain_mesh;
-        ExtractStats predicted_stats, plain_stats;
-        ASSERT_EQ(gpu::extract_mesh(device(), g, resolution, &predicted_mesh, &predicted_stats),
+        MeshData flood_mesh, predicted_mesh, plain_mesh, twin_mesh;
+        ExtractStats flood_stats, predicted_stats, plain_stats, twin_stats;
+        ASSERT_EQ(gpu::extract_mesh(device(), g, resolution, &flood_mesh, &flood_stats),
+                  NFD_SUCCESS);
+        ASSERT_EQ(gpu::extract_mesh(device(), g, resolution, &predicted_mesh, &predicted_stats,
+                                    /*band=*/true),
                   NFD_SUCCESS);
         ASSERT_EQ(gpu::extract_mesh(*unpredicted, g, resolution, &plain_mesh, &plain_stats),
                   NFD_SUCCESS);
+        ASSERT_EQ(extract_mesh_cpu(g, resolution, &twin_mesh, &twin_stats, 0, true, true),
+                  NFD_SUCCESS);
         ASSERT_GT(plain_mesh.triangle_count(), 0u);
-        EXPECT_EQ(predicted_mesh.positions, plain_mesh.positions);
-        EXPECT_EQ(predicted_mesh.normals, plain_mesh.normals);
-        EXPECT_EQ(predicted_mesh.indices, plain_mesh.indices);
+        for (const MeshData* m : {&flood_mesh, &predicted_mesh}) {
+            EXPECT_EQ(m->positions, plain_mesh.positions);
+            EXPECT_EQ(m->normals, plain_mesh.normals);
+            EXPECT_EQ(m->indices, plain_mesh.indices);
+        }
         EXPECT_EQ(predicted_stats.points_evaluated, plain_stats.points_evaluated);
-        EXPECT_EQ(predicted_stats.gradients_evaluated, plain_stats.gradients_evaluated);
-        EXPECT_EQ(predicted_stats.active_cells, plain_stats.active_cells);
+        // The flood's edge tests on the two evaluators' values, which differ in their last bits:
+        // one point in 2.4M apart on the T-shirt at 512 (measured), none at 128.
+        EXPECT_NEAR(double(flood_stats.points_evaluated), double(twin_stats.points_evaluated),
+                    1e-5 * double(twin_stats.points_evaluated));
+        EXPECT_LT(flood_stats.points_evaluated * 4, plain_stats.points_evaluated * 3);
+        for (const ExtractStats* s : {&flood_stats, &predicted_stats}) {
+            EXPECT_EQ(s->gradients_evaluated, plain_stats.gradients_evaluated);
+            EXPECT_EQ(s->active_cells, plain_stats.active_cells);
+        }
     }
 }
 

@@ -428,7 +428,7 @@ TEST(ProgressiveMemory, NextStepDeviceBoundHoldsOnVulkan) {
         SCOPED_TRACE(name);
         const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
         std::unique_ptr<Extraction> ex;
-        ASSERT_EQ(gpu::make_extraction(*device, g, 256, 0b1111, &ex), NFD_SUCCESS);
+        ASSERT_EQ(gpu::make_extraction(*device, g, 256, 0b1111, false, &ex), NFD_SUCCESS);
         std::vector<MeshData> meshes;
         uint64_t bound = 0;
         for (int i = 0;; ++i) {

@@ -54,8 +54,8 @@ extern "C" {
 /* The version of this header. nfd_version() gives the library's, which may differ from the
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
-#define NFD_VERSION_MINOR 12
-#define NFD_VERSION_PATCH 2
+#define NFD_VERSION_MINOR 13
+#define NFD_VERSION_PATCH 0
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
@@ -539,7 +539,10 @@ typedef struct nfd_mesh_options {
      * missed; on fields that are no shape's distance field (random networks) it misses more. A
      * UDF (0.12) likewise samples the cells that can carry a triangle, found from the coarser
      * level's cells that can: about half the evaluations, the band's mesh on the files measured
-     * (bench/RESULTS.md, "0.12"). The Vulkan path samples the band either way. */
+     * (bench/RESULTS.md, "0.12"). The Vulkan path samples the band, but for a UDF's finest level
+     * (0.13): there it visits the cells that can carry a triangle within the band's cells of the
+     * level above, about 0.6 of the band's evaluations at 256, the band's mesh on every file
+     * measured (bench/RESULTS.md, "0.13"); a non-zero sample_band keeps the band there too. */
     int sample_band;
 } nfd_mesh_options;
 

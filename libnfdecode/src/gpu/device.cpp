@@ -3,10 +3,14 @@
 // row here, one line in shaders/CMakeLists.txt and nfd_shaders.h, and its .comp file.
 #include "device.h"
 
+#include <algorithm>
+#include <atomic>
 #include <cstdlib>
 #include <cstring>
 #include <initializer_list>
 #include <new>
+#include <thread>
+#include <vector>
 
 #if defined(__linux__)
 #include <dirent.h>
@@ -49,6 +53,13 @@ constexpr BindingMask kPredicted =
     B(NFD_B_PREDICTED_OWNED) | B(NFD_B_PREDICTED_OFFSETS) | B(NFD_B_PREDICTED);
 constexpr BindingMask kUdfNear =
     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS);
+// A UDF finest level's surface following (udf_flood.comp): every mode declares every role, the
+// level's values in the predicted list alone (16 roles, the most a pipeline has).
+constexpr BindingMask kFlood = kLevel | B(NFD_B_CORNERS) | kPredicted | B(NFD_B_POINTS) |
+                               B(NFD_B_FLOOD_VISITED) | B(NFD_B_FLOOD_FRESH) |
+                               B(NFD_B_FLOOD_NEXT) | B(NFD_B_FLOOD_CLAIMED) |
+                               B(NFD_B_FLOOD_POINTS) | B(NFD_B_FLOOD_FRONTIER) |
+                               B(NFD_B_FLOOD_RESULTS);
 constexpr BindingMask kGradientMerge = B(NFD_B_COUNTERS) | kGradients | B(NFD_B_OWNED) |
                                        B(NFD_B_OFFSETS) | B(NFD_B_CORNER_GRADIENTS) |
                                        B(NFD_B_ABOVE_GRADIENTS) | B(NFD_B_FRESH_GRADIENTS);
@@ -156,7 +167,22 @@ constexpr KernelDesc kKernels[] = {
      B(NFD_B_COUNTERS) | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_PREDICTED_OWNED), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfNear, shaders::udf_near, kUdfNear, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfNearPredicted, shaders::udf_near_predicted, kUdfNear | kPredicted, 0,
+    {Kernel::UdfNearPredicted, shaders::udf_near_predicted,
+     kUdfNear | kPredicted | B(NFD_B_FLOOD_VISITED), 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    // Surface following on a UDF's finest level: udf_flood.comp's modes.
+    {Kernel::UdfFloodSeedMidpoints, shaders::udf_flood_seed_midpoints, kFlood, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfFloodSeedChildren, shaders::udf_flood_seed_children, kFlood, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfFloodSeedIsolated, shaders::udf_flood_seed_isolated, kFlood, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfFloodClaimCorners, shaders::udf_flood_claim_corners, kFlood, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfFloodFaces, shaders::udf_flood_faces, kFlood, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfFloodListPoints, shaders::udf_flood_list_points, kFlood, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfFloodStoreValues, shaders::udf_flood_store_values, kFlood, 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // Copying from the level above's list (progressive levels: the corners it has for this one)
     // and, Predicted, from the finest level's predicted list (udf.glsl).
@@ -242,6 +268,38 @@ nfd_result warm_kernels(Device& d) {
     }
     vk.destroy(batch);
     return r;
+}
+
+// Every kernel but the field's, on up to kKernelThreads threads (the caller's among them): a
+// CPU implementation compiles each pipeline's machine code at its creation, ~200 ms for all of
+// them on lavapipe one after another, and pipelines do not depend on each other. Other drivers
+// compile at creation too.
+constexpr unsigned kKernelThreads = 4;
+nfd_result create_kernels(Device& d) {
+    std::atomic<size_t> next{0};
+    std::atomic<int> failed{NFD_SUCCESS};
+    auto create = [&d, &next, &failed] {
+        for (size_t i; failed.load() == NFD_SUCCESS && (i = next++) < kKernelCount;) {
+            if (is_field_kernel(Kernel(i))) continue;
+            try {
+                const nfd_result r =
+                    d.vk->create_pipeline(kernel_pipeline(Kernel(i)), &d.kernels[i]);
+                if (r != NFD_SUCCESS) failed = r;
+            } catch (const std::bad_alloc&) {
+                failed = NFD_ERROR_OUT_OF_MEMORY;
+            }
+        }
+    };
+    std::vector<std::thread> helpers;
+    const unsigned threads =
+        std::min(kKernelThreads, std::max(1u, std::thread::hardware_concurrency()));
+    try {
+        while (helpers.size() + 1 < threads) helpers.emplace_back(create);
+    } catch (...) {  // fewer threads: the caller's does the rest
+    }
+    create();
+    for (std::thread& t : helpers) t.join();
+    return nfd_result(failed.load());
 }
 
 }  // namespace
@@ -354,9 +412,7 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
                         ", is a CPU implementation (slower than this path)";
         return NFD_ERROR_DEVICE_UNAVAILABLE;
     }
-    for (size_t i = 0; i < kKernelCount; ++i)
-        if (!is_field_kernel(Kernel(i)))
-            NFD_TRY(d->vk->create_pipeline(kernel_pipeline(Kernel(i)), &d->kernels[i]));
+    NFD_TRY(create_kernels(*d));
     NFD_TRY(upload_mc_tables(*d));
     NFD_TRY(warm_kernels(*d));
     *out = std::move(d);

@@ -40,6 +40,8 @@ enum class Kernel : uint32_t {
     RefineCount, RefinePoints, RefineCells, GatherCorners,
     McClassify, McEmit, McVertices,
     UdfPredict, UdfNear, UdfNearPredicted,
+    UdfFloodSeedMidpoints, UdfFloodSeedChildren, UdfFloodSeedIsolated, UdfFloodClaimCorners,
+    UdfFloodFaces, UdfFloodListPoints, UdfFloodStoreValues,  // udf_flood.comp's modes 0-6
     UdfGradientCount, UdfGradientCountPredicted, UdfGradientMerge, UdfGradientMergePredicted,
     UdfCornerGradients, UdfClassify, UdfVertices,
     Count

@@ -25,7 +25,7 @@ nfd_result mesh_level(Job& job, DeviceNetwork& net, FieldType field, FinestLevel
 }
 
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
-                        MeshData* mesh, ExtractStats* stats) {
+                        MeshData* mesh, ExtractStats* stats, bool band) {
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
         return NFD_ERROR_LIMIT_EXCEEDED;
     ExtractStats st;
@@ -36,7 +36,7 @@ nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resol
     NFD_TRY(prepare_fields(device, net, geometry.field));
     Job job(device, true);
     NFD_TRY(job.init());
-    LevelBuilder levels(job, net, geometry, resolution);
+    LevelBuilder levels(job, net, geometry, resolution, nullptr, band);
     do NFD_TRY(levels.step());
     while (!levels.done());
     st.points_evaluated = levels.level().points_evaluated;

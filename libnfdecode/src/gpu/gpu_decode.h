@@ -69,15 +69,16 @@ nfd_result evaluate(Device& device, const Network& network, const float* unit_xy
 nfd_result evaluate_gradient(Device& device, const Network& network, const float* unit_xyz,
                              size_t n, float* values, float* gradients);
 
-// The GPU twin of extract_mesh_cpu, for SDF and UDF: same grid, same rules, same mesh conventions
-// and topology (triangles and vertices in another order).
+// The GPU twin of extract_mesh_cpu with `band` (and, for a UDF without `band`, its
+// `follow_finest`), for SDF and UDF: same grid, same rules, same mesh conventions and topology
+// (triangles and vertices in another order).
 nfd_result extract_mesh(Device& device, const Geometry& geometry, uint32_t resolution,
-                        MeshData* mesh, ExtractStats* stats);
+                        MeshData* mesh, ExtractStats* stats, bool band = false);
 
 // The GPU path of a progressive extraction (progressive.h); `mesh_mask` bit l meshes grid level
-// l. Device and geometry must outlive it.
+// l; `band` as for extract_mesh. Device and geometry must outlive it.
 nfd_result make_extraction(Device& device, const Geometry& geometry, uint32_t resolution,
-                           uint32_t mesh_mask, std::unique_ptr<Extraction>* out);
+                           uint32_t mesh_mask, bool band, std::unique_ptr<Extraction>* out);
 
 // ---- a decode recorded into a host's command buffer (recording.cpp; nfd_recording) -------------
 class Recording;

@@ -200,10 +200,10 @@ std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
 }
 
 LevelBuilder::LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry,
-                           uint32_t resolution, const Plan* plan)
+                           uint32_t resolution, const Plan* plan, bool band)
     : job_(job), net_(net), network_(geometry.network), plan_(plan), resolution_(resolution),
       top_(refinement_levels(resolution)), step_(2.0f / float(resolution)),
-      field_(geometry.field), current_(top_),
+      field_(geometry.field), follow_finest_(!band), current_(top_),
       level_(*job.device.vk), kept_(*job.device.vk) {
     base_.step = step_;
     base_.scale = geometry.scale;
@@ -318,6 +318,9 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
 nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scratch) {
     const Level& parents = level_.parents;
     const uint32_t k = parents.capacity;
+    if (follow_finest_ &&
+        uint64_t(k) * kNewPointsPerParent * 16 <= job_.device.predicted_list_bytes)
+        return evaluate_finest_flood(push, scratch);
     PointList& g = level_.grid;
     PointList& p = level_.predicted;
     NFD_TRY(make_point_list(job_, parents, level_.buffers, &g));
@@ -344,6 +347,109 @@ nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scr
     if (!p.owned) return NFD_SUCCESS;
     NFD_TRY(level_.predicted_buffers.make(VkDeviceSize(p.capacity) * 16, &p.values));
     return record_list(job_, net_, parents, p, *p.values, true, push, scratch);
+}
+
+// A UDF's finest level in an own job by surface following within the kept parents (grid.h; the
+// CPU twin: GridBuilder's `follow_finest`), udf_flood.comp's modes in waves, one batch each, the
+// claimed points' and the frontier's totals read after it: seeds from the parents' valid edges,
+// then per wave the new frontier's corners claimed and evaluated with their gradients, and the
+// floodable faces of its cells crossed. The evaluated points go to the predicted list's slots
+// (the masks and offsets of every owned point: a vec4 each, at most predicted_list_bytes), where
+// the UDF mesher reads their values and copies their gradients; the value list is empty. Leaves
+// the last batch open, as evaluate_child_grids does.
+nfd_result LevelBuilder::evaluate_finest_flood(const LevelPush& push, Buffers& scratch) {
+    Context& vk = *job_.device.vk;
+    const Level& parents = level_.parents;
+    const uint32_t k = parents.capacity;
+    PointList& g = level_.grid;
+    PointList& p = level_.predicted;
+    Buffers& kept = level_.predicted_buffers;
+    // The slots: every owned point of the child grids, in the value list's layout.
+    NFD_TRY(make_point_list(job_, parents, kept, &p));
+    NFD_TRY(record_refine_count(job_, parents, push, p));
+    NFD_TRY(record_scan(job_, scratch, *p.owned, *p.offsets, k, true));
+    p.capacity = k * kNewPointsPerParent;  // at most 16 bytes each within predicted_list_bytes
+    NFD_TRY(kept.make(VkDeviceSize(p.capacity) * 16, &p.values));
+    NFD_TRY(kept.make(VkDeviceSize(k) * 4, &level_.visited));
+    // The value list holds nothing: zero masks, so that the mesher finds every point in the slots.
+    NFD_TRY(make_point_list(job_, parents, level_.buffers, &g));
+    NFD_TRY(level_.buffers.make(4, &g.values));
+    job_.fill(*g.offsets, 0);
+
+    Buffers flood(vk);
+    Buffer *fresh[2], *claimed, *claimed_points, *frontier, *points, *results;
+    const uint32_t frontier_capacity = 8 * k;  // a parent enters once per child it gets
+    const uint32_t chunk = std::min(p.capacity, 1u << 20);
+    NFD_TRY(flood.make(VkDeviceSize(k) * 4, &fresh[0]));
+    NFD_TRY(flood.make(VkDeviceSize(k) * 4, &fresh[1]));
+    NFD_TRY(flood.make(VkDeviceSize(k) * 4, &claimed));
+    NFD_TRY(flood.make(VkDeviceSize(p.capacity) * 4, &claimed_points));
+    NFD_TRY(flood.make(VkDeviceSize(frontier_capacity) * 4, &frontier));
+    NFD_TRY(flood.make(VkDeviceSize(chunk) * 12, &points));
+    NFD_TRY(flood.make(VkDeviceSize(chunk) * 16, &results));
+    for (Buffer* b : {level_.visited, fresh[0], fresh[1], claimed}) job_.fill(*b, 0);
+    LevelPush wave = push;
+    uint32_t frontier_slot;
+    NFD_TRY(job_.new_slot(&wave.tally_slot));  // the claimed points', then the frontier's
+    NFD_TRY(job_.new_slot(&frontier_slot));
+    if (frontier_slot != wave.tally_slot + 1) return NFD_ERROR_INTERNAL;
+    int now = 0;  // fresh[now]: the children the frontier's entries got in the wave before
+    auto run = [&](Kernel kernel, Count items) {
+        LevelPush at = wave;
+        at.set(items);
+        return job_.dispatch(kernel,
+                             with(level_bindings(parents),
+                                  {{NFD_B_CORNERS, *parents.corners},
+                                   {NFD_B_PREDICTED_OWNED, *p.owned},
+                                   {NFD_B_PREDICTED_OFFSETS, *p.offsets},
+                                   {NFD_B_PREDICTED, *p.values},
+                                   {NFD_B_FLOOD_VISITED, *level_.visited},
+                                   {NFD_B_FLOOD_FRESH, *fresh[now]},
+                                   {NFD_B_FLOOD_NEXT, *fresh[1 - now]},
+                                   {NFD_B_FLOOD_CLAIMED, *claimed},
+                                   {NFD_B_FLOOD_POINTS, *claimed_points},
+                                   {NFD_B_FLOOD_FRONTIER, *frontier},
+                                   {NFD_B_FLOOD_RESULTS, *results},
+                                   {NFD_B_POINTS, *points}}),
+                             &at, items);
+    };
+    // The claimed points [from, to) with their gradients, into their slots.
+    auto evaluate = [&](uint32_t from, uint32_t to) {
+        for (uint32_t first = from; first < to; first += std::min(chunk, to - first)) {
+            const Count c{std::min(chunk, to - first), NFD_NO_COUNTER, first};
+            NFD_TRY(run(Kernel::UdfFloodListPoints, c));
+            NFD_TRY(record_field(job_, net_, *points, *results, Count{c.capacity}, true));
+            NFD_TRY(run(Kernel::UdfFloodStoreValues, c));
+        }
+        return NFD_SUCCESS;
+    };
+    NFD_TRY(run(Kernel::UdfFloodSeedMidpoints, parents.count()));
+    NFD_TRY(job_.sync());
+    uint32_t evaluated = 0, claims = job_.counter(wave.tally_slot);
+    NFD_TRY(evaluate(evaluated, claims));
+    evaluated = claims;
+    NFD_TRY(run(Kernel::UdfFloodSeedChildren, parents.count()));
+    NFD_TRY(run(Kernel::UdfFloodSeedIsolated, parents.count()));
+    uint32_t wave_begin = 0, wave_end = 0;  // the frontier entries of the current wave
+    do {
+        // The corners of the frontier's new entries (their fresh children), claimed.
+        NFD_TRY(run(Kernel::UdfFloodClaimCorners,
+                    Count{frontier_capacity - wave_end, frontier_slot, wave_end}));
+        NFD_TRY(job_.sync());
+        wave_begin = wave_end;
+        wave_end = job_.counter(frontier_slot);
+        claims = job_.counter(wave.tally_slot);
+        NFD_TRY(evaluate(evaluated, claims));
+        evaluated = claims;
+        // Across the floodable faces of the wave's fresh children: the next wave's entries.
+        if (wave_end > wave_begin)
+            NFD_TRY(run(Kernel::UdfFloodFaces,
+                        Count{wave_end - wave_begin, NFD_NO_COUNTER, wave_begin}));
+        now = 1 - now;
+    } while (wave_end > wave_begin);
+    // The open batch holds nothing yet (the last wave claimed nothing): the flood's buffers go.
+    p.count = evaluated;
+    return NFD_SUCCESS;
 }
 
 nfd_result LevelBuilder::step(CarriedGradients* carried) {
@@ -444,10 +550,15 @@ uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf, bool carried)
         // UDF: near masks, gradient masks, counts, offsets; value + gradient of at most 27
         // points per parent; a points chunk.
         if (udf) bytes += 16 * k + 16 * 27 * k + 12 * std::min(27 * k, chunk) + scan(k);
-        // A UDF's finest level: the predicted list (masks, offsets, values), capped.
+        // A UDF's finest level: the predicted list (masks, offsets, values), capped; surface
+        // following's (evaluate_finest_flood) per parent: visited, two fresh masks, claimed bits,
+        // 8 frontier entries, 19 claimed points; a chunk's points and results.
         if (udf && child_level == 0)
             bytes += 8 * k + std::min<uint64_t>(job_.device.predicted_list_bytes,
                                                 16 * kNewPointsPerParent * k);
+        if (udf && child_level == 0 && follow_finest_)
+            bytes += (16 + 32 + 4 * kNewPointsPerParent) * k +
+                     28 * std::min<uint64_t>(kNewPointsPerParent * k, chunk);
         // Carried: the corners' indices in the list above, the fresh points' masks, offsets and
         // values, the second scan.
         if (udf && carried) bytes += 32 * k + 8 * k + 16 * 27 * k + scan(k);

@@ -96,6 +96,10 @@ struct FinestLevel {
     // and copies its gradients, then frees it.
     PointList predicted;
     Buffers predicted_buffers;
+    // After surface following (LevelBuilder::evaluate_finest_flood), in predicted_buffers: per
+    // parent, the children it visited, the only ones whose corners were evaluated; null after
+    // the band, whose children are all evaluated.
+    Buffer* visited = nullptr;
     uint64_t points_evaluated = 0;  // own jobs; recorded ones: LevelBuilder::point_slots()
     HostTop top;                    // the coarsest level's (its values in `buffers`), else empty
     // The meshers free the level's storage as soon as they have read it (peak memory), unless
@@ -127,8 +131,10 @@ struct CarriedGradients {
 // is read.
 class LevelBuilder {
 public:
+    // `band`: a UDF's finest level by the keep rule too (nfd_mesh_options.sample_band), where it
+    // otherwise follows the surface within the kept parents (evaluate_finest_flood).
     LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry, uint32_t resolution,
-                 const Plan* plan = nullptr);
+                 const Plan* plan = nullptr, bool band = false);
     // Evaluates the next level (its kept list and corners first from the level before), then,
     // unless it is the finest, the keep rule on its cells. `carried`: the previous level's
     // gradient list, whose corners of the newly kept cells the step finds.
@@ -148,6 +154,7 @@ private:
     LevelPush refine_push(uint32_t child_level, uint32_t parent_cells, Count parents) const;
     nfd_result evaluate_top_on_host();
     nfd_result evaluate_finest_udf(const LevelPush& push, Buffers& scratch);
+    nfd_result evaluate_finest_flood(const LevelPush& push, Buffers& scratch);
     nfd_result gather_kept(CarriedGradients* carried);
 
     Job& job_;
@@ -157,6 +164,7 @@ private:
     const uint32_t resolution_, top_;
     const float step_;
     const FieldType field_;  // the keep rule's margin
+    const bool follow_finest_;  // a UDF's finest level follows the surface (own jobs)
     LevelPush base_;  // center, scale, step
     uint32_t current_;
     bool stepped_ = false;

@@ -12,9 +12,10 @@ namespace {
 
 class GpuExtraction final : public Extraction {
 public:
-    GpuExtraction(Device& device, const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask)
+    GpuExtraction(Device& device, const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask,
+                  bool band)
         : device_(device), geometry_(geometry), resolution_(resolution), job_(device, true),
-          mesh_mask_(mesh_mask) {}
+          mesh_mask_(mesh_mask), band_(band) {}
 
     // The network uploaded and its pipelines started before the first step, which the host
     // evaluates meanwhile (levels.h, HostTop); the second step waits for them if need be.
@@ -22,7 +23,8 @@ public:
         NFD_TRY(job_.init());
         NFD_TRY(device_network(device_, geometry_.network, &net_));
         NFD_TRY(prepare_fields(device_, *net_, geometry_.field));
-        levels_.reset(new (std::nothrow) LevelBuilder(job_, *net_, geometry_, resolution_));
+        levels_.reset(new (std::nothrow)
+                          LevelBuilder(job_, *net_, geometry_, resolution_, nullptr, band_));
         return levels_ ? NFD_SUCCESS : NFD_ERROR_OUT_OF_MEMORY;
     }
 
@@ -78,14 +80,16 @@ private:
     std::unique_ptr<LevelBuilder> levels_;
     std::unique_ptr<CarriedGradients> carried_;  // the last meshed UDF level's, for the next
     const uint32_t mesh_mask_;
+    const bool band_;
     double seconds_field_ = 0;
 };
 
 }  // namespace
 
 nfd_result make_extraction(Device& device, const Geometry& geometry, uint32_t resolution,
-                           uint32_t mesh_mask, std::unique_ptr<Extraction>* out) {
-    auto extraction = std::make_unique<GpuExtraction>(device, geometry, resolution, mesh_mask);
+                           uint32_t mesh_mask, bool band, std::unique_ptr<Extraction>* out) {
+    auto extraction =
+        std::make_unique<GpuExtraction>(device, geometry, resolution, mesh_mask, band);
     NFD_TRY(extraction->prepare());
     *out = std::move(extraction);
     return NFD_SUCCESS;
