@@ -101,6 +101,28 @@ void claim(uvec3 p, uint k, uint around, uvec3 l) {
     if ((atomicOr(claimed[ko], bit) & bit) != 0u) return;
     claimed_points[atomicAdd(counters[push.tally_slot], 1u)] = ko << 5 | local;
 }
+// Claims the points `wanted` (local_index bits, none of p's corners) of kept parent p's (rank k)
+// child grid: those p owns (own_mask) with one atomic each for the bits and the count.
+void claim_points(uvec3 p, uint k, uint around, uint wanted, uint own_mask) {
+    uint own = wanted & own_mask;
+    uint added = own & ~atomicOr(claimed[k], own);
+    if (added != 0u) {
+        uint at = atomicAdd(counters[push.tally_slot], bitCount(added));
+        for (; added != 0u; added &= added - 1u) claimed_points[at++] = k << 5 | uint(findLSB(added));
+    }
+    for (uint rest = wanted & ~own; rest != 0u; rest &= rest - 1u) {
+        uint l = uint(findLSB(rest));
+        claim(p, k, around, uvec3(l % 3u, (l / 3u) % 3u, l / 9u));
+    }
+}
+// The value at point l (not a corner) of kept parent p's (rank k) child grid, p's own points
+// through its mask and offset.
+float point_value(uvec3 p, uint k, uint around, uvec3 l, uint own_mask, uint own_offset) {
+    uint bit = 1u << local_index(l);
+    if ((own_mask & bit) != 0u)
+        return predicted[own_offset + bitCount(own_mask & (bit - 1u))].x;
+    return child_grid_value(p, k, around, l, push.parent_cells);
+}
 // Visits children `bits` of kept parent rank k, the first time each: they are the next wave's.
 void visit(uint k, uint bits, bool into_next) {
     uint added = bits & ~atomicOr(visited[k], bits);
@@ -178,8 +200,12 @@ void main() {
                                 : !neighbour_has(p, around, 2u);
     if (isolated) visit(k, existing_children(p), false);
 #else
-    uint seeds = 0u;
+    uint seeds = 0u, middles = 0u;
     bool seeded = false;
+    uint own_mask = predicted_owned[k];
+#if MODE == 1
+    uint own_offset = predicted_offsets[k];
+#endif
     for (uint e = 0u; e < 12u; ++e) {
         if ((valid & (1u << e)) == 0u) continue;
         uint axis = e / 4u, a = edge_start_corner(e), b = a + (1u << axis);
@@ -187,9 +213,9 @@ void main() {
         // Past the level's last vertex (an odd cell count): the halves' cells are dropped.
         if (!child_point_exists(2u * p + middle)) continue;
 #if MODE == 0
-        claim(p, k, around, middle);
+        middles |= 1u << local_index(middle);
 #else
-        float f_middle = child_grid_value(p, k, around, middle, r);
+        float f_middle = point_value(p, k, around, middle, own_mask, own_offset);
         precise float lower_sum = f[a] + f_middle;
         precise float upper_sum = f_middle + f[b];
         bool lower = lower_sum <= fine_edge_limit(), upper = upper_sum <= fine_edge_limit();
@@ -198,7 +224,9 @@ void main() {
         seeded = seeded || lower || upper;
 #endif
     }
-#if MODE == 1
+#if MODE == 0
+    claim_points(p, k, around, middles, own_mask);
+#else
     if (seeded) atomicOr(claimed[k], SEEDED);
     visit(k, seeds & existing_children(p), false);
 #endif
@@ -215,17 +243,7 @@ void main() {
     uint wanted = corners_of & ~kParentCorners;
     uint own_mask = predicted_owned[k], own = wanted & own_mask;
 #if MODE == 3
-    {
-        uint added = own & ~atomicOr(claimed[k], own);
-        if (added != 0u) {
-            uint at = atomicAdd(counters[push.tally_slot], bitCount(added));
-            for (; added != 0u; added &= added - 1u) claimed_points[at++] = k << 5 | uint(findLSB(added));
-        }
-        for (uint rest = wanted & ~own; rest != 0u; rest &= rest - 1u) {
-            uint l = uint(findLSB(rest));
-            claim(p, k, around, uvec3(l % 3u, (l / 3u) % 3u, l / 9u));
-        }
-    }
+    claim_points(p, k, around, wanted, own_mask);
 #else
     float grid[27];
     uint own_offset = predicted_offsets[k];
