@@ -127,8 +127,9 @@ struct CarriedGradients {
 // and makes it the child grids of the level above, every cell of which is kept, so that every
 // level, the coarsest included, is a FinestLevel. Own jobs run each step in the context's
 // batches (two: the kept list of the level before, then the level's values and keep rule; a
-// UDF's finest level reads its predicted count between two) and read its counts after them; with a plan (recorded jobs) the sizes are the plan's and nothing
-// is read.
+// UDF's finest level follows the surface in a batch per wave, or reads its predicted count
+// between two) and read its counts after them; with a plan (recorded jobs) the sizes are the
+// plan's and nothing is read.
 class LevelBuilder {
 public:
     // `band`: a UDF's finest level by the keep rule too (nfd_mesh_options.sample_band), where it
