@@ -189,14 +189,16 @@ layout(std430, binding = NFD_B_PREDICTED) readonly buffer Predicted { vec4 predi
 // Value at child-grid point v, not a corner of its kept cell, from its owner o (rank ko).
 float owned_value(uvec3 v, uvec3 o, uint ko) {
     uint bit = 1u << local_index(v - 2u * o);
-#ifdef NFD_PREDICTED_ONLY  // udf_flood.comp: every owned point has its slot there
+#ifdef NFD_PREDICTED_ONLY  // udf_flood.comp: every owned point has its slot there, and the
+                           // value list's roles are not bound
     return predicted[predicted_offsets[ko] + bitCount(predicted_owned[ko] & (bit - 1u))].x;
-#endif
+#else
 #ifdef NFD_PREDICTED_VALUES
     if ((predicted_owned[ko] & bit) != 0u)
         return predicted[predicted_offsets[ko] + bitCount(predicted_owned[ko] & (bit - 1u))].x;
 #endif
     return values[offsets[ko] + bitCount(owned[ko] & (bit - 1u))];
+#endif
 }
 // Value at point l of the child grid of kept cell p (rank k) at level r; with `around`
 // (kept_around) for a kernel that reads many points of p.
