@@ -541,7 +541,7 @@ typedef struct nfd_mesh_options {
      * level's cells that can: about half the evaluations, the band's mesh on the files measured
      * (bench/RESULTS.md, "0.12"). The Vulkan path samples the band, but for a UDF's finest level
      * (0.13): there it visits the cells that can carry a triangle within the band's cells of the
-     * level above, about 0.6 of the band's evaluations at 256, the band's mesh on every file
+     * level above, 0.63-0.69 of the band's evaluations at 256, the band's mesh on every file
      * measured (bench/RESULTS.md, "0.13"); a non-zero sample_band keeps the band there too. */
     int sample_band;
 } nfd_mesh_options;
