@@ -123,7 +123,8 @@ float point_value(uvec3 p, uint k, uint around, uvec3 l, uint own_mask, uint own
         return predicted[own_offset + bitCount(own_mask & (bit - 1u))].x;
     return child_grid_value(p, k, around, l, push.parent_cells);
 }
-// Visits children `bits` of kept parent rank k, the first time each: they are the next wave's.
+// Visits children `bits` of kept parent rank k, the first time each: fresh in the next wave
+// (`into_next`: the faces' visits), or in the first one (the seeds').
 void visit(uint k, uint bits, bool into_next) {
     uint added = bits & ~atomicOr(visited[k], bits);
     if (added == 0u) return;
