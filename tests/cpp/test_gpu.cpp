@@ -717,18 +717,26 @@ TEST_F(Gpu, CoarsestLevelIsTheCppEvaluators) {
 namespace nfd::test {
 namespace {
 
-// Hostile values that parse (some give inf or NaN fields) mesh on the GPU too, finite or empty.
+// Hostile values that parse (some give inf or NaN fields) mesh on the GPU too, finite or empty:
+// at 16 (the coarsest level is the finest), and at 64 through a refined finest level, by surface
+// following (udf_flood.comp) and by the band (sample_band).
 TEST_F(Gpu, AcceptedUdfDamageMeshesFiniteOrEmpty) {
     size_t meshed = 0;
-    // ~17 files: a few seconds on lavapipe.
+    // ~17 files, three decodes each: several seconds on lavapipe.
     for_each_accepted_damage(geom_payload(random_siren(8, 8, 7, /*field_type=*/1)), 53, {0xFF},
                              [&](size_t i, const Geometry& g) {
-                                 MeshData m;
-                                 ExtractStats stats;
-                                 ASSERT_EQ(gpu::extract_mesh(device(), g, 16, &m, &stats),
-                                           NFD_SUCCESS) << i;
-                                 ASSERT_TRUE(is_finite_mesh(m)) << i;
-                                 meshed += m.triangle_count() > 0;
+                                 for (auto [resolution, band] : {std::pair{16u, false},
+                                                                 std::pair{64u, false},
+                                                                 std::pair{64u, true}}) {
+                                     MeshData m;
+                                     ExtractStats stats;
+                                     ASSERT_EQ(gpu::extract_mesh(device(), g, resolution, &m,
+                                                                 &stats, band),
+                                               NFD_SUCCESS)
+                                         << i << " at " << resolution << ", band " << band;
+                                     ASSERT_TRUE(is_finite_mesh(m)) << i << " at " << resolution;
+                                     meshed += m.triangle_count() > 0;
+                                 }
                              });
     EXPECT_GT(meshed, 0u);
 }
