@@ -64,6 +64,7 @@ uint local_index(uvec3 l) { return l.x + 3u * l.y + 9u * l.z; }
 bool is_corner(uvec3 l) { return ((l.x | l.y | l.z) & 1u) == 0u; }
 uint corner_index(uvec3 l) { return (l.x >> 1) | (l.y & 2u) | ((l.z & 2u) << 1); }  // l even
 uvec3 corner_offset(uint c) { return uvec3(c & 1u, (c >> 1) & 1u, (c >> 2) & 1u); }
+uvec3 unit_axis(uint a) { return uvec3(a == 0u ? 1u : 0u, a == 1u ? 1u : 0u, a == 2u ? 1u : 0u); }
 
 uvec3 cell_coords(uint c, uint r) { return uvec3(c % r, (c / r) % r, c / (r * r)); }
 uint cell_index(uvec3 p, uint r) { return p.x + r * (p.y + r * p.z); }

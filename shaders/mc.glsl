@@ -35,8 +35,6 @@ bool mc_holds_triangle(uint edge_mask) {
     return (uint(mc_tables[4096u + 256u + 24u + edge_mask / 32u]) >> (edge_mask % 32u) & 1u) != 0u;
 }
 
-uvec3 unit_axis(uint a) { return uvec3(a == 0u ? 1u : 0u, a == 1u ? 1u : 0u, a == 2u ? 1u : 0u); }
-
 uint edge_id(uint a, uvec3 s) {
     if (a == 0u) return s.x + 2u * s.y + 6u * s.z;
     if (a == 1u) return 18u + s.x + 3u * s.y + 6u * s.z;

@@ -50,7 +50,6 @@ const uint SEEDED = 1u << 31;  // in a parent's claimed word: a seed came from i
 const uint kChildCorners = 0x361Bu;     // locals 0, 1, 3, 4, 9, 10, 12, 13
 const uint kParentCorners = 0x5140145u; // locals 0, 2, 6, 8, 18, 20, 24, 26
 
-uvec3 unit_axis(uint a) { return uvec3(a == 0u ? 1u : 0u, a == 1u ? 1u : 0u, a == 2u ? 1u : 0u); }
 // mc_tables.h's kEdgeCorners[e][0]: edge e runs along axis e / 4 from the corner whose other two
 // coordinates, lower axis first, are the bits of e % 4.
 uint edge_start_corner(uint e) {

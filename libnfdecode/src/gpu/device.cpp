@@ -100,6 +100,10 @@ struct KernelDesc {
     uint32_t push_bytes, local_size;
     uint32_t constant0 = kNoSpecialization;  // value of constant_id 0, if the kernel has one
 };
+// A row of udf_flood.comp's modes: one binding set, the level kernels' push and local size.
+constexpr KernelDesc flood_kernel(Kernel kernel, const shaders::Spirv& spirv) {
+    return {kernel, spirv, kFlood, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE};
+}
 
 constexpr KernelDesc kKernels[] = {
     // Field: the network's sizes are specialization constants, its local size too.
@@ -170,20 +174,13 @@ constexpr KernelDesc kKernels[] = {
     {Kernel::UdfNearPredicted, shaders::udf_near_predicted,
      kUdfNear | kPredicted | B(NFD_B_FLOOD_VISITED), 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // Surface following on a UDF's finest level: udf_flood.comp's modes.
-    {Kernel::UdfFloodSeedMidpoints, shaders::udf_flood_seed_midpoints, kFlood, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfFloodSeedChildren, shaders::udf_flood_seed_children, kFlood, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfFloodSeedIsolated, shaders::udf_flood_seed_isolated, kFlood, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfFloodClaimCorners, shaders::udf_flood_claim_corners, kFlood, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfFloodFaces, shaders::udf_flood_faces, kFlood, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfFloodListPoints, shaders::udf_flood_list_points, kFlood, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfFloodStoreValues, shaders::udf_flood_store_values, kFlood, 0,
-     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    flood_kernel(Kernel::UdfFloodSeedMidpoints, shaders::udf_flood_seed_midpoints),
+    flood_kernel(Kernel::UdfFloodSeedChildren, shaders::udf_flood_seed_children),
+    flood_kernel(Kernel::UdfFloodSeedIsolated, shaders::udf_flood_seed_isolated),
+    flood_kernel(Kernel::UdfFloodClaimCorners, shaders::udf_flood_claim_corners),
+    flood_kernel(Kernel::UdfFloodFaces, shaders::udf_flood_faces),
+    flood_kernel(Kernel::UdfFloodListPoints, shaders::udf_flood_list_points),
+    flood_kernel(Kernel::UdfFloodStoreValues, shaders::udf_flood_store_values),
     // Copying from the level above's list (progressive levels: the corners it has for this one)
     // and, Predicted, from the finest level's predicted list (udf.glsl).
     {Kernel::UdfGradientCount, shaders::udf_gradient_count, kGradientCount, 0,
