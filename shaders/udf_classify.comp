@@ -5,6 +5,7 @@
 // UDF's edge carries a vertex depends on its cells), which mc_emit.comp then numbers.
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
@@ -13,6 +14,10 @@ layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts 
     uint triangle_counts[];
 };
 layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; };
+
+// mc_tables.h's kEdgeCorners[e][0] as a constant, so that unrolled loops index f[] by constants
+// (on llvmpipe a per-invocation array read at a computed index is an 8-lane gather).
+const uint kEdgeStart[12] = uint[](0u, 2u, 4u, 6u, 0u, 1u, 4u, 5u, 0u, 1u, 2u, 3u);
 
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
@@ -30,7 +35,8 @@ void main() {
         uvec3 d = corner_offset(child);
         float f[8];
         vec3 g[8];
-        uint nearest = 0u;
+        float f_nearest = 0.0;
+        vec3 g_nearest = vec3(0.0);
         for (uint i = 0u; i < 8u; ++i) {
             uvec3 l = d + corner_offset(i);
             uvec3 o = owner_around(around, l, 3u);
@@ -43,22 +49,26 @@ void main() {
             }
             f[i] = fg.x;
             g[i] = fg.yzw;
-            if (f[i] < f[nearest]) nearest = i;
+            bool nearer = i == 0u || fg.x < f_nearest;  // the first of the smallest values
+            f_nearest = nearer ? fg.x : f_nearest;
+            g_nearest = nearer ? fg.yzw : g_nearest;
         }
         vec3 n;
-        if (!canonical_direction(g[nearest], n)) continue;  // step 2
+        if (!canonical_direction(g_nearest, n)) continue;  // step 2
         uint cc = 0u;
-        for (uint i = 0u; i < 8u; ++i)  // step 3
+        [[unroll]] for (uint i = 0u; i < 8u; ++i)  // step 3
             if (dot3(g[i], n) < 0.0) cc |= 1u << i;
+        uint valid_edges = 0u;  // step 5's edge test, per cube edge
+        [[unroll]] for (uint e = 0u; e < 12u; ++e) {
+            uint a = kEdgeStart[e], b = a + (1u << (e / 4u));
+            precise float sum = f[a] + f[b];
+            if (sum <= push.edge_limit) valid_edges |= 1u << e;
+        }
         uint emitted = 0u;
         for (uint t = 0u; t < mc_triangle_count(cc); ++t) {
             bool valid = true;  // step 5
-            for (uint j = 0u; j < 3u; ++j) {
-                uint e = uint(mc_triangle_edge(cc, 3u * t + j));
-                uint a = mc_edge_start_corner(e), b = a + (1u << (e / 4u));
-                precise float sum = f[a] + f[b];
-                valid = valid && sum <= push.edge_limit;
-            }
+            for (uint j = 0u; j < 3u; ++j)
+                valid = valid && (valid_edges >> uint(mc_triangle_edge(cc, 3u * t + j)) & 1u) != 0u;
             if (!valid) continue;
             emitted |= 1u << t;
             for (uint j = 0u; j < 3u; ++j) {
