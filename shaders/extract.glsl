@@ -65,6 +65,14 @@ bool is_corner(uvec3 l) { return ((l.x | l.y | l.z) & 1u) == 0u; }
 uint corner_index(uvec3 l) { return (l.x >> 1) | (l.y & 2u) | ((l.z & 2u) << 1); }  // l even
 uvec3 corner_offset(uint c) { return uvec3(c & 1u, (c >> 1) & 1u, (c >> 2) & 1u); }
 uvec3 unit_axis(uint a) { return uvec3(a == 0u ? 1u : 0u, a == 1u ? 1u : 0u, a == 2u ? 1u : 0u); }
+// mc_tables.h's kEdgeCorners[e][0]: edge e runs along axis e / 4 from the corner whose other two
+// coordinates, lower axis first, are the bits of e % 4. Folds to a constant in unrolled loops, so
+// that per-invocation arrays are read at constant indices (on llvmpipe a read at a computed index
+// is an 8-lane gather); mc.glsl's table lookup measured faster where e is computed.
+uint edge_start_corner(uint e) {
+    uint axis = e / 4u, j = e & 3u;
+    return (j & 1u) << (axis == 0u ? 1u : 0u) | (j >> 1) << (axis == 2u ? 1u : 2u);
+}
 
 uvec3 cell_coords(uint c, uint r) { return uvec3(c % r, (c / r) % r, c / (r * r)); }
 uint cell_index(uvec3 p, uint r) { return p.x + r * (p.y + r * p.z); }

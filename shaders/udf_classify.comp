@@ -15,10 +15,6 @@ layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts 
 };
 layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; };
 
-// mc_tables.h's kEdgeCorners[e][0] as a constant, so that unrolled loops index f[] by constants
-// (on llvmpipe a per-invocation array read at a computed index is an 8-lane gather).
-const uint kEdgeStart[12] = uint[](0u, 2u, 4u, 6u, 0u, 1u, 4u, 5u, 0u, 1u, 2u, 3u);
-
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
     if (k >= item_count()) return;
@@ -60,7 +56,7 @@ void main() {
             if (dot3(g[i], n) < 0.0) cc |= 1u << i;
         uint valid_edges = 0u;  // step 5's edge test, per cube edge
         [[unroll]] for (uint e = 0u; e < 12u; ++e) {
-            uint a = kEdgeStart[e], b = a + (1u << (e / 4u));
+            uint a = edge_start_corner(e), b = a + (1u << (e / 4u));
             precise float sum = f[a] + f[b];
             if (sum <= push.edge_limit) valid_edges |= 1u << e;
         }

@@ -50,12 +50,6 @@ const uint SEEDED = 1u << 31;  // in a parent's claimed word: a seed came from i
 const uint kChildCorners = 0x361Bu;     // locals 0, 1, 3, 4, 9, 10, 12, 13
 const uint kParentCorners = 0x5140145u; // locals 0, 2, 6, 8, 18, 20, 24, 26
 
-// mc_tables.h's kEdgeCorners[e][0]: edge e runs along axis e / 4 from the corner whose other two
-// coordinates, lower axis first, are the bits of e % 4.
-uint edge_start_corner(uint e) {
-    uint axis = e / 4u, j = e & 3u;
-    return (j & 1u) << (axis == 0u ? 1u : 0u) | (j >> 1) << (axis == 2u ? 1u : 2u);
-}
 // The edges on face 2 axis + side of a cell (grid_follow.cpp's kFaceEdges).
 uint face_edges(uint face) {
     uint axis = face / 2u, side = face & 1u, mask = 0u;

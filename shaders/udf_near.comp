@@ -6,6 +6,7 @@
 // (NFD_B_FLOOD_VISITED; all where no flood ran) have their corners evaluated.
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
@@ -26,18 +27,18 @@ void main() {
     uint visits = 0xffu;
 #endif
     uint mask = 0u;
-    for (uint child = 0u; child < 8u; ++child) {
+    [[unroll]] for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
         if ((visits & (1u << child)) == 0u || !child_cell_exists(2u * p + d)) continue;
         float f[8];
         bool finite = true;
-        for (uint c = 0u; c < 8u; ++c) {
+        [[unroll]] for (uint c = 0u; c < 8u; ++c) {  // constant indices into f: see edge_start_corner
             f[c] = grid[local_index(d + corner_offset(c))];
             finite = finite && !isnan(f[c]) && !isinf(f[c]);
         }
         uint valid = 0u;
-        for (uint e = 0u; e < 12u; ++e) {
-            uint a = mc_edge_start_corner(e), b = a + (1u << (e / 4u));
+        [[unroll]] for (uint e = 0u; e < 12u; ++e) {
+            uint a = edge_start_corner(e), b = a + (1u << (e / 4u));
             precise float sum = f[a] + f[b];
             if (sum <= push.edge_limit) valid |= 1u << e;
         }
