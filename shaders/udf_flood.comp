@@ -13,7 +13,8 @@
 //                     has one (the keep rule kept it: a small piece away from the rest)
 //   3 claim_corners   per frontier entry: claim the corners of the parent's fresh children
 //   4 flood_faces     per frontier entry: visit the neighbours behind the faces of its fresh
-//                     children that hold an edge with f_a + f_b <= 2 h, inside kept parents
+//                     children that hold an edge with f_a + f_b <= 2 h, inside kept parents;
+//                     mark those of its fresh children that are near cells (udf_near's test)
 //   5 list_points     per claimed point of a chunk: its unit-frame position
 //   6 store_values    per claimed point of a chunk: its (value, gradient) into its owner's slot
 // A point is claimed by setting its bit in its owner's NFD_B_FLOOD_CLAIMED word and appended to
@@ -40,6 +41,12 @@ layout(std430, binding = NFD_B_FLOOD_POINTS) buffer ClaimedPoints { uint claimed
 layout(std430, binding = NFD_B_FLOOD_FRONTIER) buffer Frontier { uint frontier[]; };
 layout(std430, binding = NFD_B_FLOOD_RESULTS) readonly buffer Results { vec4 results[]; };
 layout(std430, binding = NFD_B_POINTS) writeonly buffer Points { float points[]; };
+#if MODE == 4
+// The near cells (udf_near.comp's test, which a flooded level skips): every visited child is fresh
+// in one wave exactly, when this mode reads its corners anyway.
+#include "mc.glsl"
+layout(std430, binding = NFD_B_NEAR_MASKS) buffer NearMasks { uint near_masks[]; };
+#endif
 
 #ifndef MODE  // 0-6, from shaders/CMakeLists.txt: one kernel per mode
 #error "udf_flood.comp needs MODE"
@@ -255,13 +262,18 @@ void main() {
     }
     // The children reached across floodable faces, by parent: p itself (`inside`) and the one
     // behind each of its faces (`beside`), so that each gets one visit.
-    uint inside = 0u;
+    uint inside = 0u, near = 0u;
     uint beside[6] = uint[6](0u, 0u, 0u, 0u, 0u, 0u);
     for (uint c = 0u; c < 8u; ++c) {
         if ((bits & (1u << c)) == 0u) continue;
         uvec3 d = corner_offset(c);
         float g[8];
-        [[unroll]] for (uint j = 0u; j < 8u; ++j) g[j] = grid[local_index(d + corner_offset(j))];
+        bool finite = true;
+        [[unroll]] for (uint j = 0u; j < 8u; ++j) {
+            g[j] = grid[local_index(d + corner_offset(j))];
+            finite = finite && !isnan(g[j]) && !isinf(g[j]);
+        }
+        if (finite && mc_holds_triangle(valid_edges(g, fine_edge_limit()))) near |= 1u << c;
         uint floodable = valid_edges(g, flood_edge_limit());
         [[unroll]] for (uint face = 0u; face < 6u; ++face) {
             if ((floodable & face_edges(face)) == 0u) continue;
@@ -270,6 +282,7 @@ void main() {
             else inside |= 1u << child;
         }
     }
+    if (near != 0u) near_masks[k] |= near;  // one frontier entry per parent and wave
     visit(k, inside & existing_children(p), true);
     [[unroll]] for (uint face = 0u; face < 6u; ++face) {
         if (beside[face] == 0u) continue;

@@ -1,9 +1,8 @@
 // UDF, step 1 (udf.glsl): per parent, which of its existing children are near cells: all corners
 // finite and valid edges (f_a + f_b <= push.edge_limit, step 5) that include the three edges of
 // some triangle of the table (grid.h, udf_cell_is_near).
-// With NFD_PREDICTED_VALUES the level's new values are in two lists (udf_predict.comp), or in the
-// predicted list's slots alone (udf_flood.comp), and only the children the flood visited
-// (NFD_B_FLOOD_VISITED; all where no flood ran) have their corners evaluated.
+// With NFD_PREDICTED_VALUES the level's new values are in two lists (udf_predict.comp). After
+// surface following (udf_flood.comp) the flood's faces mode has found the near cells instead.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
@@ -11,9 +10,6 @@
 #include "extract.glsl"
 #include "mc.glsl"
 #include "udf.glsl"
-#ifdef NFD_PREDICTED_VALUES
-layout(std430, binding = NFD_B_FLOOD_VISITED) readonly buffer Visited { uint visited[]; };
-#endif
 
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
@@ -21,15 +17,10 @@ void main() {
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     load_grid(p, k, r);
-#ifdef NFD_PREDICTED_VALUES
-    uint visits = visited[k];
-#else
-    uint visits = 0xffu;
-#endif
     uint mask = 0u;
     [[unroll]] for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
-        if ((visits & (1u << child)) == 0u || !child_cell_exists(2u * p + d)) continue;
+        if (!child_cell_exists(2u * p + d)) continue;
         float f[8];
         bool finite = true;
         [[unroll]] for (uint c = 0u; c < 8u; ++c) {  // constant indices into f: see edge_start_corner

@@ -53,13 +53,15 @@ constexpr BindingMask kPredicted =
     B(NFD_B_PREDICTED_OWNED) | B(NFD_B_PREDICTED_OFFSETS) | B(NFD_B_PREDICTED);
 constexpr BindingMask kUdfNear =
     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS);
-// A UDF finest level's surface following (udf_flood.comp): every mode declares every role, the
-// level's values in the predicted list alone (16 roles, the most a pipeline has).
-constexpr BindingMask kFlood = kLevel | B(NFD_B_CORNERS) | kPredicted | B(NFD_B_POINTS) |
-                               B(NFD_B_FLOOD_VISITED) | B(NFD_B_FLOOD_FRESH) |
-                               B(NFD_B_FLOOD_NEXT) | B(NFD_B_FLOOD_CLAIMED) |
-                               B(NFD_B_FLOOD_POINTS) | B(NFD_B_FLOOD_FRONTIER) |
-                               B(NFD_B_FLOOD_RESULTS);
+// A UDF finest level's surface following (udf_flood.comp), the level's values in the predicted
+// list alone: the claiming and evaluating modes' roles (16, the most a pipeline has), and the
+// faces mode's, which writes the near masks in place of the claims.
+constexpr BindingMask kFloodFrontier = kLevel | B(NFD_B_CORNERS) | kPredicted |
+                                       B(NFD_B_FLOOD_VISITED) | B(NFD_B_FLOOD_FRESH) |
+                                       B(NFD_B_FLOOD_NEXT) | B(NFD_B_FLOOD_FRONTIER);
+constexpr BindingMask kFlood = kFloodFrontier | B(NFD_B_FLOOD_CLAIMED) | B(NFD_B_FLOOD_POINTS) |
+                               B(NFD_B_FLOOD_RESULTS) | B(NFD_B_POINTS);
+constexpr BindingMask kFloodFaces = kFloodFrontier | B(NFD_B_NEAR_MASKS) | B(NFD_B_MC_TABLES);
 constexpr BindingMask kGradientMerge = B(NFD_B_COUNTERS) | kGradients | B(NFD_B_OWNED) |
                                        B(NFD_B_OFFSETS) | B(NFD_B_CORNER_GRADIENTS) |
                                        B(NFD_B_ABOVE_GRADIENTS) | B(NFD_B_FRESH_GRADIENTS);
@@ -100,9 +102,10 @@ struct KernelDesc {
     uint32_t push_bytes, local_size;
     uint32_t constant0 = kNoSpecialization;  // value of constant_id 0, if the kernel has one
 };
-// A row of udf_flood.comp's modes: one binding set, the level kernels' push and local size.
-constexpr KernelDesc flood_kernel(Kernel kernel, const shaders::Spirv& spirv) {
-    return {kernel, spirv, kFlood, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE};
+// A row of udf_flood.comp's modes: the level kernels' push and local size.
+constexpr KernelDesc flood_kernel(Kernel kernel, const shaders::Spirv& spirv,
+                                  BindingMask roles = kFlood) {
+    return {kernel, spirv, roles, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE};
 }
 
 constexpr KernelDesc kKernels[] = {
@@ -172,13 +175,13 @@ constexpr KernelDesc kKernels[] = {
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfNear, shaders::udf_near, kUdfNear, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfNearPredicted, shaders::udf_near_predicted,
-     kUdfNear | kPredicted | B(NFD_B_FLOOD_VISITED), 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+     kUdfNear | kPredicted, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // Surface following on a UDF's finest level: udf_flood.comp's modes.
     flood_kernel(Kernel::UdfFloodSeedMidpoints, shaders::udf_flood_seed_midpoints),
     flood_kernel(Kernel::UdfFloodSeedChildren, shaders::udf_flood_seed_children),
     flood_kernel(Kernel::UdfFloodSeedIsolated, shaders::udf_flood_seed_isolated),
     flood_kernel(Kernel::UdfFloodClaimCorners, shaders::udf_flood_claim_corners),
-    flood_kernel(Kernel::UdfFloodFaces, shaders::udf_flood_faces),
+    flood_kernel(Kernel::UdfFloodFaces, shaders::udf_flood_faces, kFloodFaces),
     flood_kernel(Kernel::UdfFloodListPoints, shaders::udf_flood_list_points),
     flood_kernel(Kernel::UdfFloodStoreValues, shaders::udf_flood_store_values),
     // Copying from the level above's list (progressive levels: the corners it has for this one)

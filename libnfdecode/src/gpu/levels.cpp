@@ -370,16 +370,17 @@ nfd_result LevelBuilder::evaluate_finest_flood(const LevelPush& push, Buffers& s
     NFD_TRY(record_scan(job_, scratch, *p.owned, *p.offsets, k, true));
     p.capacity = k * kNewPointsPerParent;  // at most 16 bytes each within predicted_list_bytes
     NFD_TRY(kept.make(VkDeviceSize(p.capacity) * 16, &p.values));
-    NFD_TRY(kept.make(VkDeviceSize(k) * 4, &level_.visited));
+    NFD_TRY(level_.near_buffers.make(VkDeviceSize(k) * 4, &level_.near));
     // The value list holds nothing: zero masks, so that the mesher finds every point in the slots.
     NFD_TRY(make_point_list(job_, parents, level_.buffers, &g));
     NFD_TRY(level_.buffers.make(4, &g.values));
     job_.fill(*g.offsets, 0);
 
     Buffers flood(vk);
-    Buffer *fresh[2], *claimed, *claimed_points, *frontier, *points, *results;
+    Buffer *visited, *fresh[2], *claimed, *claimed_points, *frontier, *points, *results;
     const uint32_t frontier_capacity = 8 * k;  // a parent enters once per child it gets
     const uint32_t chunk = std::min(p.capacity, 1u << 20);
+    NFD_TRY(flood.make(VkDeviceSize(k) * 4, &visited));
     NFD_TRY(flood.make(VkDeviceSize(k) * 4, &fresh[0]));
     NFD_TRY(flood.make(VkDeviceSize(k) * 4, &fresh[1]));
     NFD_TRY(flood.make(VkDeviceSize(k) * 4, &claimed));
@@ -387,7 +388,7 @@ nfd_result LevelBuilder::evaluate_finest_flood(const LevelPush& push, Buffers& s
     NFD_TRY(flood.make(VkDeviceSize(frontier_capacity) * 4, &frontier));
     NFD_TRY(flood.make(VkDeviceSize(chunk) * 12, &points));
     NFD_TRY(flood.make(VkDeviceSize(chunk) * 16, &results));
-    for (Buffer* b : {level_.visited, fresh[0], fresh[1], claimed}) job_.fill(*b, 0);
+    for (Buffer* b : {visited, level_.near, fresh[0], fresh[1], claimed}) job_.fill(*b, 0);
     LevelPush wave = push;
     uint32_t frontier_slot;
     NFD_TRY(job_.new_slot(&wave.tally_slot));  // the claimed points', then the frontier's
@@ -397,21 +398,24 @@ nfd_result LevelBuilder::evaluate_finest_flood(const LevelPush& push, Buffers& s
     auto run = [&](Kernel kernel, Count items) {
         LevelPush at = wave;
         at.set(items);
-        return job_.dispatch(kernel,
-                             with(level_bindings(parents),
-                                  {{NFD_B_CORNERS, *parents.corners},
-                                   {NFD_B_PREDICTED_OWNED, *p.owned},
-                                   {NFD_B_PREDICTED_OFFSETS, *p.offsets},
-                                   {NFD_B_PREDICTED, *p.values},
-                                   {NFD_B_FLOOD_VISITED, *level_.visited},
-                                   {NFD_B_FLOOD_FRESH, *fresh[now]},
-                                   {NFD_B_FLOOD_NEXT, *fresh[1 - now]},
-                                   {NFD_B_FLOOD_CLAIMED, *claimed},
-                                   {NFD_B_FLOOD_POINTS, *claimed_points},
-                                   {NFD_B_FLOOD_FRONTIER, *frontier},
-                                   {NFD_B_FLOOD_RESULTS, *results},
-                                   {NFD_B_POINTS, *points}}),
-                             &at, items);
+        std::vector<Bind> roles = with(level_bindings(parents),
+                                       {{NFD_B_CORNERS, *parents.corners},
+                                        {NFD_B_PREDICTED_OWNED, *p.owned},
+                                        {NFD_B_PREDICTED_OFFSETS, *p.offsets},
+                                        {NFD_B_PREDICTED, *p.values},
+                                        {NFD_B_FLOOD_VISITED, *visited},
+                                        {NFD_B_FLOOD_FRESH, *fresh[now]},
+                                        {NFD_B_FLOOD_NEXT, *fresh[1 - now]},
+                                        {NFD_B_FLOOD_FRONTIER, *frontier}});
+        if (kernel == Kernel::UdfFloodFaces)
+            roles = with(roles, {{NFD_B_NEAR_MASKS, *level_.near},
+                                 {NFD_B_MC_TABLES, job_.device.mc_tables}});
+        else
+            roles = with(roles, {{NFD_B_FLOOD_CLAIMED, *claimed},
+                                 {NFD_B_FLOOD_POINTS, *claimed_points},
+                                 {NFD_B_FLOOD_RESULTS, *results},
+                                 {NFD_B_POINTS, *points}});
+        return job_.dispatch(kernel, roles, &at, items);
     };
     // The claimed points [from, to) with their gradients, into their slots.
     auto evaluate = [&](uint32_t from, uint32_t to) {

@@ -85,7 +85,8 @@ struct HostTop {
 // `step` this level's cell edge: the same f32 coordinates, grid.h's GridLevel::coord; the count
 // that of the parents).
 struct FinestLevel {
-    explicit FinestLevel(Context& vk) : parents(vk), buffers(vk), predicted_buffers(vk) {}
+    explicit FinestLevel(Context& vk)
+        : parents(vk), buffers(vk), predicted_buffers(vk), near_buffers(vk) {}
     Level parents;
     PointList grid;
     LevelPush push;
@@ -96,10 +97,11 @@ struct FinestLevel {
     // and copies its gradients, then frees it.
     PointList predicted;
     Buffers predicted_buffers;
-    // After surface following (LevelBuilder::evaluate_finest_flood), in predicted_buffers: per
-    // parent, the children it visited, the only ones whose corners were evaluated; null after
-    // the band, whose children are all evaluated.
-    Buffer* visited = nullptr;
+    // After surface following (LevelBuilder::evaluate_finest_flood), per parent: its near children
+    // (udf_near.comp's masks, found by the flood, which read the corners of every child it
+    // visited; the others have none evaluated), for the UDF mesher; null after the band.
+    Buffers near_buffers;
+    Buffer* near = nullptr;
     uint64_t points_evaluated = 0;  // own jobs; recorded ones: LevelBuilder::point_slots()
     HostTop top;                    // the coarsest level's (its values in `buffers`), else empty
     // The meshers free the level's storage as soon as they have read it (peak memory), unless

@@ -31,7 +31,9 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         NFD_TRY(top_gradients(finest.top, push.step, list, &top_gradient_values));
     Buffers& kept = carried.carry ? carried.carry->buffers : list;
     Buffer *near, *owned, *offsets, *fresh_owned = nullptr, *fresh_offsets = nullptr;
-    NFD_TRY(list.make(VkDeviceSize(k) * 4, &near));
+    // After surface following the flood found the near children; otherwise udf_near below.
+    near = finest.near;
+    if (!near) NFD_TRY(list.make(VkDeviceSize(k) * 4, &near));
     NFD_TRY(kept.make(VkDeviceSize(k) * 4, &owned));
     NFD_TRY(kept.make(VkDeviceSize(k) * 4, &offsets));
     if (copies) {
@@ -42,16 +44,10 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     near_bindings.insert(near_bindings.end(),
                          {{NFD_B_MC_TABLES, job.device.mc_tables}, {NFD_B_NEAR_MASKS, *near}});
     std::vector<Bind> predicted_bindings;
-    Buffer* every_child = nullptr;  // set below, without surface following
-    if (predicted) {
+    if (predicted)
         predicted_bindings = {{NFD_B_PREDICTED_OWNED, *predicted->owned},
                               {NFD_B_PREDICTED_OFFSETS, *predicted->offsets},
                               {NFD_B_PREDICTED, *predicted->values}};
-        // Which children have their corners evaluated: those surface following visited, or all.
-        Buffer* visited = finest.visited;
-        if (!visited) NFD_TRY(list.make(VkDeviceSize(k) * 4, &every_child));
-        near_bindings.push_back({NFD_B_FLOOD_VISITED, visited ? *visited : *every_child});
-    }
     near_bindings.insert(near_bindings.end(), predicted_bindings.begin(), predicted_bindings.end());
     std::vector<Bind> count_bindings = level_bindings(parents);
     // Without `above` (no tally_slot) no corner index is read: that role is bound to the masks.
@@ -82,10 +78,10 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         Buffers scratch(vk);
         NFD_TRY(job.begin());
         job.fill(*owned, 0);  // the scans and totals run on the capacity
-        if (every_child) job.fill(*every_child, ~0u);
         if (copies) job.fill(*fresh_owned, 0);
-        NFD_TRY(job.dispatch(predicted ? Kernel::UdfNearPredicted : Kernel::UdfNear, near_bindings,
-                             &push, parents.count()));
+        if (!finest.near)
+            NFD_TRY(job.dispatch(predicted ? Kernel::UdfNearPredicted : Kernel::UdfNear,
+                                 near_bindings, &push, parents.count()));
         NFD_TRY(job.dispatch(
             predicted ? Kernel::UdfGradientCountPredicted : Kernel::UdfGradientCount,
             count_bindings, &push, parents.count()));
@@ -145,7 +141,6 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     }
     finest.predicted_buffers.release();
     finest.predicted = PointList();
-    finest.visited = nullptr;
     if (carried.carry) {
         CarriedGradients& c = *carried.carry;
         c.owned = owned;
