@@ -18,7 +18,7 @@ void main() {
     uvec3 p = cell_coords(kept_cells[k], r);
     load_grid(p, k, r);
     uint mask = 0u;
-    [[unroll]] for (uint child = 0u; child < 8u; ++child) {
+    for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
         if (!child_cell_exists(2u * p + d)) continue;
         float f[8];
