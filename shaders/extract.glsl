@@ -15,6 +15,7 @@
 // value: owner -> rank -> offset + popcount of the lower owned bits.
 #ifndef NFD_EXTRACT_GLSL
 #define NFD_EXTRACT_GLSL
+#extension GL_EXT_control_flow_attributes : require
 #include "bindings.h"
 #define COUNTERS_BINDING NFD_B_COUNTERS
 #include "counters.glsl"
@@ -72,6 +73,17 @@ uvec3 unit_axis(uint a) { return uvec3(a == 0u ? 1u : 0u, a == 1u ? 1u : 0u, a =
 uint edge_start_corner(uint e) {
     uint axis = e / 4u, j = e & 3u;
     return (j & 1u) << (axis == 0u ? 1u : 0u) | (j >> 1) << (axis == 2u ? 1u : 2u);
+}
+// The cube edges (bit e) of a cell with corner values f whose f_a + f_b <= limit (f32, in that
+// order): grid.h's valid edges, with a UDF limit.
+uint valid_edge_mask(float f[8], float limit) {
+    uint valid = 0u;
+    [[unroll]] for (uint e = 0u; e < 12u; ++e) {
+        uint a = edge_start_corner(e), b = a + (1u << (e / 4u));
+        precise float sum = f[a] + f[b];
+        if (sum <= limit) valid |= 1u << e;
+    }
+    return valid;
 }
 
 uvec3 cell_coords(uint c, uint r) { return uvec3(c % r, (c / r) % r, c / (r * r)); }

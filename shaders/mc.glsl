@@ -34,6 +34,13 @@ uint mc_edge_start_corner(uint e) { return uint(mc_tables[4096u + 256u + 2u * e]
 bool mc_holds_triangle(uint edge_mask) {
     return (uint(mc_tables[4096u + 256u + 24u + edge_mask / 32u]) >> (edge_mask % 32u) & 1u) != 0u;
 }
+// A UDF's near cell (grid.h, udf_cell_is_near): corners finite, and valid edges (limit: the
+// mesher's) holding some table triangle.
+bool udf_cell_is_near(float f[8], float limit) {
+    bool finite = true;
+    [[unroll]] for (uint c = 0u; c < 8u; ++c) finite = finite && !isnan(f[c]) && !isinf(f[c]);
+    return finite && mc_holds_triangle(valid_edge_mask(f, limit));
+}
 
 uint edge_id(uint a, uvec3 s) {
     if (a == 0u) return s.x + 2u * s.y + 6u * s.z;

@@ -5,7 +5,6 @@
 // UDF's edge carries a vertex depends on its cells), which mc_emit.comp then numbers.
 #version 450
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_control_flow_attributes : require
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
@@ -54,12 +53,7 @@ void main() {
         uint cc = 0u;
         [[unroll]] for (uint i = 0u; i < 8u; ++i)  // step 3
             if (dot3(g[i], n) < 0.0) cc |= 1u << i;
-        uint valid_edges = 0u;  // step 5's edge test, per cube edge
-        [[unroll]] for (uint e = 0u; e < 12u; ++e) {
-            uint a = edge_start_corner(e), b = a + (1u << (e / 4u));
-            precise float sum = f[a] + f[b];
-            if (sum <= push.edge_limit) valid_edges |= 1u << e;
-        }
+        uint valid_edges = valid_edge_mask(f, push.edge_limit);  // step 5's test, per cube edge
         uint emitted = 0u;
         for (uint t = 0u; t < mc_triangle_count(cc); ++t) {
             bool valid = true;  // step 5

@@ -80,15 +80,6 @@ float flood_edge_limit() {
     precise float limit = 2.0 * push.step;
     return limit;
 }
-uint valid_edges(float f[8], float limit) {
-    uint valid = 0u;
-    for (uint e = 0u; e < 12u; ++e) {
-        uint axis = e / 4u, a = edge_start_corner(e), b = a + (1u << axis);
-        precise float sum = f[a] + f[b];
-        if (sum <= limit) valid |= 1u << e;
-    }
-    return valid;
-}
 void parent_corners(uint k, out float f[8]) {
     for (uint i = 0u; i < 8u; ++i) f[i] = corners[8u * k + i];
 }
@@ -149,7 +140,7 @@ bool neighbour_has(uvec3 p, uint around, uint test) {
         if (test == 2u) {
             float f[8];
             parent_corners(kn, f);
-            if (valid_edges(f, parent_edge_limit()) != 0u) return true;
+            if (valid_edge_mask(f, parent_edge_limit()) != 0u) return true;
         }
     }
     return false;
@@ -188,7 +179,7 @@ void main() {
     float f[8];
     parent_corners(k, f);
 #if MODE <= 2
-    uint valid = valid_edges(f, parent_edge_limit());
+    uint valid = valid_edge_mask(f, parent_edge_limit());
 #if MODE <= 1
     if (valid == 0u) return;  // most parents: no seed, no kept_around's loads
 #endif
@@ -268,13 +259,9 @@ void main() {
         if ((bits & (1u << c)) == 0u) continue;
         uvec3 d = corner_offset(c);
         float g[8];
-        bool finite = true;
-        [[unroll]] for (uint j = 0u; j < 8u; ++j) {
-            g[j] = grid[local_index(d + corner_offset(j))];
-            finite = finite && !isnan(g[j]) && !isinf(g[j]);
-        }
-        if (finite && mc_holds_triangle(valid_edges(g, fine_edge_limit()))) near |= 1u << c;
-        uint floodable = valid_edges(g, flood_edge_limit());
+        [[unroll]] for (uint j = 0u; j < 8u; ++j) g[j] = grid[local_index(d + corner_offset(j))];
+        if (udf_cell_is_near(g, fine_edge_limit())) near |= 1u << c;
+        uint floodable = valid_edge_mask(g, flood_edge_limit());
         [[unroll]] for (uint face = 0u; face < 6u; ++face) {
             if ((floodable & face_edges(face)) == 0u) continue;
             uint axis = face / 2u, side = face & 1u, child = c ^ (1u << axis);

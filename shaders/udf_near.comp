@@ -5,7 +5,6 @@
 // surface following (udf_flood.comp) the flood's faces mode has found the near cells instead.
 #version 450
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_control_flow_attributes : require
 #include "common.glsl"
 #include "extract.glsl"
 #include "mc.glsl"
@@ -22,18 +21,8 @@ void main() {
         uvec3 d = corner_offset(child);
         if (!child_cell_exists(2u * p + d)) continue;
         float f[8];
-        bool finite = true;
-        [[unroll]] for (uint c = 0u; c < 8u; ++c) {  // constant indices into f: see edge_start_corner
-            f[c] = grid[local_index(d + corner_offset(c))];
-            finite = finite && !isnan(f[c]) && !isinf(f[c]);
-        }
-        uint valid = 0u;
-        [[unroll]] for (uint e = 0u; e < 12u; ++e) {
-            uint a = edge_start_corner(e), b = a + (1u << (e / 4u));
-            precise float sum = f[a] + f[b];
-            if (sum <= push.edge_limit) valid |= 1u << e;
-        }
-        if (finite && mc_holds_triangle(valid)) mask |= 1u << child;
+        [[unroll]] for (uint c = 0u; c < 8u; ++c) f[c] = grid[local_index(d + corner_offset(c))];
+        if (udf_cell_is_near(f, push.edge_limit)) mask |= 1u << child;
     }
     near_masks[k] = mask;
 }
