@@ -84,8 +84,8 @@
 #define NFD_B_ABOVE_GRADIENTS 30   // that list's (value, gradient) per point
 #define NFD_B_FRESH_GRADIENTS 31   // (value, gradient) of the points the list above lacks
 #define NFD_NOT_LISTED 0xffffffffu // a corner gradient the level above did not evaluate
-// A UDF's finest level: its new points that are likely corners of near cells (udf_predict.comp),
-// evaluated with their gradients in the value pass, which the gradient list then copies. The
+// A meshed UDF level (the finest; in own jobs of progressive extractions, every meshed level):
+// its new points that are likely corners of near cells (udf_predict.comp), evaluated with their gradients in the value pass, which the gradient list then copies. The
 // level's value list (NFD_B_OWNED ...) holds the others.
 #define NFD_B_PREDICTED_OWNED 32   // per parent, 27-bit mask (NFD_B_OWNED's layout)
 #define NFD_B_PREDICTED_OFFSETS 33
@@ -100,6 +100,10 @@
 #define NFD_B_FLOOD_POINTS 39      // claimed points in claim order: owner rank << 5 | local
 #define NFD_B_FLOOD_FRONTIER 40    // parent ranks with fresh children, wave after wave
 #define NFD_B_FLOOD_RESULTS 41     // (value, gradient) of a chunk of claimed points
+// A meshed level above the finest (progressive extractions): its value and predicted lists
+// joined back into one value list (udf_predict.comp's NFD_PREDICT_JOIN), which the next level
+// refines.
+#define NFD_B_JOINED_VALUES 42
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel
 #define NFD_LEVEL_PUSH_BYTES 60    // extract.glsl's LevelPush

@@ -30,7 +30,8 @@ extern const Spirv scan_add;            // adds scanned block totals back
 extern const Spirv mc_classify;         // SDF, per finest-level parent: cases, owned edges
 extern const Spirv mc_emit;             // per finest-level parent: vertex edges, triangles
 extern const Spirv mc_vertices;         // SDF, per vertex: position (edge crossing), normal
-extern const Spirv udf_predict;         // UDF, finest level: likely near-cell corners, own list
+extern const Spirv udf_predict;         // UDF, meshed level: likely near-cell corners, own list
+extern const Spirv udf_predict_join;    // ... and back into one value list, above the finest
 // UDF, finest level: surface following (udf_flood.comp's modes 0-6)
 extern const Spirv udf_flood_seed_midpoints, udf_flood_seed_children, udf_flood_seed_isolated;
 extern const Spirv udf_flood_claim_corners, udf_flood_faces;

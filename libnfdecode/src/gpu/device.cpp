@@ -48,7 +48,7 @@ constexpr BindingMask kGradients =
 // lists (udf_gradient_count.comp).
 constexpr BindingMask kGradientCount = kLevel | B(NFD_B_NEAR_MASKS) | B(NFD_B_GRADIENT_OWNED) |
                                     B(NFD_B_OWNED) | B(NFD_B_CORNER_GRADIENTS);
-// A UDF finest level's predicted list (udf_predict.comp).
+// A meshed UDF level's predicted list (udf_predict.comp).
 constexpr BindingMask kPredicted =
     B(NFD_B_PREDICTED_OWNED) | B(NFD_B_PREDICTED_OFFSETS) | B(NFD_B_PREDICTED);
 constexpr BindingMask kUdfNear =
@@ -173,6 +173,10 @@ constexpr KernelDesc kKernels[] = {
     {Kernel::UdfPredict, shaders::udf_predict,
      B(NFD_B_COUNTERS) | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_PREDICTED_OWNED), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::UdfPredictJoin, shaders::udf_predict_join,
+     B(NFD_B_COUNTERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS) | B(NFD_B_VALUES) | kPredicted |
+         B(NFD_B_JOINED_VALUES),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfNear, shaders::udf_near, kUdfNear, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfNearPredicted, shaders::udf_near_predicted,
      kUdfNear | kPredicted, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},

@@ -39,7 +39,7 @@ enum class Kernel : uint32_t {
     CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseValues, DenseGradients,
     RefineCount, RefinePoints, RefineCells, GatherCorners,
     McClassify, McEmit, McVertices,
-    UdfPredict, UdfNear, UdfNearPredicted,
+    UdfPredict, UdfPredictJoin, UdfNear, UdfNearPredicted,
     UdfFloodSeedMidpoints, UdfFloodSeedChildren, UdfFloodSeedIsolated, UdfFloodClaimCorners,
     UdfFloodFaces, UdfFloodListPoints, UdfFloodStoreValues,  // udf_flood.comp's modes 0-6
     UdfGradientCount, UdfGradientCountPredicted, UdfGradientMerge, UdfGradientMergePredicted,

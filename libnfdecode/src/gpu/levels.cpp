@@ -22,7 +22,7 @@ std::vector<Bind> with(std::vector<Bind> b, std::initializer_list<Bind> more) {
 
 constexpr uint32_t kNewPointsPerParent = 19;  // of a child grid's 27, the 8 corners are known
 
-// udf_predict.comp's guess, in fine cell edges: a new point of a UDF's finest level whose
+// udf_predict.comp's guess, in cell edges h of the level: a new point of a meshed UDF level whose
 // trilinear interpolation of its parent's corners is at most this is evaluated with its gradient.
 // The UDF mesher needs a gradient at every corner of a near cell (one with a valid edge, f_a +
 // f_b <= 1.5 h). On the bunny UDF w32 at 256 (dense field, bench/RESULTS.md "0.12.2") 2 h
@@ -200,10 +200,12 @@ std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g) {
 }
 
 LevelBuilder::LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry,
-                           uint32_t resolution, const Plan* plan, bool band)
+                           uint32_t resolution, const Plan* plan, bool band,
+                           uint32_t meshed_levels)
     : job_(job), net_(net), network_(geometry.network), plan_(plan), resolution_(resolution),
       top_(refinement_levels(resolution)), step_(2.0f / float(resolution)),
-      field_(geometry.field), follow_finest_(!band), current_(top_),
+      field_(geometry.field), follow_finest_(!band), meshed_levels_(meshed_levels),
+      current_(top_),
       level_(*job.device.vk), kept_(*job.device.vk) {
     base_.step = step_;
     base_.scale = geometry.scale;
@@ -305,29 +307,39 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
     }
     level_.buffers.release();
     level_.grid = PointList();
+    level_.predicted_buffers.release();  // the mesher's, if it did not run
+    level_.predicted = PointList();
+    level_.joined = false;
     level_.top = HostTop();
     level_.parents = std::move(kept_);
     kept_ = Level(*job_.device.vk);
     return NFD_SUCCESS;
 }
 
-// A UDF's finest level in an own job: refine_count's lists of new points split by udf_predict
-// into the value list (level_.grid) and the predicted list, evaluated with their gradients; the
-// predicted count is read back between two batches to size that list exactly. Leaves the second
-// batch open, as evaluate_child_grids does.
+// A UDF's finest level in an own job: surface following where its slots fit
+// (evaluate_finest_flood), else the band split by evaluate_predicted.
 nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scratch) {
+    if (follow_finest_ && uint64_t(level_.parents.capacity) * kNewPointsPerParent * 16 <=
+                              job_.device.predicted_list_bytes)
+        return evaluate_finest_flood(push, scratch);
+    return evaluate_predicted(push, scratch);
+}
+
+// A meshed UDF level in an own job: refine_count's lists of new points split by udf_predict
+// into the value list (level_.grid) and the predicted list, evaluated with their gradients; the
+// predicted count is read back between two batches to size that list exactly (past
+// predicted_list_bytes, the value list whole instead). Leaves the second batch open, as
+// evaluate_child_grids does.
+nfd_result LevelBuilder::evaluate_predicted(const LevelPush& push, Buffers& scratch) {
     const Level& parents = level_.parents;
     const uint32_t k = parents.capacity;
-    if (follow_finest_ &&
-        uint64_t(k) * kNewPointsPerParent * 16 <= job_.device.predicted_list_bytes)
-        return evaluate_finest_flood(push, scratch);
     PointList& g = level_.grid;
     PointList& p = level_.predicted;
     NFD_TRY(make_point_list(job_, parents, level_.buffers, &g));
     NFD_TRY(make_point_list(job_, parents, level_.predicted_buffers, &p));
     NFD_TRY(record_refine_count(job_, parents, push, g));
     LevelPush predict = push;
-    predict.threshold = kPredictedCorner * step_;
+    predict.threshold = kPredictedCorner * step_ * float(1u << push.child_level);
     NFD_TRY(job_.dispatch(Kernel::UdfPredict,
                           {{NFD_B_CORNERS, *parents.corners},
                            {NFD_B_OWNED, *g.owned},
@@ -347,6 +359,32 @@ nfd_result LevelBuilder::evaluate_finest_udf(const LevelPush& push, Buffers& scr
     if (!p.owned) return NFD_SUCCESS;
     NFD_TRY(level_.predicted_buffers.make(VkDeviceSize(p.capacity) * 16, &p.values));
     return record_list(job_, net_, parents, p, *p.values, true, push, scratch);
+}
+
+// A meshed UDF level above the finest, after evaluate_predicted: its two lists joined into one
+// value list (udf_predict.comp's NFD_PREDICT_JOIN) that the keep rule, the next level's corners
+// and the mesher read as any level's; the mesher still copies the predicted gradients.
+nfd_result LevelBuilder::join_predicted(const LevelPush& push) {
+    PointList& g = level_.grid;
+    const PointList& p = level_.predicted;
+    if (!p.owned) return NFD_SUCCESS;  // not split (evaluate_predicted's cap)
+    const uint32_t k = level_.parents.capacity;
+    Buffer* joined;
+    NFD_TRY(level_.buffers.make(VkDeviceSize(k) * kNewPointsPerParent * 4, &joined));
+    LevelPush all = push;
+    all.set(Count{k, NFD_NO_COUNTER});  // the offsets past the last parent too
+    NFD_TRY(job_.dispatch(Kernel::UdfPredictJoin,
+                          {{NFD_B_OWNED, *g.owned},
+                           {NFD_B_OFFSETS, *g.offsets},
+                           {NFD_B_VALUES, *g.values},
+                           {NFD_B_PREDICTED_OWNED, *p.owned},
+                           {NFD_B_PREDICTED_OFFSETS, *p.offsets},
+                           {NFD_B_PREDICTED, *p.values},
+                           {NFD_B_JOINED_VALUES, *joined}},
+                          &all, Count{k, NFD_NO_COUNTER}));
+    g.values = joined;
+    level_.joined = true;
+    return NFD_SUCCESS;
 }
 
 // A UDF's finest level in an own job by surface following within the kept parents (grid.h; the
@@ -479,9 +517,13 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
     const bool empty = !plan_ && parents.kept == 0;  // own jobs: nothing kept above
     if (!empty) {
         const LevelPush push = refine_push(l, parents.cells, parents.count());
-        if (l == 0 && field_ == FieldType::Udf && !plan_ && !level_.top.values)
+        const bool predicts = field_ == FieldType::Udf && !plan_ && !level_.top.values;
+        if (predicts && l == 0) {
             NFD_TRY(evaluate_finest_udf(push, scratch));
-        else
+        } else if (predicts && (meshed_levels_ >> l & 1)) {
+            NFD_TRY(evaluate_predicted(push, scratch));
+            NFD_TRY(join_predicted(push));
+        } else
             NFD_TRY(evaluate_child_grids(job_, net_, parents, push, level_.buffers, scratch,
                                          level_.top.values, &level_.grid));
         try {
@@ -554,12 +596,14 @@ uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf, bool carried)
         // UDF: near masks, gradient masks, counts, offsets; value + gradient of at most 27
         // points per parent; a points chunk.
         if (udf) bytes += 16 * k + 16 * 27 * k + 12 * std::min(27 * k, chunk) + scan(k);
-        // A UDF's finest level: the predicted list (masks, offsets, values), capped; surface
+        // A meshed UDF level: the predicted list (masks, offsets, values), capped, and above the
+        // finest its joined value list; surface
         // following's (evaluate_finest_flood) per parent: visited, two fresh masks, claimed bits,
         // 8 frontier entries, 19 claimed points; a chunk's points and results.
-        if (udf && child_level == 0)
+        if (udf)
             bytes += 8 * k + std::min<uint64_t>(job_.device.predicted_list_bytes,
                                                 16 * kNewPointsPerParent * k);
+        if (udf && child_level > 0) bytes += 4 * kNewPointsPerParent * k;
         if (udf && child_level == 0 && follow_finest_)
             bytes += (16 + 32 + 4 * kNewPointsPerParent) * k +
                      28 * std::min<uint64_t>(kNewPointsPerParent * k, chunk);

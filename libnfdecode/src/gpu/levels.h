@@ -91,12 +91,15 @@ struct FinestLevel {
     PointList grid;
     LevelPush push;
     Buffers buffers;  // grid's
-    // A UDF's finest level in own jobs (LevelBuilder::evaluate_finest_udf): the new points that
+    // A meshed UDF level in own jobs (LevelBuilder::evaluate_predicted): the new points that
     // udf_predict.comp expects to be near-cell corners, with their (value, gradient) as vec4s,
-    // which `grid` then lacks; empty (no `owned`) otherwise. The UDF mesher reads its values there
-    // and copies its gradients, then frees it.
+    // which `grid` then lacks unless `joined`; empty (no `owned`) otherwise. The UDF mesher reads
+    // its values there (or in `grid` when joined) and copies its gradients, then frees it.
     PointList predicted;
     Buffers predicted_buffers;
+    // A level above the finest has its predicted points in `grid` too (udf_predict.comp's join),
+    // where the next level's refinement reads them.
+    bool joined = false;
     // After surface following (LevelBuilder::evaluate_finest_flood), per parent: its near children
     // (udf_near.comp's masks, found by the flood, which read the corners of every child it
     // visited; the others have none evaluated), for the UDF mesher; null after the band.
@@ -136,8 +139,11 @@ class LevelBuilder {
 public:
     // `band`: a UDF's finest level by the keep rule too (nfd_mesh_options.sample_band), where it
     // otherwise follows the surface within the kept parents (evaluate_finest_flood).
+    // `meshed_levels` (bit l: level l, progressive extractions): the coarser levels the caller
+    // meshes, whose new points a UDF's own job splits as the finest level's (evaluate_predicted)
+    // so that their likely near-cell corners are evaluated once, with their gradients.
     LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry, uint32_t resolution,
-                 const Plan* plan = nullptr, bool band = false);
+                 const Plan* plan = nullptr, bool band = false, uint32_t meshed_levels = 0);
     // Evaluates the next level (its kept list and corners first from the level before), then,
     // unless it is the finest, the keep rule on its cells. `carried`: the previous level's
     // gradient list, whose corners of the newly kept cells the step finds.
@@ -157,6 +163,8 @@ private:
     LevelPush refine_push(uint32_t child_level, uint32_t parent_cells, Count parents) const;
     nfd_result evaluate_top_on_host();
     nfd_result evaluate_finest_udf(const LevelPush& push, Buffers& scratch);
+    nfd_result evaluate_predicted(const LevelPush& push, Buffers& scratch);
+    nfd_result join_predicted(const LevelPush& push);
     nfd_result evaluate_finest_flood(const LevelPush& push, Buffers& scratch);
     nfd_result gather_kept(CarriedGradients* carried);
 
@@ -168,6 +176,7 @@ private:
     const float step_;
     const FieldType field_;  // the keep rule's margin
     const bool follow_finest_;  // a UDF's finest level follows the surface (own jobs)
+    const uint32_t meshed_levels_;
     LevelPush base_;  // center, scale, step
     uint32_t current_;
     bool stepped_ = false;

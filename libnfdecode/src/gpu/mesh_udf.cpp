@@ -48,7 +48,11 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         predicted_bindings = {{NFD_B_PREDICTED_OWNED, *predicted->owned},
                               {NFD_B_PREDICTED_OFFSETS, *predicted->offsets},
                               {NFD_B_PREDICTED, *predicted->values}};
-    near_bindings.insert(near_bindings.end(), predicted_bindings.begin(), predicted_bindings.end());
+    // A joined level's values are all in its grid (udf_predict.comp's join).
+    const bool split = predicted && !finest.joined;
+    if (split)
+        near_bindings.insert(near_bindings.end(), predicted_bindings.begin(),
+                             predicted_bindings.end());
     std::vector<Bind> count_bindings = level_bindings(parents);
     // Without `above` (no tally_slot) no corner index is read: that role is bound to the masks.
     count_bindings.insert(count_bindings.end(),
@@ -80,7 +84,7 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         job.fill(*owned, 0);  // the scans and totals run on the capacity
         if (copies) job.fill(*fresh_owned, 0);
         if (!finest.near)
-            NFD_TRY(job.dispatch(predicted ? Kernel::UdfNearPredicted : Kernel::UdfNear,
+            NFD_TRY(job.dispatch(split ? Kernel::UdfNearPredicted : Kernel::UdfNear,
                                  near_bindings, &push, parents.count()));
         NFD_TRY(job.dispatch(
             predicted ? Kernel::UdfGradientCountPredicted : Kernel::UdfGradientCount,

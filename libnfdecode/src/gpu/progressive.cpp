@@ -24,7 +24,8 @@ public:
         NFD_TRY(device_network(device_, geometry_.network, &net_));
         NFD_TRY(prepare_fields(device_, *net_, geometry_.field));
         levels_.reset(new (std::nothrow)
-                          LevelBuilder(job_, *net_, geometry_, resolution_, nullptr, band_));
+                          LevelBuilder(job_, *net_, geometry_, resolution_, nullptr, band_,
+                                       mesh_mask_));
         return levels_ ? NFD_SUCCESS : NFD_ERROR_OUT_OF_MEMORY;
     }
 
