@@ -6,7 +6,7 @@
 // push.tally_slot (progressive levels) the corners of the parent that the level above listed
 // (NFD_B_CORNER_GRADIENTS), whose number it adds there (a progressive level's gradient count is
 // the list's size less those, on every path); compiled with NFD_PREDICTED_VALUES, the points of
-// the finest level's predicted list (udf_predict.comp), whose owners are the same.
+// the meshed level's predicted list (udf_predict.comp), whose owners are the same.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"

@@ -1,7 +1,7 @@
 // The gradient list of a level some of whose points another list has (udf_gradient_count.comp).
 // Per parent, in list order, each point's (value, gradient) from the fresh evaluations
 // (NFD_B_OWNED, NFD_B_OFFSETS: their mask and offsets); compiled with NFD_PREDICTED_VALUES, from
-// the finest level's predicted list, evaluated by the same kernel; else, a corner that the level
+// the meshed level's predicted list, evaluated by the same kernel; else, a corner that the level
 // above listed (progressive levels), from that list: the same f32 point (child-grid point v of
 // this level is fine vertex v << l, the level above's 2v' << (l - 1)), so the same bits.
 #version 450

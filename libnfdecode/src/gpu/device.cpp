@@ -189,7 +189,7 @@ constexpr KernelDesc kKernels[] = {
     flood_kernel(Kernel::UdfFloodListPoints, shaders::udf_flood_list_points),
     flood_kernel(Kernel::UdfFloodStoreValues, shaders::udf_flood_store_values),
     // Copying from the level above's list (progressive levels: the corners it has for this one)
-    // and, Predicted, from the finest level's predicted list (udf.glsl).
+    // and, Predicted, from the meshed level's predicted list (udf.glsl).
     {Kernel::UdfGradientCount, shaders::udf_gradient_count, kGradientCount, 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfGradientCountPredicted, shaders::udf_gradient_count_predicted,

@@ -1,7 +1,7 @@
 // The UDF mesher on the device, the GPU side of mesh_udf_cpu.cpp (extract.h, steps 1-7; udf.glsl):
 // near children (udf_near, or after surface following the flood's faces mode), the gradient list
 // (udf_gradient_count, refine_points, the field's gradient kernel; udf_gradient_merge where the
-// level above's list or the finest level's predicted list has some of its points),
+// level above's list or the level's predicted list has some of its points),
 // pseudo-signed marching cubes with the edge filter (udf_classify), then the
 // shared emit_mesh with udf_vertices.comp. Own jobs read the gradient count between batches and
 // size the list exactly; a mesh left on the device takes the plan's capacity.
