@@ -523,9 +523,10 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
         } else if (predicts && (meshed_levels_ >> l & 1)) {
             NFD_TRY(evaluate_predicted(push, scratch));
             NFD_TRY(join_predicted(push));
-        } else
+        } else {
             NFD_TRY(evaluate_child_grids(job_, net_, parents, push, level_.buffers, scratch,
                                          level_.top.values, &level_.grid));
+        }
         try {
             point_slots_.push_back(level_.grid.slot);
             if (l > 0) kept_slots_.reserve(kept_slots_.size() + 1);
@@ -597,9 +598,9 @@ uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf, bool carried)
         // points per parent; a points chunk.
         if (udf) bytes += 16 * k + 16 * 27 * k + 12 * std::min(27 * k, chunk) + scan(k);
         // A meshed UDF level: the predicted list (masks, offsets, values), capped, and above the
-        // finest its joined value list; surface
-        // following's (evaluate_finest_flood) per parent: visited, two fresh masks, claimed bits,
-        // 8 frontier entries, 19 claimed points; a chunk's points and results.
+        // finest its joined value list; surface following's (evaluate_finest_flood) per parent:
+        // visited, two fresh masks, claimed bits, 8 frontier entries, 19 claimed points; a
+        // chunk's points and results.
         if (udf)
             bytes += 8 * k + std::min<uint64_t>(job_.device.predicted_list_bytes,
                                                 16 * kNewPointsPerParent * k);
