@@ -85,8 +85,9 @@
 #define NFD_B_FRESH_GRADIENTS 31   // (value, gradient) of the points the list above lacks
 #define NFD_NOT_LISTED 0xffffffffu // a corner gradient the level above did not evaluate
 // A meshed UDF level (the finest; in own jobs of progressive extractions, every meshed level):
-// its new points that are likely corners of near cells (udf_predict.comp), evaluated with their gradients in the value pass, which the gradient list then copies. The
-// level's value list (NFD_B_OWNED ...) holds the others.
+// its new points that are likely corners of near cells (udf_predict.comp), evaluated with their
+// gradients in the value pass, which the gradient list then copies. The level's value list
+// (NFD_B_OWNED ...) holds the others.
 #define NFD_B_PREDICTED_OWNED 32   // per parent, 27-bit mask (NFD_B_OWNED's layout)
 #define NFD_B_PREDICTED_OFFSETS 33
 #define NFD_B_PREDICTED 34         // (value, gradient) per point, field_eval's gradient output
