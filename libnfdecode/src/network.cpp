@@ -49,19 +49,14 @@ float output_slope(OutputActivation activation, float y) {
     return 1.0f;
 }
 
-// acc[p] += w * x[p]: the one multiply-add of every layer, in input order, for values and
-// derivatives alike (so that the value of the gradient path is the value path's, bit for bit;
-// network.cpp is compiled without floating-point contraction, so no path fuses it differently).
-void multiply_add(float* acc, float w, const float* x, size_t count) {
-    for (size_t p = 0; p < count; ++p) acc[p] += w * x[p];
-}
-
 // Outputs of a layer computed together in the value path: each input row loaded feeds this many
 // accumulators (the loads, not the multiply-adds, bound a one-output loop).
 constexpr uint32_t kOutputBlock = 4;
 
-// Rows o .. o + B - 1 of a layer over `count` points: acc[b][p] = sum_i w[o + b][i] x[i][p],
-// each accumulator summed in input order exactly as multiply_add does.
+// Rows o .. o + B - 1 of a layer over `count` points: acc[b][p] = sum_i w[o + b][i] x[i][p].
+// acc += w * x is the one multiply-add of every layer, in input order, for values and derivatives
+// alike (gradient_rows), so that the value of the gradient path is the value path's, bit for bit;
+// network.cpp is compiled without floating-point contraction, so no path fuses it differently.
 template <uint32_t B>
 void layer_rows(const Layer& layer, uint32_t o, const float* h, size_t count,
                 float (&acc)[kOutputBlock][kBlock]) {
@@ -103,40 +98,62 @@ void value_layer(const Network& net, const Layer& layer, bool hidden, const floa
     }
 }
 
-// The gradient path (C = 4) of one layer: every derivative row goes through the same weights as
-// its value, then the chain rule of the activation.
+// Rows o .. o + B - 1 of a layer in the gradient path (C = 4): every derivative row goes through
+// the same weights as its value, each accumulator summed in input order as in layer_rows.
+// Layer 0's encoded inputs depend on one coordinate each: only that
+// derivative row is read (the others are zero). Blocked as layer_rows: each row loaded feeds B
+// accumulators.
+constexpr size_t kGradientComponents = 4;
+template <uint32_t B>
+void gradient_rows(const Layer& layer, uint32_t o, bool first, const float* h, size_t count,
+                   float (&acc)[kOutputBlock][kGradientComponents][kBlock]) {
+    constexpr size_t C = kGradientComponents;
+    for (uint32_t b = 0; b < B; ++b)
+        for (size_t c = 0; c < C; ++c) std::fill_n(acc[b][c], count, 0.0f);
+    const float* w = layer.weights.data() + size_t(o) * layer.in;
+    for (uint32_t i = 0; i < layer.in; ++i) {
+        float wi[B];
+        for (uint32_t b = 0; b < B; ++b) wi[b] = w[size_t(b) * layer.in + i];
+        const float* x = h + size_t(i) * C * kBlock;
+        for (size_t c = 0; c < C; ++c) {
+            if (first && c > 0 && c != 1 + encoded_axis(i)) continue;
+            const float* xc = x + c * kBlock;
+            for (size_t p = 0; p < count; ++p)
+                for (uint32_t b = 0; b < B; ++b) acc[b][c][p] += wi[b] * xc[p];
+        }
+    }
+}
+
+// The gradient path (C = 4) of one layer: outputs kOutputBlock at a time (gradient_rows), then
+// the chain rule of the activation.
 void gradient_layer(const Network& net, const Layer& layer, bool first, bool hidden,
                     const float* h, size_t count, float* next) {
-    constexpr size_t C = 4;
-    auto row = [](const float* base, size_t feature, size_t c) {
-        return base + (feature * C + c) * kBlock;
-    };
+    constexpr size_t C = kGradientComponents;
+    float acc[kOutputBlock][C][kBlock];
     float args[kBlock], sines[kBlock], cosines[kBlock];
-    for (uint32_t o = 0; o < layer.out; ++o) {
-        float acc[C][kBlock] = {};
-        const float* w = layer.weights.data() + size_t(o) * layer.in;
-        for (uint32_t i = 0; i < layer.in; ++i) {
-            multiply_add(acc[0], w[i], row(h, i, 0), count);
-            if (first) {  // an encoded input depends on one coordinate only
-                const size_t c = 1 + encoded_axis(i);
-                multiply_add(acc[c], w[i], row(h, i, c), count);
-            } else {
-                for (size_t c = 1; c < C; ++c) multiply_add(acc[c], w[i], row(h, i, c), count);
-            }
-        }
+    auto finish = [&](uint32_t o, float (&sum)[C][kBlock]) {
         float* value = next + (size_t(o) * C) * kBlock;
         if (!hidden) {  // the output layer is linear
-            for (size_t p = 0; p < count; ++p) value[p] = acc[0][p] + layer.bias[o];
-            for (size_t c = 1; c < C; ++c) std::copy_n(acc[c], count, value + c * kBlock);
-            continue;
+            for (size_t p = 0; p < count; ++p) value[p] = sum[0][p] + layer.bias[o];
+            for (size_t c = 1; c < C; ++c) std::copy_n(sum[c], count, value + c * kBlock);
+            return;
         }
         // d sin(omega0 z) = omega0 cos(omega0 z) dz.
-        for (size_t p = 0; p < count; ++p) args[p] = net.omega0 * (acc[0][p] + layer.bias[o]);
+        for (size_t p = 0; p < count; ++p) args[p] = net.omega0 * (sum[0][p] + layer.bias[o]);
         sincos_reduced(args, sines, cosines, count);
         std::copy_n(sines, count, value);
         for (size_t c = 1; c < C; ++c)
             for (size_t p = 0; p < count; ++p)
-                value[c * kBlock + p] = net.omega0 * cosines[p] * acc[c][p];
+                value[c * kBlock + p] = net.omega0 * cosines[p] * sum[c][p];
+    };
+    uint32_t o = 0;
+    for (; o + kOutputBlock <= layer.out; o += kOutputBlock) {
+        gradient_rows<kOutputBlock>(layer, o, first, h, count, acc);
+        for (uint32_t b = 0; b < kOutputBlock; ++b) finish(o + b, acc[b]);
+    }
+    for (; o < layer.out; ++o) {
+        gradient_rows<1>(layer, o, first, h, count, acc);
+        finish(o, acc[0]);
     }
 }
 
