@@ -1,5 +1,5 @@
 // CPU reference evaluator (FORMAT.md "Evaluation"): positional encoding, sine layers, linear
-// output, all in f32, optionally with the forward-mode gradient. Points are processed in blocks
+// output, all in f32, optionally with the gradient (reverse mode). Points are processed in blocks
 // with activations stored feature-major (h[feature][point]), so the inner loop of every layer runs
 // over points and vectorises; sin and cos are sine.h's (the shaders' reduction and polynomials,
 // ~1 ulp), evaluated over whole rows.
@@ -16,16 +16,14 @@ namespace {
 
 constexpr size_t kBlock = 64;  // points per block: acc[] stays in registers/L1
 
-// Activations are stored feature-major with C components per feature: the value (component 0)
-// and, for the gradient path (C = 4), its derivatives along x, y, z. Component c of feature i for
-// point p is h[(i * C + c) * kBlock + p]: every component row runs over points and vectorises.
+// Rows are stored feature-major: feature i of point p is h[i * kBlock + p], so that every row
+// runs over points and vectorises.
 struct Scratch {
-    nfd::vector<float> a, b;  // ping-pong activations, max_width x C x kBlock
+    nfd::vector<float> a, b;  // ping-pong rows, widest() x kBlock
+    // The gradient path: the encoded input's rows, and each hidden layer's slopes
+    // omega0 cos(omega0 z), its rows after the previous layer's.
+    nfd::vector<float> encoding, slopes;
 };
-
-// The axis whose coordinate encoded input i depends on (FORMAT.md order: u, then per frequency
-// sin xyz, cos xyz): its derivative along the two other axes is zero.
-uint32_t encoded_axis(uint32_t i) { return i < 3 ? i : (i - 3) % 3; }
 
 float activate_output(OutputActivation activation, float y) {
     switch (activation) {
@@ -71,10 +69,11 @@ void layer_rows(const Layer& layer, uint32_t o, const float* h, size_t count,
     }
 }
 
-// The value path (C = 1) of one layer: outputs kOutputBlock at a time, then the activation of
-// each output row as one array of arguments.
+// One layer: outputs kOutputBlock at a time, then the activation of each output row as one array
+// of arguments; with `slopes` (the gradient path's forward pass, hidden layers) also each
+// output's omega0 cos(omega0 z), from the same sincos (whose sine is sin_reduced's, bit for bit).
 void value_layer(const Network& net, const Layer& layer, bool hidden, const float* h, size_t count,
-                 float* next) {
+                 float* next, float* slopes = nullptr) {
     float acc[kOutputBlock][kBlock];
     float args[kBlock];
     auto finish = [&](uint32_t o, const float* sum) {
@@ -85,7 +84,10 @@ void value_layer(const Network& net, const Layer& layer, bool hidden, const floa
             return;
         }
         for (size_t p = 0; p < count; ++p) args[p] = net.omega0 * (sum[p] + bias);
-        sin_reduced(args, value, count);
+        if (!slopes) return sin_reduced(args, value, count);
+        float* slope = slopes + size_t(o) * kBlock;
+        sincos_reduced(args, value, slope, count);
+        for (size_t p = 0; p < count; ++p) slope[p] *= net.omega0;
     };
     uint32_t o = 0;
     for (; o + kOutputBlock <= layer.out; o += kOutputBlock) {
@@ -98,120 +100,128 @@ void value_layer(const Network& net, const Layer& layer, bool hidden, const floa
     }
 }
 
-// Rows o .. o + B - 1 of a layer in the gradient path (C = 4): every derivative row goes through
-// the same weights as its value, each accumulator summed in input order as in layer_rows.
-// Layer 0's encoded inputs depend on one coordinate each: only that
-// derivative row is read (the others are zero). Blocked as layer_rows: each row loaded feeds B
-// accumulators.
-constexpr size_t kGradientComponents = 4;
-template <uint32_t B>
-void gradient_rows(const Layer& layer, uint32_t o, bool first, const float* h, size_t count,
-                   float (&acc)[kOutputBlock][kGradientComponents][kBlock]) {
-    constexpr size_t C = kGradientComponents;
-    for (uint32_t b = 0; b < B; ++b)
-        for (size_t c = 0; c < C; ++c) std::fill_n(acc[b][c], count, 0.0f);
-    const float* w = layer.weights.data() + size_t(o) * layer.in;
-    for (uint32_t i = 0; i < layer.in; ++i) {
-        float wi[B];
-        for (uint32_t b = 0; b < B; ++b) wi[b] = w[size_t(b) * layer.in + i];
-        const float* x = h + size_t(i) * C * kBlock;
-        for (size_t c = 0; c < C; ++c) {
-            if (first && c > 0 && c != 1 + encoded_axis(i)) continue;
-            const float* xc = x + c * kBlock;
-            for (size_t p = 0; p < count; ++p)
-                for (uint32_t b = 0; b < B; ++b) acc[b][c][p] += wi[b] * xc[p];
-        }
-    }
-}
-
-// The gradient path (C = 4) of one layer: outputs kOutputBlock at a time (gradient_rows), then
-// the chain rule of the activation.
-void gradient_layer(const Network& net, const Layer& layer, bool first, bool hidden,
-                    const float* h, size_t count, float* next) {
-    constexpr size_t C = kGradientComponents;
-    float acc[kOutputBlock][C][kBlock];
-    float args[kBlock], sines[kBlock], cosines[kBlock];
-    auto finish = [&](uint32_t o, float (&sum)[C][kBlock]) {
-        float* value = next + (size_t(o) * C) * kBlock;
-        if (!hidden) {  // the output layer is linear
-            for (size_t p = 0; p < count; ++p) value[p] = sum[0][p] + layer.bias[o];
-            for (size_t c = 1; c < C; ++c) std::copy_n(sum[c], count, value + c * kBlock);
-            return;
-        }
-        // d sin(omega0 z) = omega0 cos(omega0 z) dz.
-        for (size_t p = 0; p < count; ++p) args[p] = net.omega0 * (sum[0][p] + layer.bias[o]);
-        sincos_reduced(args, sines, cosines, count);
-        std::copy_n(sines, count, value);
-        for (size_t c = 1; c < C; ++c)
-            for (size_t p = 0; p < count; ++p)
-                value[c * kBlock + p] = net.omega0 * cosines[p] * sum[c][p];
-    };
-    uint32_t o = 0;
-    for (; o + kOutputBlock <= layer.out; o += kOutputBlock) {
-        gradient_rows<kOutputBlock>(layer, o, first, h, count, acc);
-        for (uint32_t b = 0; b < kOutputBlock; ++b) finish(o + b, acc[b]);
-    }
-    for (; o < layer.out; ++o) {
-        gradient_rows<1>(layer, o, first, h, count, acc);
-        finish(o, acc[0]);
-    }
-}
-
-// C = 1: values; C = 4: values and gradients (forward mode).
-template <size_t C>
-void evaluate_block(const Network& net, const float* xyz, size_t count, float* out,
-                    float* out_gradients, Scratch& s) {
-    float* h = s.a.data();
-    auto row = [](float* base, size_t feature, size_t c) {
-        return base + (feature * C + c) * kBlock;
-    };
-    // Encoding: [u0, u1, u2, then per frequency sin(f u0..2), cos(f u0..2)]. Derivative rows are
-    // written only along the input's own axis (the others are zero and layer 0 skips them).
-    for (size_t j = 0; j < 3; ++j) {
-        for (size_t p = 0; p < count; ++p) row(h, j, 0)[p] = xyz[3 * p + j];
-        if (C > 1) std::fill_n(row(h, j, 1 + j), count, 1.0f);
-    }
+// The encoded input into rows (FORMAT.md order): u0, u1, u2, then per frequency sin(f u0..2),
+// cos(f u0..2).
+void encode_block(const Network& net, const float* xyz, size_t count, float* h) {
+    for (size_t j = 0; j < 3; ++j)
+        for (size_t p = 0; p < count; ++p) h[j * kBlock + p] = xyz[3 * p + j];
     float args[kBlock];
     for (size_t k = 0; k < net.frequencies.size(); ++k) {
         const float f = net.frequencies[k];
         for (size_t j = 0; j < 3; ++j) {
             const size_t sin_feature = 3 + 6 * k + j, cos_feature = sin_feature + 3;
-            float* sin_row = row(h, sin_feature, 0);
-            float* cos_row = row(h, cos_feature, 0);
             for (size_t p = 0; p < count; ++p) args[p] = f * xyz[3 * p + j];  // FORMAT.md's f32 product
-            sincos_reduced(args, sin_row, cos_row, count);
-            if (C > 1) {
-                float* dsin = row(h, sin_feature, 1 + j);
-                float* dcos = row(h, cos_feature, 1 + j);
-                for (size_t p = 0; p < count; ++p) {
-                    dsin[p] = f * cos_row[p];
-                    dcos[p] = -f * sin_row[p];
-                }
-            }
+            sincos_reduced(args, h + sin_feature * kBlock, h + cos_feature * kBlock, count);
         }
     }
+}
 
-    float* next = s.b.data();
+// Values of every output of each point, point-major (a colour network's RGB).
+void value_block(const Network& net, const float* xyz, size_t count, float* out, Scratch& s) {
+    float *h = s.a.data(), *next = s.b.data();
+    encode_block(net, xyz, count, h);
     for (size_t l = 0; l < net.layers.size(); ++l) {
-        const bool hidden = l + 1 < net.layers.size();
-        if (C == 1)
-            value_layer(net, net.layers[l], hidden, h, count, next);
-        else
-            gradient_layer(net, net.layers[l], l == 0, hidden, h, count, next);
+        value_layer(net, net.layers[l], l + 1 < net.layers.size(), h, count, next);
         std::swap(h, next);
     }
-    // Values: every output of the point, point-major (a colour network's RGB). Gradients: the
-    // geometry's one output.
     const uint32_t outputs = net.output_width();
-    for (uint32_t o = 0; o < outputs; ++o) {
-        const float* y = row(h, o, 0);
-        for (size_t p = 0; p < count; ++p) out[p * outputs + o] = activate_output(net.output, y[p]);
+    for (uint32_t o = 0; o < outputs; ++o)
+        for (size_t p = 0; p < count; ++p)
+            out[p * outputs + o] = activate_output(net.output, h[o * kBlock + p]);
+}
+
+// The derivative of the output with respect to inputs i .. i + B - 1 of `layer`, given it with
+// respect to the layer's outputs (rows `delta`): acc[b][p] = sum_o w[o][i + b] delta[o][p], in
+// output order; each row loaded feeds B accumulators, as in layer_rows.
+template <uint32_t B>
+void back_rows(const Layer& layer, uint32_t i, const float* delta, size_t count,
+               float (&acc)[kOutputBlock][kBlock]) {
+    for (uint32_t b = 0; b < B; ++b) std::fill_n(acc[b], count, 0.0f);
+    for (uint32_t o = 0; o < layer.out; ++o) {
+        const float* w = layer.weights.data() + size_t(o) * layer.in + i;
+        float wo[B];
+        for (uint32_t b = 0; b < B; ++b) wo[b] = w[b];
+        const float* d = delta + size_t(o) * kBlock;
+        for (size_t p = 0; p < count; ++p)
+            for (uint32_t b = 0; b < B; ++b) acc[b][p] += wo[b] * d[p];
     }
-    if (C == 1) return;
+}
+
+// fn(i, row) for every input i of `layer` with row the derivative of the output with respect to
+// it (back_rows, four inputs at a time).
+template <class Fn>
+void back_layer(const Layer& layer, const float* delta, size_t count, Fn&& fn) {
+    float acc[kOutputBlock][kBlock];
+    uint32_t i = 0;
+    for (; i + kOutputBlock <= layer.in; i += kOutputBlock) {
+        back_rows<kOutputBlock>(layer, i, delta, count, acc);
+        for (uint32_t b = 0; b < kOutputBlock; ++b) fn(i + b, acc[b]);
+    }
+    for (; i < layer.in; ++i) {
+        back_rows<1>(layer, i, delta, count, acc);
+        fn(i, acc[0]);
+    }
+}
+
+// Values and gradients of a network with one output, in reverse mode (as field_eval.comp's
+// WITH_GRADIENT): the forward pass is the value path's (the same rows, so the same value bit for
+// bit) and keeps each hidden unit's slope; the output's derivative then goes back through the
+// transposed weights, times the slopes, and at layer 0 through the encoding: sin(f u_a) has
+// derivative f cos(f u_a) along axis a, cos(f u_a) has -f sin(f u_a). About two value passes'
+// work, where forward mode (a value and three derivative rows through every layer) took three to
+// four (bench/RESULTS.md "0.13.2").
+void gradient_block(const Network& net, const float* xyz, size_t count, float* out,
+                    float* out_gradients, Scratch& s) {
+    const float* encoding = s.encoding.data();
+    encode_block(net, xyz, count, s.encoding.data());
+    float* rows[2] = {s.a.data(), s.b.data()};
+    const size_t layers = net.layers.size();
+    for (size_t l = 0, slope = 0; l < layers; ++l) {
+        const bool hidden = l + 1 < layers;
+        value_layer(net, net.layers[l], hidden, l == 0 ? encoding : rows[(l - 1) & 1], count,
+                    rows[l & 1], hidden ? s.slopes.data() + slope : nullptr);
+        if (hidden) slope += size_t(net.layers[l].out) * kBlock;
+    }
+    // The output, and its derivative with respect to the last layer's one output.
+    const float* y = rows[(layers - 1) & 1];
+    float* delta = rows[layers & 1];
     for (size_t p = 0; p < count; ++p) {
-        const float slope = output_slope(net.output, h[p]);
-        for (size_t c = 1; c < C; ++c) out_gradients[3 * p + c - 1] = slope * row(h, 0, c)[p];
+        out[p] = activate_output(net.output, y[p]);
+        delta[p] = output_slope(net.output, y[p]);
     }
+    // Back through the layers above layer 0: each input of layer l is an output of hidden layer
+    // l - 1, whose slope row multiplies it.
+    size_t slope = 0;
+    for (size_t l = 0; l + 2 < layers; ++l) slope += size_t(net.layers[l].out) * kBlock;
+    for (size_t l = layers - 1; l > 0; --l) {
+        float* below = delta == rows[0] ? rows[1] : rows[0];
+        const float* slopes = s.slopes.data() + slope;
+        back_layer(net.layers[l], delta, count, [&](uint32_t i, const float* d) {
+            for (size_t p = 0; p < count; ++p)
+                below[i * kBlock + p] = d[p] * slopes[i * kBlock + p];
+        });
+        delta = below;
+        if (l > 1) slope -= size_t(net.layers[l - 2].out) * kBlock;
+    }
+    // Layer 0 and the encoding, into one row per axis.
+    float gradient[3][kBlock] = {};
+    back_layer(net.layers[0], delta, count, [&](uint32_t i, const float* d) {
+        if (i < 3) {
+            for (size_t p = 0; p < count; ++p) gradient[i][p] += d[p];
+            return;
+        }
+        const uint32_t k = (i - 3) / 6, j = (i - 3) % 6;
+        const float f = net.frequencies[k];
+        if (j < 3) {  // sin(f u_j): f cos(f u_j), the cos row 3 features on
+            const float* c = encoding + size_t(i + 3) * kBlock;
+            for (size_t p = 0; p < count; ++p) gradient[j][p] += d[p] * (f * c[p]);
+        } else {  // cos(f u_j): -f sin(f u_j)
+            const float* sn = encoding + size_t(i - 3) * kBlock;
+            for (size_t p = 0; p < count; ++p) gradient[j - 3][p] += d[p] * (-f * sn[p]);
+        }
+    });
+    for (size_t p = 0; p < count; ++p)
+        for (size_t a = 0; a < 3; ++a) out_gradients[3 * p + a] = gradient[a][p];
 }
 
 size_t widest(const Network& net) {
@@ -237,47 +247,63 @@ size_t widest(const Network& net) {
 NFD_VECTOR_CLONES void value_range(const Network& net, const float* unit_xyz, size_t begin,
                                    size_t end, float* out, Scratch& s) {
     for (size_t p = begin; p < end; p += kBlock)
-        evaluate_block<1>(net, unit_xyz + 3 * p, std::min(kBlock, end - p),
-                          out + p * net.output_width(), nullptr, s);
+        value_block(net, unit_xyz + 3 * p, std::min(kBlock, end - p),
+                    out + p * net.output_width(), s);
 }
 
 NFD_VECTOR_CLONES void gradient_range(const Network& net, const float* unit_xyz, size_t begin,
                                       size_t end, float* out, float* out_gradients, Scratch& s) {
     for (size_t p = begin; p < end; p += kBlock)
-        evaluate_block<4>(net, unit_xyz + 3 * p, std::min(kBlock, end - p), out + p,
-                          out_gradients + 3 * p, s);
+        gradient_block(net, unit_xyz + 3 * p, std::min(kBlock, end - p), out + p,
+                       out_gradients + 3 * p, s);
 }
 
-template <size_t C>
+// The rows of every hidden layer's outputs: the gradient path's slopes.
+size_t hidden_rows(const Network& net) {
+    size_t rows = 0;
+    for (size_t l = 0; l + 1 < net.layers.size(); ++l) rows += net.layers[l].out;
+    return rows;
+}
+
+// Floats of a thread's Scratch: two rows of the widest layer; with gradients also the encoded
+// input's and the slopes' rows.
+size_t scratch_floats(const Network& net, bool gradients) {
+    return (2 * widest(net) + (gradients ? net.input_width() + hidden_rows(net) : 0)) * kBlock;
+}
+
 void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float* out,
                      float* out_gradients, unsigned threads) {
-    const size_t width = widest(net);
+    const bool gradients = out_gradients != nullptr;
+    const size_t width = widest(net) * kBlock;
+    const size_t encoding = gradients ? net.input_width() * kBlock : 0;
+    const size_t slopes = gradients ? hidden_rows(net) * kBlock : 0;
     // Below ~4k points a thread costs more than it saves.
     parallel_for(n, 4096, threads, [&](size_t begin, size_t end) {
-        Scratch s{nfd::vector<float>(width * C * kBlock), nfd::vector<float>(width * C * kBlock)};
-        if (C == 1)
-            value_range(net, unit_xyz, begin, end, out, s);
-        else
+        Scratch s{nfd::vector<float>(width), nfd::vector<float>(width),
+                  nfd::vector<float>(encoding), nfd::vector<float>(slopes)};
+        if (gradients)
             gradient_range(net, unit_xyz, begin, end, out, out_gradients, s);
+        else
+            value_range(net, unit_xyz, begin, end, out, s);
     });
 }
 
 }  // namespace
 
 size_t evaluate_scratch_bytes(const Network& network, bool gradients, unsigned threads) {
-    // Per thread two activation buffers, its std::thread state and exception slot (1 KB covers).
-    const size_t per_thread = 2 * widest(network) * (gradients ? 4 : 1) * kBlock * sizeof(float);
+    // Per thread its Scratch, its std::thread state and exception slot (1 KB covers).
+    const size_t per_thread = scratch_floats(network, gradients) * sizeof(float);
     return resolve_thread_count(threads) * (per_thread + 1024);
 }
 
 void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float* out,
                   unsigned threads) {
-    evaluate_blocks<1>(network, unit_xyz, n, out, nullptr, threads);
+    evaluate_blocks(network, unit_xyz, n, out, nullptr, threads);
 }
 
 void evaluate_gradient_cpu(const Network& network, const float* unit_xyz, size_t n,
                            float* out_values, float* out_gradients, unsigned threads) {
-    evaluate_blocks<4>(network, unit_xyz, n, out_values, out_gradients, threads);
+    evaluate_blocks(network, unit_xyz, n, out_values, out_gradients, threads);
 }
 
 }  // namespace nfd

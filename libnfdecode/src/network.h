@@ -61,10 +61,11 @@ struct Geometry {
 void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float* out,
                   unsigned threads = 0);
 
-// Values and analytic gradients (d value / d unit-frame coordinate, 3 floats per point) by forward-
-// mode differentiation through the encoding, the sine layers and the output activation (abs:
-// sign(y) dy with sign(0) = +1; sigmoid: s (1 - s) dy), of a network with one output.
-// out_values are bit-identical to evaluate_cpu's; `threads` as there.
+// Values and analytic gradients (d value / d unit-frame coordinate, 3 floats per point) by
+// reverse-mode differentiation through the output activation (abs: sign(y) with sign(0) = +1;
+// sigmoid: s (1 - s)), the sine layers and the encoding, of a network with one output: the
+// shaders' order (field_eval.comp's WITH_GRADIENT), not their bits. out_values are
+// bit-identical to evaluate_cpu's; `threads` as there.
 void evaluate_gradient_cpu(const Network& network, const float* unit_xyz, size_t n,
                            float* out_values, float* out_gradients, unsigned threads = 0);
 

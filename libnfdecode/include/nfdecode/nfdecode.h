@@ -317,7 +317,7 @@ NFD_API nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* ass
                               size_t count, float* out_values);
 
 /* As nfd_asset_evaluate (out_values identical), and also the field's analytic gradient at each
- * point (the chain rule through the network: forward mode on the CPU, reverse mode on Vulkan; not
+ * point (the chain rule through the network in reverse mode, on the CPU as on Vulkan; not
  * finite differences; the two agree to f32 rounding): 3*count floats to
  * out_gradients, xyz interleaved. A distance over a position is dimensionless: this is the gradient
  * of the unit-frame distance with respect to the unit-frame position, and equally of the original-
