@@ -5,6 +5,7 @@
 // ~1 ulp), evaluated over whole rows.
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include "network.h"
@@ -51,6 +52,16 @@ float output_slope(OutputActivation activation, float y) {
 // accumulators (the loads, not the multiply-adds, bound a one-output loop).
 constexpr uint32_t kOutputBlock = 4;
 
+// fn(block, first) over [0, n): blocks of kOutputBlock rows, then single rows; `block` is a
+// std::integral_constant, so that the row kernels are instantiated for both sizes.
+template <class Fn>
+void in_blocks(uint32_t n, Fn&& fn) {
+    uint32_t first = 0;
+    for (; first + kOutputBlock <= n; first += kOutputBlock)
+        fn(std::integral_constant<uint32_t, kOutputBlock>(), first);
+    for (; first < n; ++first) fn(std::integral_constant<uint32_t, 1>(), first);
+}
+
 // Rows o .. o + B - 1 of a layer over `count` points: acc[b][p] = sum_i w[o + b][i] x[i][p].
 // acc += w * x is the one multiply-add of every layer, in input order, for values and derivatives
 // alike (gradient_rows), so that the value of the gradient path is the value path's, bit for bit;
@@ -89,15 +100,10 @@ void value_layer(const Network& net, const Layer& layer, bool hidden, const floa
         sincos_reduced(args, value, slope, count);
         for (size_t p = 0; p < count; ++p) slope[p] *= net.omega0;
     };
-    uint32_t o = 0;
-    for (; o + kOutputBlock <= layer.out; o += kOutputBlock) {
-        layer_rows<kOutputBlock>(layer, o, h, count, acc);
-        for (uint32_t b = 0; b < kOutputBlock; ++b) finish(o + b, acc[b]);
-    }
-    for (; o < layer.out; ++o) {
-        layer_rows<1>(layer, o, h, count, acc);
-        finish(o, acc[0]);
-    }
+    in_blocks(layer.out, [&](auto block, uint32_t o) {
+        layer_rows<block>(layer, o, h, count, acc);
+        for (uint32_t b = 0; b < block; ++b) finish(o + b, acc[b]);
+    });
 }
 
 // The encoded input into rows (FORMAT.md order): u0, u1, u2, then per frequency sin(f u0..2),
@@ -152,15 +158,10 @@ void back_rows(const Layer& layer, uint32_t i, const float* delta, size_t count,
 template <class Fn>
 void back_layer(const Layer& layer, const float* delta, size_t count, Fn&& fn) {
     float acc[kOutputBlock][kBlock];
-    uint32_t i = 0;
-    for (; i + kOutputBlock <= layer.in; i += kOutputBlock) {
-        back_rows<kOutputBlock>(layer, i, delta, count, acc);
-        for (uint32_t b = 0; b < kOutputBlock; ++b) fn(i + b, acc[b]);
-    }
-    for (; i < layer.in; ++i) {
-        back_rows<1>(layer, i, delta, count, acc);
-        fn(i, acc[0]);
-    }
+    in_blocks(layer.in, [&](auto block, uint32_t i) {
+        back_rows<block>(layer, i, delta, count, acc);
+        for (uint32_t b = 0; b < block; ++b) fn(i + b, acc[b]);
+    });
 }
 
 // Values and gradients of a network with one output, in reverse mode (as field_eval.comp's
