@@ -48,8 +48,8 @@ float output_slope(OutputActivation activation, float y) {
     return 1.0f;
 }
 
-// Outputs of a layer computed together in the value path: each input row loaded feeds this many
-// accumulators (the loads, not the multiply-adds, bound a one-output loop).
+// Rows of a layer computed together (outputs in layer_rows, inputs in back_rows): each row loaded
+// feeds this many accumulators (the loads, not the multiply-adds, bound a one-row loop).
 constexpr uint32_t kOutputBlock = 4;
 
 // fn(block, first) over [0, n): blocks of kOutputBlock rows, then single rows; `block` is a
@@ -62,10 +62,10 @@ void in_blocks(uint32_t n, Fn&& fn) {
     for (; first < n; ++first) fn(std::integral_constant<uint32_t, 1>(), first);
 }
 
-// Rows o .. o + B - 1 of a layer over `count` points: acc[b][p] = sum_i w[o + b][i] x[i][p].
-// acc += w * x is the one multiply-add of every layer, in input order, for values and derivatives
-// alike (gradient_rows), so that the value of the gradient path is the value path's, bit for bit;
-// network.cpp is compiled without floating-point contraction, so no path fuses it differently.
+// Rows o .. o + B - 1 of a layer over `count` points: acc[b][p] = sum_i w[o + b][i] x[i][p], in
+// input order. The gradient path's forward pass is this one (value_layer), so its values are the
+// value path's bit for bit; network.cpp is compiled without floating-point contraction, so no
+// instruction-set clone fuses the multiply-adds differently.
 template <uint32_t B>
 void layer_rows(const Layer& layer, uint32_t o, const float* h, size_t count,
                 float (&acc)[kOutputBlock][kBlock]) {
