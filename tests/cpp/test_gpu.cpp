@@ -741,5 +741,33 @@ TEST_F(Gpu, AcceptedUdfDamageMeshesFiniteOrEmpty) {
     EXPECT_GT(meshed, 0u);
 }
 
+// The same damage through a progressive extraction that meshes every level: at 128 the 64 level
+// is meshed above the finest, so its new points are split, evaluated and joined back
+// (udf_predict.comp's NFD_PREDICT_JOIN) before the finest level refines them. Every level a
+// finite mesh, or the step an error code.
+TEST_F(Gpu, AcceptedUdfDamageGivesFiniteProgressiveLevelsOrErrors) {
+    size_t meshed = 0, finished = 0;
+    for_each_accepted_damage(geom_payload(random_siren(8, 8, 7, /*field_type=*/1)), 107, {0xFF},
+                             [&](size_t i, const Geometry& g) {
+                                 std::unique_ptr<Extraction> ex;
+                                 ASSERT_EQ(gpu::make_extraction(device(), g, 128, 0b111, false, &ex),
+                                           NFD_SUCCESS)
+                                     << i;
+                                 bool done = false;
+                                 while (!done) {
+                                     MeshData m;
+                                     ExtractStats stats;
+                                     LevelReport report;
+                                     if (ex->step(&m, &stats, &report) != NFD_SUCCESS) break;
+                                     ASSERT_TRUE(is_finite_mesh(m)) << i << " level " << report.level;
+                                     meshed += m.triangle_count() > 0;
+                                     done = report.done;
+                                 }
+                                 finished += done;
+                             });
+    EXPECT_GT(meshed, 0u);
+    EXPECT_GT(finished, 0u);  // some files reach the finest level, through the joined one
+}
+
 }  // namespace
 }  // namespace nfd::test
