@@ -309,7 +309,6 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
     level_.grid = PointList();
     level_.predicted_buffers.release();  // the mesher's, if it did not run
     level_.predicted = PointList();
-    level_.joined = false;
     level_.top = HostTop();
     level_.parents = std::move(kept_);
     kept_ = Level(*job_.device.vk);
@@ -383,7 +382,6 @@ nfd_result LevelBuilder::join_predicted(const LevelPush& push) {
                            {NFD_B_JOINED_VALUES, *joined}},
                           &all, Count{k, NFD_NO_COUNTER}));
     g.values = joined;
-    level_.joined = true;
     return NFD_SUCCESS;
 }
 

@@ -93,13 +93,12 @@ struct FinestLevel {
     Buffers buffers;  // grid's
     // A meshed UDF level in own jobs (LevelBuilder::evaluate_predicted): the new points that
     // udf_predict.comp expects to be near-cell corners, with their (value, gradient) as vec4s,
-    // which `grid` then lacks unless `joined`; empty (no `owned`) otherwise. The UDF mesher reads
-    // its values there (or in `grid` when joined) and copies its gradients, then frees it.
+    // which `grid` then lacks on the finest level; a level above it (`keep`) has them in `grid`
+    // too (udf_predict.comp's join), where the next level's refinement reads them. Empty (no
+    // `owned`) otherwise. The UDF mesher copies its gradients (and on the finest level reads its
+    // values there), then frees it.
     PointList predicted;
     Buffers predicted_buffers;
-    // A level above the finest has its predicted points in `grid` too (udf_predict.comp's join),
-    // where the next level's refinement reads them.
-    bool joined = false;
     // After surface following (LevelBuilder::evaluate_finest_flood), per parent: its near children
     // (udf_near.comp's masks, found by the flood, which read the corners of every child it
     // visited; the others have none evaluated), for the UDF mesher; null after the band.

@@ -48,8 +48,8 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         predicted_bindings = {{NFD_B_PREDICTED_OWNED, *predicted->owned},
                               {NFD_B_PREDICTED_OFFSETS, *predicted->offsets},
                               {NFD_B_PREDICTED, *predicted->values}};
-    // A joined level's values are all in its grid (udf_predict.comp's join).
-    const bool split = predicted && !finest.joined;
+    // Above the finest level the predicted values are in the grid too (udf_predict.comp's join).
+    const bool split = predicted && !finest.keep;
     if (split)
         near_bindings.insert(near_bindings.end(), predicted_bindings.begin(),
                              predicted_bindings.end());
