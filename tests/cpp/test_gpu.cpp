@@ -590,6 +590,27 @@ TEST_F(Gpu, PipelinesCompiledFromTheShapeAreTheDecodesOwn) {
     }
 }
 
+// field_ready, which decides whether a meshed level above the finest splits its new points
+// (levels.h, LevelBuilder), reports exactly the pipelines built, and builds none itself.
+TEST_F(Gpu, FieldReadyReportsTheBuiltPipelinesOnly) {
+    // A shape no other test decodes (width 20, 4 frequencies): nothing is compiled for it yet.
+    const Geometry g = parse_or_throw(geom_file(random_siren(20, 8, 74, /*field_type=*/1, 1, 4)));
+    std::shared_ptr<gpu::DeviceNetwork> net;
+    ASSERT_EQ(gpu::device_network(device(), g.network, &net), NFD_SUCCESS);
+    const size_t before = device().field_pipelines.size();
+    EXPECT_FALSE(gpu::field_ready(device(), *net, false));
+    EXPECT_FALSE(gpu::field_ready(device(), *net, true));
+    EXPECT_EQ(device().field_pipelines.size(), before);
+    ASSERT_EQ(gpu::prepare_field(device(), *net, false), NFD_SUCCESS);
+    EXPECT_TRUE(gpu::field_ready(device(), *net, false));
+    EXPECT_FALSE(gpu::field_ready(device(), *net, true));
+    // Compiled for the shape by another path (a read-ahead's warmer), not through this network.
+    gpu::warm_field_pipelines(device(), g.network, g.field);
+    device().join_warmers(false);
+    EXPECT_TRUE(gpu::field_ready(device(), *net, true));
+    EXPECT_EQ(device().field_pipelines.size(), before + 2);
+}
+
 // Decodes of a new network shape on several threads at once, each compiling what it needs while
 // a read-ahead compiles the same: every pipeline is compiled once, and each mesh is the CPU twin's.
 TEST_F(Gpu, ConcurrentDecodesOfANewShapeCompileItOnce) {

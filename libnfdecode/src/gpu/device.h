@@ -226,6 +226,9 @@ nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, cons
 // Creates the pipeline record_field will use (it does so itself on first use): compiling on a
 // CPU implementation takes tens of MB for a while, better spent before the big buffers exist.
 nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient);
+// Whether that pipeline is built (by prepare_field or a compile of prepare_fields), so that
+// recording the kernel would not wait for a compile. Compiles nothing.
+bool field_ready(Device& d, const DeviceNetwork& net, bool gradient);
 // Starts compiling the pipelines a decode of this field type needs, on one thread of the device:
 // the value kernel's, then for a UDF the gradient kernel's. Neither is waited for here: the
 // coarsest level is evaluated on the host meanwhile (levels.h, HostTop), and record_field waits

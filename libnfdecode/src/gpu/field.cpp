@@ -205,6 +205,34 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     return NFD_SUCCESS;
 }
 
+// The pipeline prepare_field uses for a network's value or gradient kernel: its kernel, its
+// specialization and the points each invocation evaluates.
+struct FieldKernel {
+    Kernel kernel;
+    std::vector<uint32_t> specialization;
+    uint32_t points;
+};
+
+FieldKernel field_kernel(const Device& d, const DeviceNetwork& net, bool gradient) {
+    // Fewer points per invocation for wide networks bounds the per-invocation activations. The
+    // gradient variant runs as many as the value variant: with half as many, its per-point time
+    // on 2-core llvmpipe (bunny UDF, width 32) was 5% worse; with a quarter, 30% worse.
+    // On a GPU, the shared-memory shape wherever every layer's block fits the workgroup's memory.
+    const bool shared = d.shared_weight_kernels && !net.storage &&
+                        VkDeviceSize(net.weight_vec4s) * 16 <= d.vk->limits().maxComputeSharedMemorySize;
+    FieldKernel f;
+    f.points = shared ? 1 : net.max4 <= 32 ? kPointsPerInvocation : 2;
+    f.specialization = net.specialization;
+    f.specialization.push_back(f.points);
+    if (shared)
+        f.specialization.insert(f.specialization.end(),
+                                {0u /* local size: set by the pipeline */, net.weight_vec4s});
+    f.kernel = shared ? (gradient ? Kernel::FieldGradientShared : Kernel::FieldEvalShared)
+               : gradient ? (net.storage ? Kernel::FieldGradientStorage : Kernel::FieldGradient)
+                          : (net.storage ? Kernel::FieldEvalStorage : Kernel::FieldEval);
+    return f;
+}
+
 }  // namespace
 
 DeviceNetwork::~DeviceNetwork() {
@@ -239,25 +267,23 @@ nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient) {
     std::unique_lock<std::mutex> lock(d.mutex);
     DeviceNetwork::Variant& variant = gradient ? net.gradients : net.values;
     if (variant.pipeline) return NFD_SUCCESS;
-    // Fewer points per invocation for wide networks bounds the per-invocation activations. The
-    // gradient variant runs as many as the value variant: with half as many, its per-point time
-    // on 2-core llvmpipe (bunny UDF, width 32) was 5% worse; with a quarter, 30% worse.
-    // On a GPU, the shared-memory shape wherever every layer's block fits the workgroup's memory.
-    const bool shared = d.shared_weight_kernels && !net.storage &&
-                        VkDeviceSize(net.weight_vec4s) * 16 <= d.vk->limits().maxComputeSharedMemorySize;
-    const uint32_t points = shared ? 1 : net.max4 <= 32 ? kPointsPerInvocation : 2;
-    std::vector<uint32_t> spec = net.specialization;
-    spec.push_back(points);
-    if (shared) spec.insert(spec.end(), {0u /* local size: set by the pipeline */, net.weight_vec4s});
-    const Kernel kernel =
-        shared ? (gradient ? Kernel::FieldGradientShared : Kernel::FieldEvalShared)
-               : gradient ? (net.storage ? Kernel::FieldGradientStorage : Kernel::FieldGradient)
-                          : (net.storage ? Kernel::FieldEvalStorage : Kernel::FieldEval);
+    const FieldKernel f = field_kernel(d, net, gradient);
     const Pipeline* pipeline = nullptr;
-    NFD_TRY(field_pipeline(d, lock, kernel, spec, &pipeline));
-    variant.points_per_invocation = points;
+    NFD_TRY(field_pipeline(d, lock, f.kernel, f.specialization, &pipeline));
+    variant.points_per_invocation = f.points;
     variant.pipeline = pipeline;
     return NFD_SUCCESS;
+}
+
+bool field_ready(Device& d, const DeviceNetwork& net, bool gradient) {
+    std::lock_guard<std::mutex> lock(d.mutex);
+    if ((gradient ? net.gradients : net.values).pipeline) return true;
+    const FieldKernel f = field_kernel(d, net, gradient);
+    return std::any_of(d.field_pipelines.begin(), d.field_pipelines.end(),
+                       [&](const Device::FieldPipeline& p) {
+                           return p.ready && p.kernel == f.kernel &&
+                                  p.specialization == f.specialization;
+                       });
 }
 
 namespace {

@@ -518,7 +518,8 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
         const bool predicts = field_ == FieldType::Udf && !plan_ && !level_.top.values;
         if (predicts && l == 0) {
             NFD_TRY(evaluate_finest_udf(push, scratch));
-        } else if (predicts && (meshed_levels_ >> l & 1)) {
+        } else if (predicts && (meshed_levels_ >> l & 1) &&
+                   field_ready(job_.device, net_, true)) {
             NFD_TRY(evaluate_predicted(push, scratch));
             NFD_TRY(join_predicted(push));
         } else {

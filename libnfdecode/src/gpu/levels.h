@@ -140,7 +140,13 @@ public:
     // otherwise follows the surface within the kept parents (evaluate_finest_flood).
     // `meshed_levels` (bit l: level l, progressive extractions): the coarser levels the caller
     // meshes, whose new points a UDF's own job splits as the finest level's (evaluate_predicted)
-    // so that their likely near-cell corners are evaluated once, with their gradients.
+    // so that their likely near-cell corners are evaluated once, with their gradients. Only
+    // where the gradient kernel is built when the level starts: a level that would wait for its
+    // compile (the first meshed device level of a new network shape, on lavapipe ~60 ms with
+    // one core idle) evaluates values only, and its mesher the near corners' gradients, by which
+    // time the compile has run beside the level's value work. The meshes are the same either
+    // way (the gradient kernel's values are the value kernel's); the counts of values and
+    // gradients evaluated differ.
     LevelBuilder(Job& job, DeviceNetwork& net, const Geometry& geometry, uint32_t resolution,
                  const Plan* plan = nullptr, bool band = false, uint32_t meshed_levels = 0);
     // Evaluates the next level (its kept list and corners first from the level before), then,
