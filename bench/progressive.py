@@ -7,7 +7,10 @@ Per file and device, medians over --runs interleaved runs of:
   * the full progressive decode (every level meshed) against the same decode meshing only the
     final level (--levels R: the one-shot's work through the same steps) in process CPU time,
     which a busy machine does not inflate, and in wall time;
-  * the one-shot nfd_mesh_extract (parse + field + mesh of --stats) in wall time.
+  * the one-shot nfd_mesh_extract (parse + field + mesh of --stats) in wall time;
+  * the same two ratios run by run (each run's ladder over the final-only and one-shot runs made
+    right after it), as median [first quartile, third quartile]: on a shared 2-core machine the
+    decode times drift by 20% within minutes, and paired ratios cancel most of that drift.
 
 With --bandwidth R (e.g. 256KB/s) the progressive runs feed the file through nfd_stream in
 --stream-chunk pieces paced at R (nfc-decode --stream-chunk --bandwidth): the times then count from
@@ -51,6 +54,14 @@ def one_shot(path: Path, resolution: int, device: str) -> float:
     return ms["parse"] + ms["field"] + ms["mesh"]
 
 
+def spread(ratios: list[float]) -> str:
+    """Median [first quartile, third quartile] of per-run ratios."""
+    if len(ratios) < 2:
+        return f"{ratios[0]:.3f}"
+    q1, q2, q3 = statistics.quantiles(ratios, n=4, method="inclusive")
+    return f"{q2:.3f} [{q1:.3f}, {q3:.3f}]"
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("files", nargs="+", type=Path)
@@ -65,8 +76,9 @@ def main() -> None:
     final = str(levels[-1])
     print("| file | device | " + " | ".join(f"to {r} ms" for r in levels) +
           " | extraction create ms | CPU ms: all levels / final only | wall ms: all levels /"
-          " final only / one-shot |" + (" geometry arrived ms | first level after it ms |" if feed else ""))
-    print("|" + "---|" * (len(levels) + 5 + (2 if feed else 0)))
+          " final only / one-shot | paired CPU ratio | paired wall ratio |" +
+          (" geometry arrived ms | first level after it ms |" if feed else ""))
+    print("|" + "---|" * (len(levels) + 7 + (2 if feed else 0)))
     med = statistics.median
     for path in args.files:
         for device in args.devices:
@@ -81,7 +93,9 @@ def main() -> None:
             wall_last, shot = med(r["elapsed_ms"] for r in last), med(shots)
             print(f"| {path.name} | {device} | " + " | ".join(f"{t:.1f}" for t in to) +
                   f" | {create:.1f} | {cpu_full:.0f} / {cpu_last:.0f} = {cpu_full / cpu_last:.3f}"
-                  f" | {to[-1]:.0f} / {wall_last:.0f} / {shot:.0f} = {to[-1] / shot:.3f} |" +
+                  f" | {to[-1]:.0f} / {wall_last:.0f} / {shot:.0f} = {to[-1] / shot:.3f}"
+                  f" | {spread([f[1]['cpu_ms'] / l['cpu_ms'] for f, l in zip(full, last)])}"
+                  f" | {spread([f[0][levels[-1]] / s for f, s in zip(full, shots)])} |" +
                   (f" {med(r[1]['geometry_ms'] for r in full):.1f} |"
                    f" {med(r[0][levels[0]] - r[1]['geometry_ms'] for r in full):.1f} |" if feed else ""))
 

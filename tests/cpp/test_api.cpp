@@ -442,6 +442,7 @@ TEST_F(Api, WritesValidGlb) {
     EXPECT_EQ(nfd_mesh_write_glb(nullptr, "x.glb"), NFD_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(nfd_mesh_write_glb(mesh, nullptr), NFD_ERROR_INVALID_ARGUMENT);
     EXPECT_EQ(nfd_mesh_write_glb(mesh, "/nonexistent-dir/x.glb"), NFD_ERROR_IO);
+    EXPECT_EQ(nfd_mesh_write_glb(mesh, "/dev/full"), NFD_ERROR_IO);  // opens, every write fails
 
     const std::string path = temp_path("mesh.glb");
     ASSERT_EQ(nfd_mesh_write_glb(mesh, path.c_str()), NFD_SUCCESS);
@@ -496,6 +497,7 @@ TEST_F(Api, WritesPly) {
     nfd_mesh_data d;
     ASSERT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
     EXPECT_EQ(nfd_mesh_write_ply(mesh, "/nonexistent-dir/x.ply"), NFD_ERROR_IO);
+    EXPECT_EQ(nfd_mesh_write_ply(mesh, "/dev/full"), NFD_ERROR_IO);  // opens, every write fails
     const std::string path = temp_path("mesh.ply");
     ASSERT_EQ(nfd_mesh_write_ply(mesh, path.c_str()), NFD_SUCCESS);
     const MeshData back = read_ply(path);
