@@ -105,6 +105,9 @@
 // joined back into one value list (udf_predict.comp's NFD_PREDICT_JOIN), which the next level
 // refines.
 #define NFD_B_JOINED_VALUES 42
+// The UDF mesher's near cells in order, 32 * parent rank + child (bitmap_compact.comp over the
+// near masks), for udf_classify.comp's invocation per near cell.
+#define NFD_B_NEAR_CELLS 43
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel
 #define NFD_LEVEL_PUSH_BYTES 60    // extract.glsl's LevelPush

@@ -203,7 +203,7 @@ constexpr KernelDesc kKernels[] = {
          B(NFD_B_CORNER_GRADIENTS),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfClassify, shaders::udf_classify,
-     kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS) | B(NFD_B_CASES) |
+     kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_CELLS) | B(NFD_B_CASES) |
          B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfVertices, shaders::udf_vertices,

@@ -594,8 +594,11 @@ uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf, bool carried)
         bytes += 40 * k + 4 + 3 * scan(2 * k) + kMostVerticesPerParent * 28 * k +
                  most_triangles_per_parent() * 12 * k;
         // UDF: near masks, gradient masks, counts, offsets; value + gradient of at most 27
-        // points per parent; a points chunk.
-        if (udf) bytes += 16 * k + 16 * 27 * k + 12 * std::min(27 * k, chunk) + scan(k);
+        // points per parent; a points chunk; the near cells' prefix and list (8 per parent at
+        // most) with their scan.
+        if (udf)
+            bytes += 16 * k + 16 * 27 * k + 12 * std::min(27 * k, chunk) + scan(k) + 4 * k +
+                     32 * k + scan(k);
         // A meshed UDF level: the predicted list (masks, offsets, values), capped, and above the
         // finest its joined value list; surface following's (evaluate_finest_flood) per parent:
         // visited, two fresh masks, claimed bits, 8 frontier entries, 19 claimed points; a

@@ -78,19 +78,29 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         }
         if (above) NFD_TRY(job.new_slot(&push.tally_slot));
     }
+    // The near cells' list for udf_classify (one invocation per near cell), sized by the prefix
+    // of the near masks' popcounts: own jobs read its total, recordings take 8 per parent.
+    Buffer *near_prefix, *near_cells;
+    uint32_t near_slot;
+    NFD_TRY(job.new_slot(&near_slot));
+    NFD_TRY(list.make(VkDeviceSize(k) * 4, &near_prefix));
     {
         Buffers scratch(vk);
         NFD_TRY(job.begin());
         job.fill(*owned, 0);  // the scans and totals run on the capacity
         if (copies) job.fill(*fresh_owned, 0);
-        if (!finest.near)
+        if (!finest.near) {
+            job.fill(*near, 0);  // and so does the near cells' list
             NFD_TRY(job.dispatch(split ? Kernel::UdfNearPredicted : Kernel::UdfNear,
                                  near_bindings, &push, parents.count()));
+        }
         NFD_TRY(job.dispatch(
             predicted ? Kernel::UdfGradientCountPredicted : Kernel::UdfGradientCount,
             count_bindings, &push, parents.count()));
         NFD_TRY(record_scan(job, scratch, *owned, *offsets, k, true));
         NFD_TRY(job.total(*owned, *offsets, k, true, gradient_list.slot, gradient_list.capacity));
+        NFD_TRY(record_scan(job, scratch, *near, *near_prefix, k, true));
+        NFD_TRY(job.total(*near, *near_prefix, k, true, near_slot, 8 * k));
         if (copies) {
             NFD_TRY(record_scan(job, scratch, *fresh_owned, *fresh_offsets, k, true));
             NFD_TRY(job.total(*fresh_owned, *fresh_offsets, k, true, fresh_list.slot,
@@ -99,6 +109,7 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         NFD_TRY(job.submit());
     }
     if (!target.device) gradient_list.capacity = job.counter(gradient_list.slot);
+    const Count near_count{target.device ? 8 * k : job.counter(near_slot), near_slot};
     if (copies) fresh_list.capacity = job.counter(fresh_list.slot);
     // The points of the list not copied from the level above, as on the CPU (predicted ones
     // included: the finest level's value pass evaluated their gradients, and ~13% more).
@@ -159,15 +170,25 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     const std::vector<Bind> gradient_bindings = {{NFD_B_GRADIENT_OWNED, *owned},
                                                  {NFD_B_GRADIENT_OFFSETS, *offsets},
                                                  {NFD_B_GRADIENTS, *gradients}};
+    NFD_TRY(list.make(VkDeviceSize(std::max(near_count.capacity, 1u)) * 4, &near_cells));
+    const uint32_t words = k;
+    NFD_TRY(job.dispatch(Kernel::BitmapCompact,
+                         {{NFD_B_KEPT_BITS, *near},
+                          {NFD_B_KEPT_PREFIX, *near_prefix},
+                          {NFD_B_KEPT_CELLS, *near_cells}},
+                         &words, Count{words}));
+    job.fill(*c.cases, 0);  // each near cell ors its bytes in; a parent's others stay 0
     std::vector<Bind> classify = level_bindings(parents);
     classify.insert(classify.end(), gradient_bindings.begin(), gradient_bindings.end());
     classify.insert(classify.end(), {{NFD_B_MC_TABLES, job.device.mc_tables},
-                                     {NFD_B_NEAR_MASKS, *near},
+                                     {NFD_B_NEAR_CELLS, *near_cells},
                                      {NFD_B_CASES, *c.cases},
                                      {NFD_B_EDGE_MASKS, *c.edge_masks},
                                      {NFD_B_TRIANGLE_COUNTS, *c.triangle_counts},
                                      {NFD_B_ACTIVE, *c.active}});
-    NFD_TRY(job.dispatch(Kernel::UdfClassify, classify, &push, parents.count()));
+    LevelPush per_cell = push;
+    per_cell.set(near_count);
+    NFD_TRY(job.dispatch(Kernel::UdfClassify, classify, &per_cell, near_count));
     std::vector<Bind> place = level_bindings(parents);
     place.insert(place.end(), gradient_bindings.begin(), gradient_bindings.end());
     // emit_mesh's first sync runs the classify batch; `near` goes with `list`.
