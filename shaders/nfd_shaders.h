@@ -19,6 +19,7 @@ extern const Spirv field_gradient_shared;  // value + gradient, the same shape
 extern const Spirv refine_count;        // which child-grid vertices each kept cell owns
 extern const Spirv refine_points;       // writes the owned vertices' unit positions
 extern const Spirv refine_cells;        // tests the children of kept cells, sets kept bits
+extern const Spirv refine_cells_near;   // the same, and a UDF's near cells for its mesher
 extern const Spirv gather_corners;      // corner values of the newly kept cells
 extern const Spirv bitmap_compact;      // kept bitmap -> sorted list of cell indices
 extern const Spirv dense_lookup;        // point lists of the host-evaluated coarsest level

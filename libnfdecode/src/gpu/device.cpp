@@ -153,6 +153,10 @@ constexpr KernelDesc kKernels[] = {
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::RefineCells, shaders::refine_cells,
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS), 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::RefineCellsNear, shaders::refine_cells_near,
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS) | B(NFD_B_MC_TABLES) |
+         B(NFD_B_NEAR_MASKS),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::GatherCorners, shaders::gather_corners,
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_CELLS) | B(NFD_B_CHILD_CORNERS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},

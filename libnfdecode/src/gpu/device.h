@@ -37,7 +37,7 @@ enum class Kernel : uint32_t {
     FieldEvalShared, FieldGradientShared,  // the same for GPUs (field.cpp, prepare_field)
     Scan, ScanPopcount, ScanAdd, BitmapCompact,
     CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseValues, DenseGradients,
-    RefineCount, RefinePoints, RefineCells, GatherCorners,
+    RefineCount, RefinePoints, RefineCells, RefineCellsNear, GatherCorners,
     McClassify, McEmit, McVertices,
     UdfPredict, UdfPredictJoin, UdfNear, UdfNearPredicted,
     UdfFloodSeedMidpoints, UdfFloodSeedChildren, UdfFloodSeedIsolated, UdfFloodClaimCorners,

@@ -309,6 +309,8 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
     level_.grid = PointList();
     level_.predicted_buffers.release();  // the mesher's, if it did not run
     level_.predicted = PointList();
+    level_.near_buffers.release();
+    level_.near = nullptr;
     level_.top = HostTop();
     level_.parents = std::move(kept_);
     kept_ = Level(*job_.device.vk);
@@ -542,10 +544,21 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
             NFD_TRY(job_.new_slot(&child.slot));
             kept_slots_.emplace_back(l, child.slot);  // reserved above
             job_.fill(*child.bits, 0);
-            NFD_TRY(job_.dispatch(Kernel::RefineCells,
-                                  with(child_grid_bindings(parents, level_.grid),
-                                       {{NFD_B_CHILD_BITS, *child.bits}}),
-                                  &push, parents.count()));
+            std::vector<Bind> refine = with(child_grid_bindings(parents, level_.grid),
+                                            {{NFD_B_CHILD_BITS, *child.bits}});
+            // A meshed UDF level: its near cells found with the keep rule (refine_cells.comp's
+            // NFD_NEAR_MASKS), which reads the same values, for the mesher.
+            const bool near = field_ == FieldType::Udf && (meshed_levels_ >> l & 1);
+            LevelPush keep = push;
+            if (near) {
+                NFD_TRY(level_.near_buffers.make(VkDeviceSize(parents.capacity) * 4, &level_.near));
+                job_.fill(*level_.near, 0);  // the mesher's scan runs over the capacity
+                keep.edge_limit = udf_edge_limit(view.step);  // the mesher's (mesh_udf.cpp)
+                refine = with(refine, {{NFD_B_NEAR_MASKS, *level_.near},
+                                       {NFD_B_MC_TABLES, job_.device.mc_tables}});
+            }
+            NFD_TRY(job_.dispatch(near ? Kernel::RefineCellsNear : Kernel::RefineCells, refine,
+                                  &keep, parents.count()));
             NFD_TRY(record_scan(job_, scratch, *child.bits, *child.prefix, words, true));
             const uint32_t capacity =
                 plan_ ? plan_->level_cells(l, child.cells) : UINT32_MAX;  // own: sized once known

@@ -101,7 +101,8 @@ struct FinestLevel {
     Buffers predicted_buffers;
     // After surface following (LevelBuilder::evaluate_finest_flood), per parent: its near children
     // (udf_near.comp's masks, found by the flood, which read the corners of every child it
-    // visited; the others have none evaluated), for the UDF mesher; null after the band.
+    // visited; the others have none evaluated), for the UDF mesher; on a meshed UDF level above
+    // the finest, found with the keep rule (refine_cells.comp's NFD_NEAR_MASKS); else null.
     Buffers near_buffers;
     Buffer* near = nullptr;
     uint64_t points_evaluated = 0;  // own jobs; recorded ones: LevelBuilder::point_slots()

@@ -31,7 +31,8 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
         NFD_TRY(top_gradients(finest.top, push.step, list, &top_gradient_values));
     Buffers& kept = carried.carry ? carried.carry->buffers : list;
     Buffer *near, *owned, *offsets, *fresh_owned = nullptr, *fresh_offsets = nullptr;
-    // After surface following the flood found the near children; otherwise udf_near below.
+    // The flood (the finest level) or the keep rule (a meshed level above it) found the near
+    // children; otherwise udf_near below.
     near = finest.near;
     if (!near) NFD_TRY(list.make(VkDeviceSize(k) * 4, &near));
     NFD_TRY(kept.make(VkDeviceSize(k) * 4, &owned));
