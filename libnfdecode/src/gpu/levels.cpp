@@ -548,17 +548,17 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
                                             {{NFD_B_CHILD_BITS, *child.bits}});
             // A meshed UDF level: its near cells found with the keep rule (refine_cells.comp's
             // NFD_NEAR_MASKS), which reads the same values, for the mesher.
-            const bool near = field_ == FieldType::Udf && (meshed_levels_ >> l & 1);
+            const bool finds_near = field_ == FieldType::Udf && (meshed_levels_ >> l & 1);
             LevelPush keep = push;
-            if (near) {
+            if (finds_near) {
                 NFD_TRY(level_.near_buffers.make(VkDeviceSize(parents.capacity) * 4, &level_.near));
                 job_.fill(*level_.near, 0);  // the mesher's scan runs over the capacity
                 keep.edge_limit = udf_edge_limit(view.step);  // the mesher's (mesh_udf.cpp)
                 refine = with(refine, {{NFD_B_NEAR_MASKS, *level_.near},
                                        {NFD_B_MC_TABLES, job_.device.mc_tables}});
             }
-            NFD_TRY(job_.dispatch(near ? Kernel::RefineCellsNear : Kernel::RefineCells, refine,
-                                  &keep, parents.count()));
+            NFD_TRY(job_.dispatch(finds_near ? Kernel::RefineCellsNear : Kernel::RefineCells,
+                                  refine, &keep, parents.count()));
             NFD_TRY(record_scan(job_, scratch, *child.bits, *child.prefix, words, true));
             const uint32_t capacity =
                 plan_ ? plan_->level_cells(l, child.cells) : UINT32_MAX;  // own: sized once known
