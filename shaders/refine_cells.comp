@@ -20,7 +20,9 @@ void main() {
     uvec3 p = cell_coords(kept_cells[k], r);
     float grid[27];
     load_child_grid(p, k, r, grid);
+#ifdef NFD_NEAR_MASKS
     uint near = 0u;
+#endif
     for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
         if (!child_cell_exists(2u * p + d)) continue;

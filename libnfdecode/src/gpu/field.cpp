@@ -46,17 +46,23 @@ uint32_t encoded_column(uint32_t e) {
     return 4 * (1 + 6 * (k / 4) + j) + k % 4;
 }
 
+// The device's entry for `kernel` at `specialization` (built or being built), or the list's end.
+// Called with d.mutex held.
+std::list<Device::FieldPipeline>::iterator find_field_pipeline(
+    Device& d, Kernel kernel, const std::vector<uint32_t>& specialization) {
+    return std::find_if(d.field_pipelines.begin(), d.field_pipelines.end(),
+                        [&](const Device::FieldPipeline& f) {
+                            return f.kernel == kernel && f.specialization == specialization;
+                        });
+}
+
 // The pipeline of `kernel` for a network shape, created on first use and kept by the device.
 // Called with d.mutex held by `lock`, which is released while compiling: another thread that
 // needs the same pipeline meanwhile waits for this compile rather than starting its own.
 nfd_result field_pipeline(Device& d, std::unique_lock<std::mutex>& lock, Kernel kernel,
                           const std::vector<uint32_t>& specialization, const Pipeline** out) {
-    auto same = [&](const Device::FieldPipeline& f) {
-        return f.kernel == kernel && f.specialization == specialization;
-    };
-    for (auto it = std::find_if(d.field_pipelines.begin(), d.field_pipelines.end(), same);
-         it != d.field_pipelines.end();
-         it = std::find_if(d.field_pipelines.begin(), d.field_pipelines.end(), same)) {
+    for (auto it = find_field_pipeline(d, kernel, specialization); it != d.field_pipelines.end();
+         it = find_field_pipeline(d, kernel, specialization)) {
         if (it->ready) {
             *out = &it->pipeline;
             return NFD_SUCCESS;
@@ -279,11 +285,8 @@ bool field_ready(Device& d, const DeviceNetwork& net, bool gradient) {
     std::lock_guard<std::mutex> lock(d.mutex);
     if ((gradient ? net.gradients : net.values).pipeline) return true;
     const FieldKernel f = field_kernel(d, net, gradient);
-    return std::any_of(d.field_pipelines.begin(), d.field_pipelines.end(),
-                       [&](const Device::FieldPipeline& p) {
-                           return p.ready && p.kernel == f.kernel &&
-                                  p.specialization == f.specialization;
-                       });
+    const auto it = find_field_pipeline(d, f.kernel, f.specialization);
+    return it != d.field_pipelines.end() && it->ready;
 }
 
 namespace {
