@@ -1,15 +1,16 @@
 #!/usr/bin/env python3
-"""Where the parameters go (issue 10, item 2): the positional encoding's frequency count L, and
-the bit width.
+"""Where the parameters go (issue 10, item 2): the positional encoding's frequency count L, its
+spacing β (frequencies π·β^k) and the bit width.
 
 At widths 16-32 the first layer (3 + 6L inputs) holds most of the network. For each shape, width,
-L and bit width this encodes with the `fast` preset (seed 0), decodes with nfc-decode (CPU path) at
-256 and measures CD (metrics.md, bench/rd.py's measure_nfc), then prints bytes / CD per setting and
-the BD-rate of each (L, bits) against the anchor (L = 16 at 8 bits, format 1.0's choice) per shape.
-Points are cached in bench/out/frequencies.csv, so a rerun only encodes what is missing.
+encoding and bit width this encodes with the `fast` preset (seed 0), decodes with nfc-decode (CPU
+path) at 256 and measures CD (metrics.md, bench/rd.py's measure_nfc), then prints bytes / CD per
+setting and the BD-rate of each against the anchor (L = 16, β = 1.4 at 8 bits, format 1.0's choice)
+per shape. An encoding is `L` (β = 1.4, the 1.0 and 0.6 encoders' spacing) or `L:β`. Points are
+cached in bench/out/frequencies.csv, so a rerun only encodes what is missing.
 
     .venv/bin/python bench/frequencies.py --shapes bunny armadillo dragon spot happy \
-        --widths 16 24 32 48 --frequencies 8 12 16 [--bits 8 7]
+        --widths 16 24 32 48 --frequencies 16 8 5:1.8 [--bits 8 7]
 """
 
 from __future__ import annotations
@@ -28,8 +29,22 @@ from rd import SEED, SHAPES, SHARED, measure_nfc
 
 OUT = Path(__file__).resolve().parent / "out"
 CSV = OUT / "frequencies.csv"
-FIELDS = ("shape", "width", "frequencies", "bits", "bytes", "cd", "seconds")
-Key = tuple[str, int, int, int]  # shape, width, frequencies, bits
+FIELDS = ("shape", "width", "frequencies", "base", "bits", "bytes", "cd", "seconds")
+LEGACY_BASE = "1.4"  # rows written before the base was a column, and a bare `L` on the command line
+Encoding = tuple[int, str]  # L, β as written
+Setting = tuple[int, str, int]  # L, β, bits
+Key = tuple[str, int, int, str, int]  # shape, width, L, β, bits
+
+
+def parse_encoding(text: str) -> Encoding:
+    """`L` or `L:β` (β as written, so that it keys the CSV exactly)."""
+    frequencies, _, base = text.partition(":")
+    return int(frequencies), str(float(base)) if base else LEGACY_BASE
+
+
+def setting_name(setting: Setting) -> str:
+    L, base, bits = setting
+    return f"L={L} β={base} b{bits}"
 
 
 def bd_rate(anchor: list[tuple[int, float]], test: list[tuple[int, float]]) -> float | None:
@@ -61,8 +76,9 @@ def load_points() -> dict[Key, dict[str, str]]:
     if not CSV.exists():
         return {}
     with CSV.open() as f:
-        rows = [{**r, "bits": r.get("bits") or "8"} for r in csv.DictReader(f)]  # early rows: 8 bits
-    return {(r["shape"], int(r["width"]), int(r["frequencies"]), int(r["bits"])): r for r in rows}
+        # early rows: 8 bits, β = 1.4
+        rows = [{**r, "bits": r.get("bits") or "8", "base": r.get("base") or LEGACY_BASE} for r in csv.DictReader(f)]
+    return {(r["shape"], int(r["width"]), int(r["frequencies"]), r["base"], int(r["bits"])): r for r in rows}
 
 
 def save_points(points: dict[Key, dict[str, str]]) -> None:
@@ -81,9 +97,10 @@ def main() -> None:
     parser.add_argument("--shapes", nargs="+", default=["bunny", "armadillo", "dragon", "spot", "happy"],
                         choices=list(SHAPES))
     parser.add_argument("--widths", nargs="+", type=int, default=[16, 24, 32, 48, 64])
-    parser.add_argument("--frequencies", nargs="+", type=int, default=[8, 12, 16])
+    parser.add_argument("--frequencies", nargs="+", type=parse_encoding, default=[(16, "1.4"), (8, "1.4"), (5, "1.8")],
+                        metavar="L[:BETA]", help="encodings: L frequencies, spaced by β (default 1.4)")
     parser.add_argument("--bits", nargs="+", type=int, default=[8])
-    parser.add_argument("--anchor", type=int, nargs=2, default=[16, 8], metavar=("L", "BITS"),
+    parser.add_argument("--anchor", nargs=2, default=["16", "8"], metavar=("L[:BETA]", "BITS"),
                         help="the setting the BD-rates are measured against")
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--threads", type=int, default=None, help="torch threads per encode")
@@ -93,53 +110,54 @@ def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     keep = OUT / "freq"
     keep.mkdir(exist_ok=True)
-    settings = [(L, b) for b in args.bits for L in args.frequencies]
+    settings: list[Setting] = [(L, base, b) for b in args.bits for L, base in args.frequencies]
     for shape in args.shapes:
         rel, field, _ = SHAPES[shape]
         gt = None
         for width in args.widths:
-            for frequencies, bits in settings:
-                if (shape, width, frequencies, bits) in done:
+            for frequencies, base, bits in settings:
+                if (shape, width, frequencies, base, bits) in done:
                     continue
                 if gt is None:
                     gt = load_shape(SHARED / "data" / rel)
-                cfg = EncodeConfig(field=field, width=width, frequencies=frequencies, bits=bits, seed=SEED,
-                                   quiet=True, threads=args.threads)
+                cfg = EncodeConfig(field=field, width=width, frequencies=frequencies, frequency_base=float(base),
+                                   bits=bits, seed=SEED, quiet=True, threads=args.threads)
                 t0 = time.perf_counter()
                 data = compress(gt, cfg).data
                 seconds = time.perf_counter() - t0
-                suffix = "" if bits == 8 else f"_b{bits}"
+                suffix = ("" if base == LEGACY_BASE else f"_beta{base}") + ("" if bits == 8 else f"_b{bits}")
                 path = keep / f"{shape}_w{width}_L{frequencies}{suffix}.nfc"
                 path.write_bytes(data)
                 point = measure_nfc(gt, path, path.stem, args.resolution, seconds)
-                done[(shape, width, frequencies, bits)] = {
-                    "shape": shape, "width": str(width), "frequencies": str(frequencies), "bits": str(bits),
+                done[(shape, width, frequencies, base, bits)] = {
+                    "shape": shape, "width": str(width), "frequencies": str(frequencies), "base": base,
+                    "bits": str(bits),
                     "bytes": str(point.bytes), "cd": f"{point.cd:.6g}", "seconds": f"{seconds:.1f}"}
                 save_points(done)
-                print(f"{shape} w{width} L{frequencies} b{bits}: {point.bytes} B, CD {point.cd:.6g}, {seconds:.0f} s",
-                      flush=True)
+                print(f"{shape} w{width} {setting_name((frequencies, base, bits))}: {point.bytes} B, "
+                      f"CD {point.cd:.6g}, {seconds:.0f} s", flush=True)
 
-    names = [f"L={L} b{b}" for L, b in settings]
+    names = [setting_name(s) for s in settings]
     print("\n| shape | width | " + " | ".join(f"{n} bytes / CD" for n in names) + " |")
     print("|---|---:|" + "---:|" * len(settings))
     for shape in args.shapes:
         for width in args.widths:
             cells = []
-            for L, b in settings:
-                r = done.get((shape, width, L, b))
+            for L, base, b in settings:
+                r = done.get((shape, width, L, base, b))
                 cells.append(f"{r['bytes']} / {float(r['cd']):.5f}" if r else "—")
             print(f"| {shape} | {width} | " + " | ".join(cells) + " |")
 
-    anchor = (args.anchor[0], args.anchor[1])
+    anchor: Setting = (*parse_encoding(args.anchor[0]), int(args.anchor[1]))
     others = [s for s in settings if s != anchor]
-    print(f"\nBD-rate against L = {anchor[0]} at {anchor[1]} bits over widths {', '.join(map(str, args.widths))} "
+    print(f"\nBD-rate against {setting_name(anchor)} over widths {', '.join(map(str, args.widths))} "
           "(log bytes at equal log CD, pchip; negative: fewer bytes)\n")
-    print("| shape | " + " | ".join(f"L={L} b{b}" for L, b in others) + " |")
+    print("| shape | " + " | ".join(setting_name(s) for s in others) + " |")
     print("|---|" + "---:|" * len(others))
     for shape in args.shapes:
-        def curve(setting: tuple[int, int]) -> list[tuple[int, float]]:
+        def curve(setting: Setting) -> list[tuple[int, float]]:
             return [(int(r["bytes"]), float(r["cd"])) for k, r in done.items()
-                    if k[0] == shape and (k[2], k[3]) == setting and k[1] in args.widths]
+                    if k[0] == shape and k[2:] == setting and k[1] in args.widths]
         cells = []
         for setting in others:
             rate = bd_rate(curve(anchor), curve(setting))

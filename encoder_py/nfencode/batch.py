@@ -55,6 +55,7 @@ ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
     "width": (int,),
     "bits": (int,),
     "frequencies": (int,),
+    "frequency_base": (float, int),
     "preset": (str,),
     "epochs": (int, type(None)),
     "seed": (int,),
@@ -68,8 +69,8 @@ ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
 }
 """Per-asset options a manifest row may set (with their JSON types), defaulting to the command line's."""
 
-HASHED_OPTIONS = ("field", "width", "bits", "frequencies", "preset", "epochs", "seed", "color", "color_width",
-                  "color_bits", "color_frequencies", "color_resolution", "color_epochs")
+HASHED_OPTIONS = ("field", "width", "bits", "frequencies", "frequency_base", "preset", "epochs", "seed", "color",
+                  "color_width", "color_bits", "color_frequencies", "color_resolution", "color_epochs")
 """The options that determine a file's contents (device and threads change only float rounding)."""
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import os
 import sys
 import time
@@ -40,6 +41,7 @@ from .config import (
     COLOR_WIDTH,
     DEFAULT_BITS,
     DEFAULT_WIDTH,
+    FREQUENCY_BASE,
     MAX_TORCH_THREADS,
     NUM_FREQUENCIES,
 )
@@ -223,7 +225,7 @@ def _encode_options(args: argparse.Namespace) -> dict:
     """The EncodeConfig fields that `encode` and `encode-batch` share (batch.ENCODE_OPTIONS)."""
     width = args.width if args.width is not None else DEFAULT_WIDTH
     return {"field": args.field, "width": width, "bits": args.bits, "frequencies": args.frequencies,
-            "preset": args.preset, "epochs": args.epochs, "seed": args.seed, "device": args.device,
+            "frequency_base": args.frequency_base, "preset": args.preset, "epochs": args.epochs, "seed": args.seed, "device": args.device,
             "color": args.color, "color_width": args.color_width, "color_bits": args.color_bits,
             "color_frequencies": args.color_frequencies, "color_resolution": args.color_resolution,
             "color_epochs": args.color_epochs}
@@ -233,6 +235,8 @@ def _check_encode_args(args: argparse.Namespace) -> None:
     _positive("--width", args.width, 1, MAX_WIDTH)
     _positive("--bits", args.bits, MIN_BITS, MAX_BITS)
     _positive("--frequencies", args.frequencies, 0, MAX_FREQUENCIES)
+    if not (math.isfinite(args.frequency_base) and 1.0 <= args.frequency_base <= 2.0):
+        raise InputError(f"--frequency-base must be in [1, 2], got {args.frequency_base}")
     _positive("--epochs", args.epochs)
     _positive("--threads", args.threads)
     _positive("--color-width", args.color_width, 1, MAX_WIDTH)
@@ -501,6 +505,9 @@ def _add_encode_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--bits", type=int, default=8, help="quantization bit width (default 8)")
     p.add_argument("--frequencies", type=int, default=NUM_FREQUENCIES, metavar="L",
                    help=f"positional-encoding frequencies of the geometry network (default {NUM_FREQUENCIES})")
+    p.add_argument("--frequency-base", type=float, default=FREQUENCY_BASE, metavar="BETA",
+                   help=f"their spacing: frequencies pi * BETA^k, 1 <= BETA <= 2 (default {FREQUENCY_BASE}; "
+                        "the paper's encoding: --frequencies 16 --frequency-base 1.4)")
     p.add_argument("--preset", choices=("fast", "paper"), default="fast", help="training schedule")
     p.add_argument("--epochs", type=int, default=None, help="override the preset's epoch count")
     p.add_argument("--seed", type=int, default=0, help="random seed (same bytes for the same seed on a given device)")

@@ -58,8 +58,11 @@ seed 0, widths 16-48, BD-rate of L = 8 against L = 16): bunny -19%, armadillo -1
 spot -27%; see bench/RESULTS.md "Where the parameters go". `--frequencies 16` is the paper's."""
 
 FREQUENCY_BASE = 1.4
-"""β: f_k = π·β^k. With β = 1.4 the top frequency is ~489 rad/unit, well inside f32 precision on
-[-1, 1] (2^k would put the top octaves beyond it); see FORMAT.md."""
+"""β (`--frequency-base`): f_k = π·β^k. With β = 1.4 the top frequency of L = 16 is ~489 rad/unit,
+well inside f32 precision on [-1, 1] (2^k would put the top octaves beyond it); see FORMAT.md. L = 5
+at β = 1.8 reaches L = 8's top (33 rad/unit) with 18 fewer inputs: BD-rate against L = 16 -23% and
+-20% on dragon and happy (L = 8: -18%, -13%), but -6% and +59% on bunny and spot (L = 8: -19%, -26%;
+bench/RESULTS.md "Where the 8-bit grid costs, and the encoding's spacing"), so 1.4 stays."""
 
 OMEGA0 = 30.0
 """ω₀ of the SIREN sine layers (paper, Sitzmann et al.)."""

@@ -54,6 +54,7 @@ class EncodeConfig:
     width: int = config.DEFAULT_WIDTH
     bits: int = config.DEFAULT_BITS
     frequencies: int = config.NUM_FREQUENCIES  # L of the positional encoding
+    frequency_base: float = config.FREQUENCY_BASE  # β: the encoding's frequencies are π·β^k
     preset: str = config.DEFAULT_PRESET
     epochs: int | None = None
     seed: int = 0
@@ -87,6 +88,8 @@ def check_config(cfg: EncodeConfig) -> config.Preset:
         raise InputError(f"width {cfg.width} outside 1..{MAX_WIDTH}")
     if not 0 <= cfg.frequencies <= MAX_FREQUENCIES:
         raise InputError(f"{cfg.frequencies} frequencies outside 0..{MAX_FREQUENCIES}")
+    if not (math.isfinite(cfg.frequency_base) and 1.0 <= cfg.frequency_base <= 2.0):
+        raise InputError(f"frequency base {cfg.frequency_base} outside [1, 2] (FORMAT.md)")
     if not MIN_BITS <= cfg.bits <= MAX_BITS:
         raise InputError(f"bit width {cfg.bits} outside {MIN_BITS}..{MAX_BITS}")
     if cfg.epochs is not None and cfg.epochs < 0:
@@ -166,7 +169,7 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
     if pool.sides_note:
         field_reason = f"{field_reason}; {pool.sides_note}"
     model = Siren(cfg.width, "identity" if field == "sdf" else "abs", num_frequencies=cfg.frequencies,
-                  generator=generator)
+                  frequency_base=cfg.frequency_base, generator=generator)
     data = prepare_data(model, pool)
     if device.type != "cpu":
         data = TrainingData(*(t.to(device) for t in (data.encoded, data.distances, data.validation_encoded,

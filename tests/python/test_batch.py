@@ -285,8 +285,10 @@ def test_manifest_rows_with_bad_frequency_and_colour_options(tmp_path: Path) -> 
         json.dumps({"path": str(lib / "box.ply"), "frequencies": 99}),
         json.dumps({"path": str(lib / "box.ply"), "name": "b2", "color_width": "wide"}),
         json.dumps({"path": str(lib / "box.ply"), "name": "b3", "color": "maybe"}),
+        json.dumps({"path": str(lib / "box.ply"), "name": "b4", "frequency_base": 3}),
     ]) + "\n")
     code, stdout, stderr = run("encode-batch", manifest, "-o", tmp_path / "out", "--workers", "1", *ENCODE)
-    assert code == 1 and "0 encoded, 0 skipped (up to date), 3 failed of 3" in stdout
-    for expected in ("99 frequencies outside", "color_width must be int", "colour mode 'maybe'"):
+    assert code == 1 and "0 encoded, 0 skipped (up to date), 4 failed of 4" in stdout
+    for expected in ("99 frequencies outside", "color_width must be int", "colour mode 'maybe'",
+                     "frequency base 3 outside"):
         assert expected in stderr, (expected, stderr)

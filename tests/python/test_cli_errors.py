@@ -12,6 +12,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import cos_blob_file, random_file
 
@@ -194,10 +195,14 @@ def test_frequency_options(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> N
     for flag in ("--frequencies", "--color-frequencies"):
         for value in ("25", "-1"):
             assert_one_line_error(nfc("encode", "ok.obj", "-o", "out.nfc", flag, value, cwd=tmp_path), contains=flag)
+    for value in ("0.99", "2.01", "nan"):
+        assert_one_line_error(nfc("encode", "ok.obj", "-o", "out.nfc", "--frequency-base", value, cwd=tmp_path),
+                              contains="--frequency-base")
     assert not (tmp_path / "out.nfc").exists()
-    result = nfc("encode", "ok.obj", "-o", "f.nfc", "--frequencies", "4", "--width", "4", "--epochs", "1", "--quiet",
-                 "--json", cwd=tmp_path)
+    result = nfc("encode", "ok.obj", "-o", "f.nfc", "--frequencies", "4", "--frequency-base", "1.7", "--width", "4",
+                 "--epochs", "1", "--quiet", "--json", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert json.loads(result.stdout.splitlines()[-1])["frequencies"] == 4
     network = read_nfc((tmp_path / "f.nfc").read_bytes()).geometry.network
     assert network.num_frequencies == 4 and network.in_features[0] == 3 + 6 * 4
+    assert network.frequency_base == float(np.float32(1.7))

@@ -95,7 +95,8 @@ def test_point_clouds_are_udf_only(small_epochs: None) -> None:
 
 
 @pytest.mark.parametrize(
-    "override", [dict(preset="slow"), dict(width=0), dict(bits=1), dict(bits=17), dict(field="tsdf"), dict(epochs=-1)]
+    "override", [dict(preset="slow"), dict(width=0), dict(bits=1), dict(bits=17), dict(field="tsdf"), dict(epochs=-1),
+                 dict(frequency_base=0.5), dict(frequency_base=float("nan"))]
 )
 def test_bad_settings_are_input_errors(override: dict) -> None:
     with pytest.raises(InputError):

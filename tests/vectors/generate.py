@@ -40,20 +40,24 @@ HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[2] / "shared" / "data"  # ../shared beside the checkout
 MESH_RESOLUTION = 64
 GRID_RESOLUTION = 128
-VECTORS = [  # name, shape, field, width, bits, frequencies L, epochs, colour width (None: geometry only)
-    ("v1_0_bunny_sdf_w16", "stanford/bun_zipper_res3.ply.gz", "sdf", 16, 8, 16, 40, None),
-    ("v1_0_bunny_sdf_w32", "stanford/bun_zipper_res3.ply.gz", "sdf", 32, 8, 16, 40, None),
-    ("v1_0_spot_sdf_w24_b6", "misc/spot.obj.gz", "sdf", 24, 6, 16, 40, None),
-    ("v1_0_tshirt_udf_w16", "garments/TShirtNoCoat.obj.gz", "udf", 16, 8, 16, 30, None),
+VECTORS = [  # name, shape, field, width, bits, frequencies L, β, epochs, colour width (None: geometry only)
+    ("v1_0_bunny_sdf_w16", "stanford/bun_zipper_res3.ply.gz", "sdf", 16, 8, 16, 1.4, 40, None),
+    ("v1_0_bunny_sdf_w32", "stanford/bun_zipper_res3.ply.gz", "sdf", 32, 8, 16, 1.4, 40, None),
+    ("v1_0_spot_sdf_w24_b6", "misc/spot.obj.gz", "sdf", 24, 6, 16, 1.4, 40, None),
+    ("v1_0_tshirt_udf_w16", "garments/TShirtNoCoat.obj.gz", "udf", 16, 8, 16, 1.4, 30, None),
     # The bunny's ten range scans merged by bun.conf's transforms: a point cloud (nfencode.io).
-    ("v1_0_bunny_scans_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 16, 30, None),
+    ("v1_0_bunny_scans_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 16, 1.4, 30, None),
     # A coloured point cloud (13,704 points): colour network of width 16 at 8 bits.
-    ("v1_1_milk_udf_w16_c16", "colored/pcl_milk_color.ply.gz", "udf", 16, 8, 16, 30, 16),
+    ("v1_1_milk_udf_w16_c16", "colored/pcl_milk_color.ply.gz", "udf", 16, 8, 16, 1.4, 30, 16),
     # The range-scan cloud placed as geo-referenced survey data (UTM-like metres, GEO_OFFSETS):
     # the encoder keeps its frame in 64 bits.
-    ("v1_2_bunny_scans_geo_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 16, 30, None),
+    ("v1_2_bunny_scans_geo_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 16, 1.4, 30, None),
     # The encoder's default since 0.6: 8 frequencies (51 inputs to the first layer).
-    ("v1_0_armadillo_sdf_w24_L8", "stanford/armadillo_remeshed_odedstein.obj.gz", "sdf", 24, 8, 8, 40, None),
+    ("v1_0_armadillo_sdf_w24_L8", "stanford/armadillo_remeshed_odedstein.obj.gz", "sdf", 24, 8, 8, 1.4, 40, None),
+    # `--frequencies 5 --frequency-base 1.8` (the same top frequency as L = 8, β = 1.4 with 33 inputs
+    # to the first layer): an L that is no multiple of the GPU kernel's blocks of 4, a β other than
+    # 1.4, on a garment UDF (value and gradient kernels).
+    ("v1_0_pants_udf_w16_L5", "garments/Pants1.obj.gz", "udf", 16, 8, 5, 1.8, 30, None),
 ]
 GEO_OFFSETS = {"v1_2_bunny_scans_geo_udf_w16": (600123.456, 200654.321, 0.0)}  # added to the shape
 COLOR_EPOCHS = 30  # the colour schedule's epochs for the v1_1 vectors (short, as the geometry's)
@@ -67,10 +71,11 @@ def query_points(seed: int = 1234) -> np.ndarray:
     return np.concatenate([rng.uniform(-1, 1, (1016, 3)), corners]).astype(np.float32)
 
 
-def encode(name: str, rel: str, field: str, width: int, bits: int, frequencies: int, epochs: int,
-           color_width: int | None) -> None:
+def encode(name: str, rel: str, field: str, width: int, bits: int, frequencies: int, frequency_base: float,
+           epochs: int, color_width: int | None) -> None:
     stem = HERE / name
-    config = EncodeConfig(field=field, width=width, bits=bits, frequencies=frequencies, epochs=epochs, seed=7,
+    config = EncodeConfig(field=field, width=width, bits=bits, frequencies=frequencies, frequency_base=frequency_base,
+                          epochs=epochs, seed=7,
                           quiet=True, color="off" if color_width is None else "on", color_width=color_width or 16,
                           color_epochs=COLOR_EPOCHS)
     shape = load_shape(DATA / rel)
