@@ -51,6 +51,12 @@ SHAPES: dict[str, tuple[str, str, str]] = {
     "happy-udf": ("stanford/happy_vrip_res3.ply.gz", "udf", "happy_res3"),
     # The ten raw range scans, aligned by bun.conf and merged: a 362k-point cloud with no faces.
     "bunny-scans": ("stanford/bunny_scans/bun.conf", "udf", "bunny_scans"),
+    # Meshes with holes that `--field auto` finds closed below width 64 (config.AUTO_UDF_WIDTH_WITH_HOLES),
+    # and demosthenes, whose open base it no longer does: either field.
+    "demosthenes": ("misc/demosthenes-low-res.obj.gz", "sdf", "demosthenes"),
+    "demosthenes-udf": ("misc/demosthenes-low-res.obj.gz", "udf", "demosthenes"),
+    "suzanne": ("misc/suzanne.obj.gz", "sdf", "suzanne"),
+    "suzanne-udf": ("misc/suzanne.obj.gz", "udf", "suzanne"),
 }
 DRACO_CLOUD_POINTS = (500, 1000, 2000, 5000, 10000, 20000)
 DRACO_FACES = (500, 1000, 2000, 5000, 10000)

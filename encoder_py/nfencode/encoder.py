@@ -164,7 +164,7 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
         frame64 = Frame64((float(center[0]), float(center[1]), float(center[2])), float(scale))
         train_center, train_scale = center, scale
     sampler = SurfaceSampler(to_unit(shape.vertices, train_center, train_scale), shape.faces)
-    field, field_reason = resolve_field(sampler, cfg.field, rng)
+    field, field_reason = resolve_field(sampler, cfg.field, rng, cfg.width)
     pool = build_pool(sampler, field, rng)
     if pool.sides_note:
         field_reason = f"{field_reason}; {pool.sides_note}"

@@ -243,14 +243,16 @@ class FieldChoice(NamedTuple):
     reason: str  # one line: why, for the log
 
 
-def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Generator) -> FieldChoice:
+def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Generator, width: int) -> FieldChoice:
     """Turn `--field auto|sdf|udf` into "sdf" or "udf", with the reason; orient a mesh so its inside
     is negative.
 
     Point clouds are always UDF. For meshes one probe of winding numbers near the surface serves both
     decisions: a mesh wound inside-out (w ≈ -1 inside) is flipped, and `auto` picks SDF when at most
     config.AUTO_SDF_MAX_AMBIGUOUS of the probe is ambiguous (config.AMBIGUOUS_WINDING), i.e. the mesh
-    encloses an inside despite small holes or folds.
+    encloses an inside despite small holes or folds, unless it has holes and the network is at least
+    config.AUTO_UDF_WIDTH_WITH_HOLES wide (a `width` network's fit is then better than the caps an SDF
+    puts over the holes).
     """
     if requested not in ("auto", "sdf", "udf"):
         raise InputError(f"unknown field type {requested!r} (use sdf, udf or auto)")
@@ -267,11 +269,13 @@ def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Genera
         return FieldChoice("sdf", "requested")
     low, high = config.AMBIGUOUS_WINDING
     ambiguous = float(np.mean((np.abs(w) > low) & (np.abs(w) < high)))
-    closed = ambiguous <= config.AUTO_SDF_MAX_AMBIGUOUS
-    return FieldChoice("sdf" if closed else "udf",
-                       f"{ambiguous:.2%} of the probe points near the surface have an ambiguous winding number: "
-                       f"{'at most' if closed else 'more than'} {config.AUTO_SDF_MAX_AMBIGUOUS:.0%}, "
-                       f"{'encloses an inside' if closed else 'open'}")
+    measured = f"{ambiguous:.2%} of the probe points near the surface have an ambiguous winding number"
+    if ambiguous > config.AUTO_SDF_MAX_AMBIGUOUS:
+        return FieldChoice("udf", f"{measured}: more than {config.AUTO_SDF_MAX_AMBIGUOUS:.0%}, open")
+    if ambiguous >= config.AUTO_HOLES_MIN_AMBIGUOUS and width >= config.AUTO_UDF_WIDTH_WITH_HOLES:
+        return FieldChoice("udf", f"{measured}: encloses an inside but has holes, which an SDF would cap; "
+                                  f"at width {width} (>= {config.AUTO_UDF_WIDTH_WITH_HOLES}) a UDF measures better")
+    return FieldChoice("sdf", f"{measured}: at most {config.AUTO_SDF_MAX_AMBIGUOUS:.0%}, encloses an inside")
 
 
 def epoch_counts(scale: float) -> tuple[int, int, int]:

@@ -69,17 +69,33 @@ def test_same_seed_gives_the_same_bytes_and_another_seed_does_not(small_epochs: 
 
 def test_auto_field_is_sdf_for_scans_with_small_holes_and_udf_for_open_garments() -> None:
     rng = np.random.default_rng(0)
-    bunny = resolve_field(_sampler(BUNNY_RES2), "auto", rng)  # 5 small holes
+    bunny = resolve_field(_sampler(BUNNY_RES2), "auto", rng, 32)  # 5 small holes
     assert bunny.field == "sdf" and "winding" in bunny.reason
-    garment = resolve_field(_sampler(GARMENT), "auto", rng)
+    garment = resolve_field(_sampler(GARMENT), "auto", rng, 32)
     assert garment.field == "udf" and "ambiguous winding" in garment.reason  # open cloth
-    assert resolve_field(_sampler(GARMENT), "sdf", rng) == ("sdf", "requested")  # the user may insist
+    assert resolve_field(_sampler(GARMENT), "sdf", rng, 32) == ("sdf", "requested")  # the user may insist
+
+
+def test_auto_field_is_udf_for_wide_networks_of_meshes_with_holes_and_for_large_holes() -> None:
+    # The bunny's small holes: an SDF below width 64, a UDF from it (its caps cost more than the fit).
+    for width, field in ((48, "sdf"), (64, "udf"), (96, "udf")):
+        choice = resolve_field(_sampler(BUNNY_RES2), "auto", np.random.default_rng(0), width)
+        assert choice.field == field, (width, choice)
+    assert "holes" in choice.reason and "width 96" in choice.reason
+    # Demosthenes' open base (1.2% of the probe ambiguous): a UDF at any width.
+    bust = resolve_field(_sampler(SHARED_DATA / "misc" / "demosthenes-low-res.obj.gz"), "auto",
+                         np.random.default_rng(0), 16)
+    assert bust.field == "udf" and "open" in bust.reason
+    # A closed mesh stays an SDF however wide the network.
+    spot = resolve_field(_sampler(SHARED_DATA / "misc" / "spot.obj.gz"), "auto", np.random.default_rng(0), 96)
+    assert spot.field == "sdf" and "encloses an inside" in spot.reason
 
 
 @pytest.mark.parametrize("name", ["dragon_vrip_res3", "happy_vrip_res3"])
 def test_auto_field_keeps_folded_but_closed_meshes_sdf(name: str) -> None:
-    # ~3% non-manifold edges, yet they enclose an inside; SDF measured 1.2-3x better than UDF there.
-    choice = resolve_field(_sampler(SHARED_DATA / "stanford" / f"{name}.ply.gz"), "auto", np.random.default_rng(0))
+    # ~3% non-manifold edges, yet they enclose an inside (0.00% of the probe ambiguous, so at any
+    # width); SDF measured 1.2-3x better than UDF there.
+    choice = resolve_field(_sampler(SHARED_DATA / "stanford" / f"{name}.ply.gz"), "auto", np.random.default_rng(0), 96)
     assert choice.field == "sdf" and "encloses an inside" in choice.reason
 
 
