@@ -210,6 +210,7 @@ def _encode_report(args: argparse.Namespace, output: Path, result, choice, secon
         "width": net.out_features[0],
         "bits": net.bits,
         "frequencies": net.num_frequencies,
+        "frequency_base": net.frequency_base,
         "preset": args.preset,
         "color": f.color is not None,
         "frame64": f.geometry.frame64 is not None,
@@ -225,8 +226,8 @@ def _encode_options(args: argparse.Namespace) -> dict:
     """The EncodeConfig fields that `encode` and `encode-batch` share (batch.ENCODE_OPTIONS)."""
     width = args.width if args.width is not None else DEFAULT_WIDTH
     return {"field": args.field, "width": width, "bits": args.bits, "frequencies": args.frequencies,
-            "frequency_base": args.frequency_base, "preset": args.preset, "epochs": args.epochs, "seed": args.seed, "device": args.device,
-            "color": args.color, "color_width": args.color_width, "color_bits": args.color_bits,
+            "frequency_base": args.frequency_base, "preset": args.preset, "epochs": args.epochs, "seed": args.seed,
+            "device": args.device, "color": args.color, "color_width": args.color_width, "color_bits": args.color_bits,
             "color_frequencies": args.color_frequencies, "color_resolution": args.color_resolution,
             "color_epochs": args.color_epochs}
 

@@ -202,7 +202,8 @@ def test_frequency_options(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> N
     result = nfc("encode", "ok.obj", "-o", "f.nfc", "--frequencies", "4", "--frequency-base", "1.7", "--width", "4",
                  "--epochs", "1", "--quiet", "--json", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
-    assert json.loads(result.stdout.splitlines()[-1])["frequencies"] == 4
+    report = json.loads(result.stdout.splitlines()[-1])
+    assert report["frequencies"] == 4 and report["frequency_base"] == float(np.float32(1.7))
     network = read_nfc((tmp_path / "f.nfc").read_bytes()).geometry.network
     assert network.num_frequencies == 4 and network.in_features[0] == 3 + 6 * 4
     assert network.frequency_base == float(np.float32(1.7))

@@ -95,7 +95,8 @@ def test_auto_field_is_udf_for_wide_networks_of_meshes_with_holes_and_for_large_
 def test_auto_field_keeps_folded_but_closed_meshes_sdf(name: str) -> None:
     # ~3% non-manifold edges, yet they enclose an inside (0.00% of the probe ambiguous, so at any
     # width); SDF measured 1.2-3x better than UDF there.
-    choice = resolve_field(_sampler(SHARED_DATA / "stanford" / f"{name}.ply.gz"), "auto", np.random.default_rng(0), 96)
+    choice = resolve_field(_sampler(SHARED_DATA / "stanford" / f"{name}.ply.gz"), "auto", np.random.default_rng(0),
+                           96)
     assert choice.field == "sdf" and "encloses an inside" in choice.reason
 
 

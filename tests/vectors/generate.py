@@ -75,9 +75,8 @@ def encode(name: str, rel: str, field: str, width: int, bits: int, frequencies: 
            epochs: int, color_width: int | None) -> None:
     stem = HERE / name
     config = EncodeConfig(field=field, width=width, bits=bits, frequencies=frequencies, frequency_base=frequency_base,
-                          epochs=epochs, seed=7,
-                          quiet=True, color="off" if color_width is None else "on", color_width=color_width or 16,
-                          color_epochs=COLOR_EPOCHS)
+                          epochs=epochs, seed=7, quiet=True, color="off" if color_width is None else "on",
+                          color_width=color_width or 16, color_epochs=COLOR_EPOCHS)
     shape = load_shape(DATA / rel)
     if name in GEO_OFFSETS:
         shape = dataclasses.replace(shape, vertices=shape.vertices + np.asarray(GEO_OFFSETS[name]))
