@@ -41,6 +41,7 @@ MAX_FRAME_EXTENT = 2.0**126  # max |center| + scale: decoded f32 positions stay 
 MIN_LAYERS = 2
 MIN_BITS = 2
 MAX_BITS = 16
+MIN_FREQUENCY_BASE, MAX_FREQUENCY_BASE = 1.0, 2.0
 
 FIELD_SDF = 0
 FIELD_UDF = 1
@@ -203,8 +204,13 @@ def _check_frequencies(num_frequencies: int) -> None:
         raise _corrupt(f"{num_frequencies} frequencies (at most {MAX_FREQUENCIES})")
 
 
+def frequency_base_in_range(frequency_base: float) -> bool:
+    """β finite and within [MIN_FREQUENCY_BASE, MAX_FREQUENCY_BASE] (FORMAT.md, network block)."""
+    return math.isfinite(frequency_base) and MIN_FREQUENCY_BASE <= frequency_base <= MAX_FREQUENCY_BASE
+
+
 def _check_frequency_base(frequency_base: float) -> None:
-    if not (math.isfinite(frequency_base) and 1.0 <= frequency_base <= 2.0):
+    if not frequency_base_in_range(frequency_base):
         raise _corrupt(f"frequency base {frequency_base} outside [1, 2]")
 
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 import os
 import sys
 import time
@@ -33,6 +32,7 @@ from .bitstream import (
     TAG_GEOM,
     NetworkBlock,
     NfcFile,
+    frequency_base_in_range,
     read_nfc,
 )
 from .config import (
@@ -236,7 +236,7 @@ def _check_encode_args(args: argparse.Namespace) -> None:
     _positive("--width", args.width, 1, MAX_WIDTH)
     _positive("--bits", args.bits, MIN_BITS, MAX_BITS)
     _positive("--frequencies", args.frequencies, 0, MAX_FREQUENCIES)
-    if not (math.isfinite(args.frequency_base) and 1.0 <= args.frequency_base <= 2.0):
+    if not frequency_base_in_range(args.frequency_base):
         raise InputError(f"--frequency-base must be in [1, 2], got {args.frequency_base}")
     _positive("--epochs", args.epochs)
     _positive("--threads", args.threads)

@@ -32,6 +32,7 @@ from .bitstream import (
     Frame64,
     GeometryChunk,
     NfcFile,
+    frequency_base_in_range,
     read_nfc,
     write_nfc,
 )
@@ -88,7 +89,7 @@ def check_config(cfg: EncodeConfig) -> config.Preset:
         raise InputError(f"width {cfg.width} outside 1..{MAX_WIDTH}")
     if not 0 <= cfg.frequencies <= MAX_FREQUENCIES:
         raise InputError(f"{cfg.frequencies} frequencies outside 0..{MAX_FREQUENCIES}")
-    if not (math.isfinite(cfg.frequency_base) and 1.0 <= cfg.frequency_base <= 2.0):
+    if not frequency_base_in_range(cfg.frequency_base):
         raise InputError(f"frequency base {cfg.frequency_base} outside [1, 2] (FORMAT.md)")
     if not MIN_BITS <= cfg.bits <= MAX_BITS:
         raise InputError(f"bit width {cfg.bits} outside {MIN_BITS}..{MAX_BITS}")
