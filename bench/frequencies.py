@@ -9,14 +9,20 @@ setting and the BD-rate of each against the anchor (L = 16, β = 1.4 at 8 bits, 
 per shape. An encoding is `L` (β = 1.4, the 1.0 and 0.6 encoders' spacing) or `L:β`. Points are
 cached in bench/out/frequencies.csv, so a rerun only encodes what is missing.
 
+One seed's BD-rate over four widths moves by 5-10 points from seed to seed (the w16 fits vary by
+5-7% in CD; bench/RESULTS.md), so `--seeds` encodes every point at each seed: the tables then show
+the geometric means over the seeds, and the BD-rate is that of the mean curves, with the range of
+the seeds' own BD-rates beside it.
+
     .venv/bin/python bench/frequencies.py --shapes bunny armadillo dragon spot happy \
-        --widths 16 24 32 48 --frequencies 16 8 5:1.8 [--bits 8 7]
+        --widths 16 24 32 48 --frequencies 16 8 5:1.8 [--bits 8 7] [--seeds 0 1 2]
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import time
 from pathlib import Path
 
@@ -25,15 +31,15 @@ from scipy.interpolate import PchipInterpolator
 
 from nfencode.encoder import EncodeConfig, compress
 from nfencode.io import load_shape
-from rd import SEED, SHAPES, SHARED, measure_nfc
+from rd import SHAPES, SHARED, measure_nfc
 
 OUT = Path(__file__).resolve().parent / "out"
 CSV = OUT / "frequencies.csv"
-FIELDS = ("shape", "width", "frequencies", "base", "bits", "bytes", "cd", "seconds")
+FIELDS = ("shape", "width", "frequencies", "base", "bits", "bytes", "cd", "seconds", "seed")
 LEGACY_BASE = "1.4"  # rows written before the base was a column, and a bare `L` on the command line
 Encoding = tuple[int, str]  # L, β as written
 Setting = tuple[int, str, int]  # L, β, bits
-Key = tuple[str, int, int, str, int]  # shape, width, L, β, bits
+Key = tuple[str, int, int, str, int, int]  # shape, width, L, β, bits, seed
 
 
 def parse_encoding(text: str) -> Encoding:
@@ -47,7 +53,7 @@ def setting_name(setting: Setting) -> str:
     return f"L={L} β={base} b{bits}"
 
 
-def bd_rate(anchor: list[tuple[int, float]], test: list[tuple[int, float]]) -> float | None:
+def bd_rate(anchor: list[tuple[float, float]], test: list[tuple[float, float]]) -> float | None:
     """Bjøntegaard delta rate of `test` against `anchor` ((bytes, CD) points): the mean difference
     of log(bytes) at equal log(CD) over the CD range both curves cover, as a fraction (-0.25: 25%
     fewer bytes). Piecewise-cubic Hermite interpolation of log(bytes) over log(CD) (the pchip form of
@@ -55,7 +61,7 @@ def bd_rate(anchor: list[tuple[int, float]], test: list[tuple[int, float]]) -> f
     overlap or a curve has fewer than two points."""
     curves = []
     for points in (anchor, test):
-        front: list[tuple[int, float]] = []
+        front: list[tuple[float, float]] = []
         for b, cd in sorted(points):
             if not front or cd < front[-1][1]:
                 front.append((b, cd))
@@ -76,9 +82,17 @@ def load_points() -> dict[Key, dict[str, str]]:
     if not CSV.exists():
         return {}
     with CSV.open() as f:
-        # early rows: 8 bits, β = 1.4
-        rows = [{**r, "bits": r.get("bits") or "8", "base": r.get("base") or LEGACY_BASE} for r in csv.DictReader(f)]
-    return {(r["shape"], int(r["width"]), int(r["frequencies"]), r["base"], int(r["bits"])): r for r in rows}
+        # early rows: 8 bits, β = 1.4, seed 0
+        rows = [{**r, "bits": r.get("bits") or "8", "base": r.get("base") or LEGACY_BASE, "seed": r.get("seed") or "0"}
+                for r in csv.DictReader(f)]
+    return {(r["shape"], int(r["width"]), int(r["frequencies"]), r["base"], int(r["bits"]), int(r["seed"])): r
+            for r in rows}
+
+
+def mean_point(rows: list[dict[str, str]]) -> tuple[float, float]:
+    """Geometric means of bytes and CD over the seeds' rows of one point."""
+    return (float(np.exp(np.mean([np.log(int(r["bytes"])) for r in rows]))),
+            float(np.exp(np.mean([np.log(float(r["cd"])) for r in rows]))))
 
 
 def save_points(points: dict[Key, dict[str, str]]) -> None:
@@ -100,6 +114,7 @@ def main() -> None:
     parser.add_argument("--frequencies", nargs="+", type=parse_encoding, default=[(16, "1.4"), (8, "1.4"), (5, "1.8")],
                         metavar="L[:BETA]", help="encodings: L frequencies, spaced by β (default 1.4)")
     parser.add_argument("--bits", nargs="+", type=int, default=[8])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="encode every point at each seed")
     parser.add_argument("--anchor", nargs=2, default=["16", "8"], metavar=("L[:BETA]", "BITS"),
                         help="the setting the BD-rates are measured against")
     parser.add_argument("--resolution", type=int, default=256)
@@ -115,37 +130,47 @@ def main() -> None:
         rel, field, _ = SHAPES[shape]
         gt = None
         for width in args.widths:
-            for frequencies, base, bits in settings:
-                if (shape, width, frequencies, base, bits) in done:
+            for (frequencies, base, bits), seed in itertools.product(settings, args.seeds):
+                if (shape, width, frequencies, base, bits, seed) in done:
                     continue
                 if gt is None:
                     gt = load_shape(SHARED / "data" / rel)
                 cfg = EncodeConfig(field=field, width=width, frequencies=frequencies, frequency_base=float(base),
-                                   bits=bits, seed=SEED, quiet=True, threads=args.threads)
+                                   bits=bits, seed=seed, quiet=True, threads=args.threads)
                 t0 = time.perf_counter()
                 data = compress(gt, cfg).data
                 seconds = time.perf_counter() - t0
-                suffix = ("" if base == LEGACY_BASE else f"_beta{base}") + ("" if bits == 8 else f"_b{bits}")
+                suffix = (("" if base == LEGACY_BASE else f"_beta{base}") + ("" if bits == 8 else f"_b{bits}")
+                          + ("" if seed == 0 else f"_s{seed}"))
                 path = keep / f"{shape}_w{width}_L{frequencies}{suffix}.nfc"
                 path.write_bytes(data)
                 point = measure_nfc(gt, path, path.stem, args.resolution, seconds)
-                done[(shape, width, frequencies, base, bits)] = {
+                done[(shape, width, frequencies, base, bits, seed)] = {
                     "shape": shape, "width": str(width), "frequencies": str(frequencies), "base": base,
-                    "bits": str(bits),
-                    "bytes": str(point.bytes), "cd": f"{point.cd:.6g}", "seconds": f"{seconds:.1f}"}
+                    "bits": str(bits), "bytes": str(point.bytes), "cd": f"{point.cd:.6g}",
+                    "seconds": f"{seconds:.1f}", "seed": str(seed)}
                 save_points(done)
-                print(f"{shape} w{width} {setting_name((frequencies, base, bits))}: {point.bytes} B, "
+                print(f"{shape} w{width} {setting_name((frequencies, base, bits))} seed {seed}: {point.bytes} B, "
                       f"CD {point.cd:.6g}, {seconds:.0f} s", flush=True)
 
+    def rows(shape: str, width: int, setting: Setting) -> list[dict[str, str]]:
+        return [done[k] for seed in args.seeds if (k := (shape, width, *setting, seed)) in done]
+
     names = [setting_name(s) for s in settings]
-    print("\n| shape | width | " + " | ".join(f"{n} bytes / CD" for n in names) + " |")
+    seeds = "" if len(args.seeds) == 1 else f" (geometric means over seeds {', '.join(map(str, args.seeds))})"
+    print(f"\nBytes / CD{seeds}\n")
+    print("| shape | width | " + " | ".join(f"{n} bytes / CD" for n in names) + " |")
     print("|---|---:|" + "---:|" * len(settings))
     for shape in args.shapes:
         for width in args.widths:
             cells = []
-            for L, base, b in settings:
-                r = done.get((shape, width, L, base, b))
-                cells.append(f"{r['bytes']} / {float(r['cd']):.5f}" if r else "—")
+            for setting in settings:
+                found = rows(shape, width, setting)
+                if len(found) == len(args.seeds):
+                    b, cd = mean_point(found)
+                    cells.append(f"{b:.0f} / {cd:.5f}")
+                else:
+                    cells.append("—")
             print(f"| {shape} | {width} | " + " | ".join(cells) + " |")
 
     anchor: Setting = (*parse_encoding(args.anchor[0]), int(args.anchor[1]))
@@ -155,13 +180,22 @@ def main() -> None:
     print("| shape | " + " | ".join(setting_name(s) for s in others) + " |")
     print("|---|" + "---:|" * len(others))
     for shape in args.shapes:
-        def curve(setting: Setting) -> list[tuple[int, float]]:
-            return [(int(r["bytes"]), float(r["cd"])) for k, r in done.items()
-                    if k[0] == shape and k[2:] == setting and k[1] in args.widths]
+        def curve(setting: Setting, seeds: list[int]) -> list[tuple[float, float]]:
+            points = []
+            for width in args.widths:
+                found = [done[k] for seed in seeds if (k := (shape, width, *setting, seed)) in done]
+                if len(found) == len(seeds):
+                    points.append(mean_point(found))
+            return points
         cells = []
         for setting in others:
-            rate = bd_rate(curve(anchor), curve(setting))
-            cells.append("—" if rate is None else f"{100 * rate:+.1f}%")
+            rate = bd_rate(curve(anchor, args.seeds), curve(setting, args.seeds))
+            cell = "—" if rate is None else f"{100 * rate:+.1f}%"
+            per_seed = [r for seed in args.seeds
+                        if (r := bd_rate(curve(anchor, [seed]), curve(setting, [seed]))) is not None]
+            if len(args.seeds) > 1 and per_seed:
+                cell += f" [{100 * min(per_seed):+.1f}, {100 * max(per_seed):+.1f}]"
+            cells.append(cell)
         print(f"| {shape} | " + " | ".join(cells) + " |")
 
 
