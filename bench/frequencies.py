@@ -153,8 +153,8 @@ def main() -> None:
                 print(f"{shape} w{width} {setting_name((frequencies, base, bits))} seed {seed}: {point.bytes} B, "
                       f"CD {point.cd:.6g}, {seconds:.0f} s", flush=True)
 
-    def rows(shape: str, width: int, setting: Setting) -> list[dict[str, str]]:
-        return [done[k] for seed in args.seeds if (k := (shape, width, *setting, seed)) in done]
+    def rows(shape: str, width: int, setting: Setting, seeds: list[int]) -> list[dict[str, str]]:
+        return [done[k] for seed in seeds if (k := (shape, width, *setting, seed)) in done]
 
     names = [setting_name(s) for s in settings]
     seeds = "" if len(args.seeds) == 1 else f" (geometric means over seeds {', '.join(map(str, args.seeds))})"
@@ -165,7 +165,7 @@ def main() -> None:
         for width in args.widths:
             cells = []
             for setting in settings:
-                found = rows(shape, width, setting)
+                found = rows(shape, width, setting, args.seeds)
                 if len(found) == len(args.seeds):
                     b, cd = mean_point(found)
                     cells.append(f"{b:.0f} / {cd:.5f}")
@@ -183,7 +183,7 @@ def main() -> None:
         def curve(setting: Setting, seeds: list[int]) -> list[tuple[float, float]]:
             points = []
             for width in args.widths:
-                found = [done[k] for seed in seeds if (k := (shape, width, *setting, seed)) in done]
+                found = rows(shape, width, setting, seeds)
                 if len(found) == len(seeds):
                     points.append(mean_point(found))
             return points
