@@ -153,8 +153,10 @@ def main() -> None:
                 print(f"{shape} w{width} {setting_name((frequencies, base, bits))} seed {seed}: {point.bytes} B, "
                       f"CD {point.cd:.6g}, {seconds:.0f} s", flush=True)
 
-    def rows(shape: str, width: int, setting: Setting, seeds: list[int]) -> list[dict[str, str]]:
-        return [done[k] for seed in seeds if (k := (shape, width, *setting, seed)) in done]
+    def point(shape: str, width: int, setting: Setting, seeds: list[int]) -> tuple[float, float] | None:
+        """The point's mean over `seeds`, if every one of them was measured."""
+        found = [done[k] for seed in seeds if (k := (shape, width, *setting, seed)) in done]
+        return mean_point(found) if len(found) == len(seeds) else None
 
     names = [setting_name(s) for s in settings]
     seeds = "" if len(args.seeds) == 1 else f" (geometric means over seeds {', '.join(map(str, args.seeds))})"
@@ -165,12 +167,8 @@ def main() -> None:
         for width in args.widths:
             cells = []
             for setting in settings:
-                found = rows(shape, width, setting, args.seeds)
-                if len(found) == len(args.seeds):
-                    b, cd = mean_point(found)
-                    cells.append(f"{b:.0f} / {cd:.5f}")
-                else:
-                    cells.append("—")
+                mean = point(shape, width, setting, args.seeds)
+                cells.append("—" if mean is None else f"{mean[0]:.0f} / {mean[1]:.5f}")
             print(f"| {shape} | {width} | " + " | ".join(cells) + " |")
 
     anchor: Setting = (*parse_encoding(args.anchor[0]), int(args.anchor[1]))
@@ -181,12 +179,7 @@ def main() -> None:
     print("|---|" + "---:|" * len(others))
     for shape in args.shapes:
         def curve(setting: Setting, seeds: list[int]) -> list[tuple[float, float]]:
-            points = []
-            for width in args.widths:
-                found = rows(shape, width, setting, seeds)
-                if len(found) == len(seeds):
-                    points.append(mean_point(found))
-            return points
+            return [m for width in args.widths if (m := point(shape, width, setting, seeds)) is not None]
         cells = []
         for setting in others:
             rate = bd_rate(curve(anchor, args.seeds), curve(setting, args.seeds))
