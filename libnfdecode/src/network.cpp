@@ -4,7 +4,9 @@
 // over points and vectorises; sin and cos are sine.h's (the shaders' reduction and polynomials,
 // ~1 ulp), evaluated over whole rows.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <iterator>
 #include <type_traits>
 #include <vector>
 
@@ -62,27 +64,62 @@ void in_blocks(uint32_t n, Fn&& fn) {
     for (; first < n; ++first) fn(std::integral_constant<uint32_t, 1>(), first);
 }
 
+// N points of one row as one vector register of the instruction set a build is for (16 on
+// AVX-512, 8 on AVX2, 4 otherwise: kBuilds below), written as GCC's (and Clang's) generic
+// vectors; RowLanes reads and writes them inside rows of floats (any alignment, aliasing them).
+// A vector wider than the instruction set's registers is not split well (16 lanes ran 6x slower
+// in the AVX2 build than 8), hence one width per build.
+template <size_t N>
+struct LaneTypes {
+    typedef float Lanes __attribute__((vector_size(N * sizeof(float))));
+    typedef float RowLanes __attribute__((vector_size(N * sizeof(float)), aligned(4), may_alias));
+};
+constexpr size_t kLaneGroups = 2;  // vectors per accumulator row: 2 x B registers in flight
+
+// acc[b][p] = sum_k coefficient(b, k) * rows[k * kBlock + p] for b < B and the points p < count,
+// the terms added in k order. The points go N * kLaneGroups at a time with their B sums in
+// registers, so that each loaded row feeds B accumulators and nothing else touches memory until
+// the sums are done (accumulators in memory made the loads and stores, not the arithmetic, the
+// bound: this is 1.2-1.5x faster). The last group may run past `count` up to kBlock: those
+// points' rows hold earlier blocks' (or zero-initialised) values, and their sums are never read.
+template <size_t N, uint32_t B, class Coefficient>
+void sum_rows(uint32_t terms, Coefficient&& coefficient, const float* rows, size_t count,
+              float (&acc)[kOutputBlock][kBlock]) {
+    using Lanes = typename LaneTypes<N>::Lanes;
+    using RowLanes = typename LaneTypes<N>::RowLanes;
+    static_assert(kBlock % (N * kLaneGroups) == 0, "a block is whole groups of lanes");
+    for (size_t p0 = 0; p0 < count; p0 += N * kLaneGroups) {
+        Lanes sum[B][kLaneGroups] = {};
+        for (uint32_t k = 0; k < terms; ++k) {
+            const RowLanes* x = reinterpret_cast<const RowLanes*>(rows + size_t(k) * kBlock + p0);
+            for (uint32_t b = 0; b < B; ++b) {
+                const float c = coefficient(b, k);
+                for (size_t g = 0; g < kLaneGroups; ++g) sum[b][g] += c * x[g];
+            }
+        }
+        for (uint32_t b = 0; b < B; ++b)
+            for (size_t g = 0; g < kLaneGroups; ++g)
+                reinterpret_cast<RowLanes*>(acc[b] + p0)[g] = sum[b][g];
+    }
+}
+
 // Rows o .. o + B - 1 of a layer over `count` points: acc[b][p] = sum_i w[o + b][i] x[i][p], in
 // input order. The gradient path's forward pass is this one (value_layer), so its values are the
 // value path's bit for bit; network.cpp is compiled without floating-point contraction, so no
 // instruction-set clone fuses the multiply-adds differently.
-template <uint32_t B>
+template <size_t N, uint32_t B>
 void layer_rows(const Layer& layer, uint32_t o, const float* h, size_t count,
                 float (&acc)[kOutputBlock][kBlock]) {
-    for (uint32_t b = 0; b < B; ++b) std::fill_n(acc[b], count, 0.0f);
     const float* w = layer.weights.data() + size_t(o) * layer.in;
-    for (uint32_t i = 0; i < layer.in; ++i) {
-        const float* x = h + size_t(i) * kBlock;
-        float wi[B];
-        for (uint32_t b = 0; b < B; ++b) wi[b] = w[size_t(b) * layer.in + i];
-        for (size_t p = 0; p < count; ++p)
-            for (uint32_t b = 0; b < B; ++b) acc[b][p] += wi[b] * x[p];
-    }
+    const uint32_t in = layer.in;
+    sum_rows<N, B>(
+        in, [w, in](uint32_t b, uint32_t i) { return w[size_t(b) * in + i]; }, h, count, acc);
 }
 
 // One layer: outputs kOutputBlock at a time, then the activation of each output row as one array
 // of arguments; with `slopes` (the gradient path's forward pass, hidden layers) also each
 // output's omega0 cos(omega0 z), from the same sincos (whose sine is sin_reduced's, bit for bit).
+template <size_t N>
 void value_layer(const Network& net, const Layer& layer, bool hidden, const float* h, size_t count,
                  float* next, float* slopes = nullptr) {
     float acc[kOutputBlock][kBlock];
@@ -101,7 +138,7 @@ void value_layer(const Network& net, const Layer& layer, bool hidden, const floa
         for (size_t p = 0; p < count; ++p) slope[p] *= net.omega0;
     };
     in_blocks(layer.out, [&](auto block, uint32_t o) {
-        layer_rows<block>(layer, o, h, count, acc);
+        layer_rows<N, block>(layer, o, h, count, acc);
         for (uint32_t b = 0; b < block; ++b) finish(o + b, acc[b]);
     });
 }
@@ -123,11 +160,12 @@ void encode_block(const Network& net, const float* xyz, size_t count, float* h) 
 }
 
 // Values of every output of each point, point-major (a colour network's RGB).
+template <size_t N>
 void value_block(const Network& net, const float* xyz, size_t count, float* out, Scratch& s) {
     float *h = s.a.data(), *next = s.b.data();
     encode_block(net, xyz, count, h);
     for (size_t l = 0; l < net.layers.size(); ++l) {
-        value_layer(net, net.layers[l], l + 1 < net.layers.size(), h, count, next);
+        value_layer<N>(net, net.layers[l], l + 1 < net.layers.size(), h, count, next);
         std::swap(h, next);
     }
     const uint32_t outputs = net.output_width();
@@ -139,27 +177,23 @@ void value_block(const Network& net, const float* xyz, size_t count, float* out,
 // The derivative of the output with respect to inputs i .. i + B - 1 of `layer`, given it with
 // respect to the layer's outputs (rows `delta`): acc[b][p] = sum_o w[o][i + b] delta[o][p], in
 // output order; each row loaded feeds B accumulators, as in layer_rows.
-template <uint32_t B>
+template <size_t N, uint32_t B>
 void back_rows(const Layer& layer, uint32_t i, const float* delta, size_t count,
                float (&acc)[kOutputBlock][kBlock]) {
-    for (uint32_t b = 0; b < B; ++b) std::fill_n(acc[b], count, 0.0f);
-    for (uint32_t o = 0; o < layer.out; ++o) {
-        const float* w = layer.weights.data() + size_t(o) * layer.in + i;
-        float wo[B];
-        for (uint32_t b = 0; b < B; ++b) wo[b] = w[b];
-        const float* d = delta + size_t(o) * kBlock;
-        for (size_t p = 0; p < count; ++p)
-            for (uint32_t b = 0; b < B; ++b) acc[b][p] += wo[b] * d[p];
-    }
+    const float* w = layer.weights.data() + i;
+    const uint32_t in = layer.in;
+    sum_rows<N, B>(
+        layer.out, [w, in](uint32_t b, uint32_t o) { return w[size_t(o) * in + b]; }, delta, count,
+        acc);
 }
 
 // fn(i, row) for every input i of `layer` with row the derivative of the output with respect to
 // it (back_rows, four inputs at a time).
-template <class Fn>
+template <size_t N, class Fn>
 void back_layer(const Layer& layer, const float* delta, size_t count, Fn&& fn) {
     float acc[kOutputBlock][kBlock];
     in_blocks(layer.in, [&](auto block, uint32_t i) {
-        back_rows<block>(layer, i, delta, count, acc);
+        back_rows<N, block>(layer, i, delta, count, acc);
         for (uint32_t b = 0; b < block; ++b) fn(i + b, acc[b]);
     });
 }
@@ -171,6 +205,7 @@ void back_layer(const Layer& layer, const float* delta, size_t count, Fn&& fn) {
 // derivative f cos(f u_a) along axis a, cos(f u_a) has -f sin(f u_a). About two value passes'
 // work, where forward mode (a value and three derivative rows through every layer) took three to
 // four (bench/RESULTS.md "0.13.2").
+template <size_t N>
 void gradient_block(const Network& net, const float* xyz, size_t count, float* out,
                     float* out_gradients, Scratch& s) {
     const float* encoding = s.encoding.data();
@@ -179,7 +214,7 @@ void gradient_block(const Network& net, const float* xyz, size_t count, float* o
     const size_t layers = net.layers.size();
     for (size_t l = 0, slope = 0; l < layers; ++l) {
         const bool hidden = l + 1 < layers;
-        value_layer(net, net.layers[l], hidden, l == 0 ? encoding : rows[(l - 1) & 1], count,
+        value_layer<N>(net, net.layers[l], hidden, l == 0 ? encoding : rows[(l - 1) & 1], count,
                     rows[l & 1], hidden ? s.slopes.data() + slope : nullptr);
         if (hidden) slope += size_t(net.layers[l].out) * kBlock;
     }
@@ -197,7 +232,7 @@ void gradient_block(const Network& net, const float* xyz, size_t count, float* o
     for (size_t l = layers - 1; l > 0; --l) {
         float* below = delta == rows[0] ? rows[1] : rows[0];
         const float* slopes = s.slopes.data() + slope;
-        back_layer(net.layers[l], delta, count, [&](uint32_t i, const float* d) {
+        back_layer<N>(net.layers[l], delta, count, [&](uint32_t i, const float* d) {
             for (size_t p = 0; p < count; ++p)
                 below[i * kBlock + p] = d[p] * slopes[i * kBlock + p];
         });
@@ -206,7 +241,7 @@ void gradient_block(const Network& net, const float* xyz, size_t count, float* o
     }
     // Layer 0 and the encoding, into one row per axis.
     float gradient[3][kBlock] = {};
-    back_layer(net.layers[0], delta, count, [&](uint32_t i, const float* d) {
+    back_layer<N>(net.layers[0], delta, count, [&](uint32_t i, const float* d) {
         if (i < 3) {
             for (size_t p = 0; p < count; ++p) gradient[i][p] += d[p];
             return;
@@ -231,32 +266,78 @@ size_t widest(const Network& net) {
     return width;
 }
 
-// The blocks of [begin, end): one function per path, compiled once for each instruction set
-// below (GCC's function multiversioning: the loader picks the widest the CPU has) with everything
-// it calls inlined, so that the row loops vectorise 16 wide on AVX-512, 8 on AVX2, 4 on the
-// x86-64 baseline. Without contraction every clone computes the same bits. Clang 14 refuses
-// `flatten` on clones, and without it the callees would stay baseline: other compilers build
-// the baseline only. ThreadSanitizer builds too: the clones' resolver runs while the dynamic
-// loader relocates, before TSan's runtime is up, and the instrumented resolver crashed there.
-#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__) && \
-    !defined(__SANITIZE_THREAD__)
-#define NFD_VECTOR_CLONES __attribute__((target_clones("avx512f", "avx2", "default"), flatten))
-#else
-#define NFD_VECTOR_CLONES
-#endif
-
-NFD_VECTOR_CLONES void value_range(const Network& net, const float* unit_xyz, size_t begin,
-                                   size_t end, float* out, Scratch& s) {
+// The blocks of [begin, end), with rows of N lanes.
+template <size_t N>
+void value_range(const Network& net, const float* unit_xyz, size_t begin, size_t end, float* out,
+                 Scratch& s) {
     for (size_t p = begin; p < end; p += kBlock)
-        value_block(net, unit_xyz + 3 * p, std::min(kBlock, end - p),
-                    out + p * net.output_width(), s);
+        value_block<N>(net, unit_xyz + 3 * p, std::min(kBlock, end - p),
+                       out + p * net.output_width(), s);
 }
 
-NFD_VECTOR_CLONES void gradient_range(const Network& net, const float* unit_xyz, size_t begin,
-                                      size_t end, float* out, float* out_gradients, Scratch& s) {
+template <size_t N>
+void gradient_range(const Network& net, const float* unit_xyz, size_t begin, size_t end,
+                    float* out, float* out_gradients, Scratch& s) {
     for (size_t p = begin; p < end; p += kBlock)
-        gradient_block(net, unit_xyz + 3 * p, std::min(kBlock, end - p), out + p,
-                       out_gradients + 3 * p, s);
+        gradient_block<N>(net, unit_xyz + 3 * p, std::min(kBlock, end - p), out + p,
+                          out_gradients + 3 * p, s);
+}
+
+// Both paths built for each instruction set, with everything they call inlined (`flatten`), so
+// that the row loops and the vectors of sum_rows are the set's own: 16 lanes on AVX-512, 8 on
+// AVX2, 4 on the x86-64 baseline; the widest the CPU has is picked at first use. Without
+// contraction every build computes the same bits. Other compilers and targets build the baseline
+// only (4 lanes: SSE, NEON), ThreadSanitizer builds too (GCC's target_clones resolver, which did
+// this before, ran while the dynamic loader relocates, and TSan's instrumented one crashed there).
+struct RangeFunctions {
+    void (*values)(const Network&, const float*, size_t, size_t, float*, Scratch&);
+    void (*gradients)(const Network&, const float*, size_t, size_t, float*, float*, Scratch&);
+};
+#define NFD_RANGE_FUNCTIONS(NAME, ATTRIBUTES, LANES)                                              \
+    ATTRIBUTES void NAME##_values(const Network& net, const float* xyz, size_t begin, size_t end, \
+                                  float* out, Scratch& s) {                                       \
+        value_range<LANES>(net, xyz, begin, end, out, s);                                         \
+    }                                                                                             \
+    ATTRIBUTES void NAME##_gradients(const Network& net, const float* xyz, size_t begin,         \
+                                     size_t end, float* out, float* gradients, Scratch& s) {      \
+        gradient_range<LANES>(net, xyz, begin, end, out, gradients, s);                           \
+    }
+
+struct Build {
+    unsigned lanes;
+    RangeFunctions functions;
+    bool (*supported)();  // null: every CPU
+};
+#if defined(__x86_64__) && defined(__linux__) && defined(__GNUC__) && !defined(__clang__) && \
+    !defined(__SANITIZE_THREAD__)
+NFD_RANGE_FUNCTIONS(avx512, __attribute__((target("avx512f"), flatten)), 16)
+NFD_RANGE_FUNCTIONS(avx2, __attribute__((target("avx2"), flatten)), 8)
+NFD_RANGE_FUNCTIONS(baseline, __attribute__((flatten)), 4)
+bool has_avx512() { return __builtin_cpu_init(), __builtin_cpu_supports("avx512f"); }
+bool has_avx2() { return __builtin_cpu_init(), __builtin_cpu_supports("avx2"); }
+constexpr Build kBuilds[] = {{16, {avx512_values, avx512_gradients}, has_avx512},
+                             {8, {avx2_values, avx2_gradients}, has_avx2},
+                             {4, {baseline_values, baseline_gradients}, nullptr}};
+#else
+NFD_RANGE_FUNCTIONS(baseline, , 4)
+constexpr Build kBuilds[] = {{4, {baseline_values, baseline_gradients}, nullptr}};
+#endif
+#undef NFD_RANGE_FUNCTIONS
+
+// The widest build this CPU runs with at most `max_lanes` lanes (0: any), else the baseline.
+const Build* widest_build(unsigned max_lanes) {
+    for (const Build& b : kBuilds)
+        if ((!max_lanes || b.lanes <= max_lanes) && (!b.supported || b.supported())) return &b;
+    return &kBuilds[std::size(kBuilds) - 1];
+}
+std::atomic<const Build*> g_build{nullptr};
+const RangeFunctions& ranges() {
+    const Build* b = g_build.load(std::memory_order_acquire);
+    if (!b) {
+        b = widest_build(0);
+        g_build.store(b, std::memory_order_release);
+    }
+    return b->functions;
 }
 
 // The rows of every hidden layer's outputs: the gradient path's slopes.
@@ -283,13 +364,19 @@ void evaluate_blocks(const Network& net, const float* unit_xyz, size_t n, float*
         Scratch s{nfd::vector<float>(width), nfd::vector<float>(width),
                   nfd::vector<float>(encoding), nfd::vector<float>(slopes)};
         if (gradients)
-            gradient_range(net, unit_xyz, begin, end, out, out_gradients, s);
+            ranges().gradients(net, unit_xyz, begin, end, out, out_gradients, s);
         else
-            value_range(net, unit_xyz, begin, end, out, s);
+            ranges().values(net, unit_xyz, begin, end, out, s);
     });
 }
 
 }  // namespace
+
+unsigned set_cpu_evaluator_lanes(unsigned max_lanes) {
+    const Build* b = widest_build(max_lanes);
+    g_build.store(b, std::memory_order_release);
+    return b->lanes;
+}
 
 size_t evaluate_scratch_bytes(const Network& network, bool gradients, unsigned threads) {
     // Per thread its Scratch, its std::thread state and exception slot (1 KB covers).

@@ -69,6 +69,12 @@ void evaluate_cpu(const Network& network, const float* unit_xyz, size_t n, float
 void evaluate_gradient_cpu(const Network& network, const float* unit_xyz, size_t n,
                            float* out_values, float* out_gradients, unsigned threads = 0);
 
+// The CPU evaluator is built for several vector widths, the widest the machine has chosen at
+// first use: 16 lanes (AVX-512), 8 (AVX2), 4 (the baseline; other compilers and CPUs build only
+// it). All compute the same bits. This caps the width for the evaluations that start after it
+// (0: no cap) and returns the width they use: tests compare the builds with it.
+unsigned set_cpu_evaluator_lanes(unsigned max_lanes);
+
 // An upper bound of the bytes one evaluate_cpu (or, with `gradients`, evaluate_gradient_cpu) call
 // allocates: its threads' activation scratch and their bookkeeping.
 size_t evaluate_scratch_bytes(const Network& network, bool gradients, unsigned threads);

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 
 #include "sine.h"
 #include "test_util.h"
@@ -181,6 +182,44 @@ TEST(Network, IndependentOfThreadCountAndBlocking) {
     evaluate_cpu(net, &p[3 * 12345], 1, single.data());
     EXPECT_EQ(single[0], one[12345]);
     evaluate_cpu(net, p.data(), 0, nullptr);  // nothing to do is fine
+}
+
+// Every vector width the CPU evaluator is built for that this machine runs (network.h,
+// set_cpu_evaluator_lanes: AVX-512, AVX2, baseline) computes the same values and gradients, bit for
+// bit: widths that are and are not multiples of the output blocks, point counts that end inside a
+// group of lanes, a colour network's three outputs.
+TEST(Network, EveryVectorWidthComputesTheSameBits) {
+    const unsigned widest = set_cpu_evaluator_lanes(0);
+    ParsedFile coloured;
+    const Bytes bytes = coloured_file(closed_blob(), random_colour_siren(17, 6, 2));
+    ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &coloured), NFD_SUCCESS);
+    const std::pair<Network, size_t> cases[] = {
+        {parse_or_throw(geom_file(random_siren(32, 8, 9, 1))).network, 20011},
+        {parse_or_throw(geom_file(random_siren(23, 8, 4, 0, 1, 5))).network, 4133},
+        {*coloured.colour, 999}};
+    for (const auto& [net, n] : cases) {
+        const std::vector<float> p = random_points(n, 5, 1.1f);
+        const size_t outputs = net.output_width();
+        std::vector<float> values(outputs * n), gradients(3 * n), values_w(outputs * n),
+            gradients_w(3 * n), with_gradients(n);
+        set_cpu_evaluator_lanes(0);
+        evaluate_cpu(net, p.data(), n, values.data(), 2);
+        if (outputs == 1)
+            evaluate_gradient_cpu(net, p.data(), n, with_gradients.data(), gradients.data(), 2);
+        for (unsigned lanes = widest / 2; lanes >= 1; lanes /= 2) {
+            const unsigned used = set_cpu_evaluator_lanes(lanes);
+            if (used > lanes) break;  // no narrower build
+            std::printf("width %u: %u lanes against %u\n", net.layers[0].out, used, widest);
+            evaluate_cpu(net, p.data(), n, values_w.data(), 2);
+            EXPECT_EQ(std::memcmp(values.data(), values_w.data(), 4 * values.size()), 0) << used;
+            if (outputs != 1) continue;
+            evaluate_gradient_cpu(net, p.data(), n, with_gradients.data(), gradients_w.data(), 2);
+            EXPECT_EQ(std::memcmp(values.data(), with_gradients.data(), 4 * n), 0) << used;
+            EXPECT_EQ(std::memcmp(gradients.data(), gradients_w.data(), 4 * gradients.size()), 0)
+                << used;
+        }
+    }
+    set_cpu_evaluator_lanes(0);
 }
 
 // The closed blob's field is known in closed form: check the evaluator on it too.
