@@ -36,6 +36,15 @@ uint32_t edges_within(const float f[8], float limit) {
         within |= uint32_t(f[mc::kEdgeCorners[e][0]] + f[mc::kEdgeCorners[e][1]] <= limit) << e;
     return within;
 }
+// The edges of a cell whose ends differ in sign (f < 0 against not: NaN counts as not negative).
+uint32_t crossed_edges(const float f[8]) {
+    uint32_t crossed = 0;
+    for (int e = 0; e < 12; ++e) {
+        const bool a = f[mc::kEdgeCorners[e][0]] < 0.0f, b = f[mc::kEdgeCorners[e][1]] < 0.0f;
+        crossed |= uint32_t(a != b) << e;
+    }
+    return crossed;
+}
 // The UDF mesher's valid edges of a cell of edge h (grid.h, udf_edge_limit).
 uint32_t udf_valid_edges(const float f[8], float h) { return edges_within(f, udf_edge_limit(h)); }
 // The cells a level grows from: a sign change (SDF), a valid edge (UDF).
@@ -275,9 +284,10 @@ uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
 
 uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices) {
     // The flood's store, its two frontiers (each at most the level's cells, grown by doubling),
-    // a wave's face masks, a UDF's seeded-parent bits.
+    // a wave's face masks, a UDF's seeded-parent bits, the parents' edge masks (a parent cell's
+    // lowest corner is one of its vertices, so there are no more cells than vertices).
     return FloodStore::bytes_bound(next.cells_per_axis + 1, next.blocks) + 17 * next.cells +
-           (parent_vertices + 63) / 64 * 8;
+           (parent_vertices + 63) / 64 * 8 + 2 * parent_vertices;
 }
 
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
@@ -323,17 +333,31 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
         uint32_t middle[3];     // the midpoint, a vertex of this level
         uint32_t slot;          // the midpoint's
     };
+    // Each parent's crossed (SDF) or valid (UDF) edges, bit k for edge k, found on threads once:
+    // both passes below and the lone parents' test read them, and the corners of the parents
+    // with none are not read again.
+    nfd::vector<uint16_t> parent_edges(parent.cells.size());
+    parallel_for(parent.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+            uint32_t c[3];
+            unpack_coords(parent.cells[i], c);
+            float f[8];
+            parent.corners(c, f);
+            parent_edges[i] =
+                uint16_t(udf ? udf_valid_edges(f, parent.cell_size) : crossed_edges(f));
+        }
+    });
     auto for_each_crossed_edge = [&](auto&& fn) {
-        for (uint32_t packed : parent.cells) {
+        for (size_t cell = 0; cell < parent.cells.size(); ++cell) {
+            const uint32_t edges = parent_edges[cell];
+            if (!edges) continue;
             CrossedParentEdge e;
-            unpack_coords(packed, e.cell);
+            unpack_coords(parent.cells[cell], e.cell);
             float f[8];
             parent.corners(e.cell, f);
-            const uint32_t valid = udf ? udf_valid_edges(f, parent.cell_size) : 0;
-            if (udf ? valid == 0 : !has_sign_change(f)) continue;
             for (int k = 0; k < 12; ++k) {
+                if (!(edges >> k & 1)) continue;
                 const uint8_t a = mc::kEdgeCorners[k][0], b = mc::kEdgeCorners[k][1];
-                if (udf ? !(valid >> k & 1) : (f[a] < 0.0f) == (f[b] < 0.0f)) continue;
                 e.lower = mc::kCornerOffset[a];
                 e.f_lower = f[a];
                 e.f_upper = f[b];
@@ -384,10 +408,7 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     for (size_t i = 0; udf && i < parent.cells.size(); ++i) {
         uint32_t c[3];
         unpack_coords(parent.cells[i], c);
-        if (is_seeded(c[0], c[1], c[2])) continue;  // most followed parents: one bit, no corners
-        float f[8];
-        parent.corners(c, f);
-        if (!udf_valid_edges(f, parent.cell_size)) continue;
+        if (!parent_edges[i] || is_seeded(c[0], c[1], c[2])) continue;
         bool lone = true;
         for (int k = 0; k < 27 && lone; ++k)
             lone = !is_seeded(int64_t(c[0]) + k % 3 - 1, int64_t(c[1]) + k / 3 % 3 - 1,
