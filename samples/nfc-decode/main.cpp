@@ -3,7 +3,7 @@
 //
 //   nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N] [--no-colour]
 //              [--sample-band] [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]]
-//              [--stats] [--pipeline-cache FILE]
+//              [--threads N] [--stats] [--pipeline-cache FILE]
 //   nfc-decode IN.nfc -o OUT.{glb,ply} --levels R1,R2,... [--write-levels] [--stats[=json]]
 //
 // Errors are one line on stderr ("nfc-decode: error: ...") and a non-zero exit status: 2 for a
@@ -32,7 +32,7 @@ namespace {
 const char kUsage[] =
     "usage: nfc-decode IN.nfc -o OUT.{glb,ply,vdb} [--resolution N] [--points N] [--no-colour]\n"
     "                  [--sample-band] [--device auto|vulkan|cpu] [--stream-chunk N [--bandwidth R]]\n"
-    "                  [--stats] [--pipeline-cache FILE]\n"
+    "                  [--threads N] [--stats] [--pipeline-cache FILE]\n"
     "  OUT             .glb or .ply: the surface mesh; .vdb: the distance on a narrow band\n"
     "                  around it (OpenVDB)\n"
     "  --resolution N  grid cells per axis over the unit cube (8..1024, default 256)\n"
@@ -44,6 +44,8 @@ const char kUsage[] =
     "                  voids are found too (nfd_mesh_options.sample_band; .vdb always does, and\n"
     "                  Vulkan does but for a UDF's finest level)\n"
     "  --device D      auto (a GPU, else the CPU path; default), vulkan (lavapipe too), or cpu\n"
+    "  --threads N     threads of the CPU path and of a Vulkan decode's host work (1..1024;\n"
+    "                  default: one per core); the output does not depend on it\n"
     "  --stream-chunk N\n"
     "                  feed the file to nfd_stream N bytes at a time, never holding it whole;\n"
     "                  meshing starts from the asset the stream yields\n"
@@ -77,6 +79,7 @@ struct Options {
     bool no_colour = false;
     bool sample_band = false;
     nfd_device_kind device = NFD_DEVICE_AUTO;
+    uint32_t threads = 0;     // 0: one per core (nfd_context_options.cpu_threads)
     size_t stream_chunk = 0;  // 0: read the whole file, then nfd_asset_create
     double bandwidth = 0;     // bytes per second; 0: as fast as the file reads
     std::string pipeline_cache;  // empty: none kept between runs
@@ -159,6 +162,8 @@ Options parse_args(int argc, char** argv) {
             else if (d == "vulkan") o.device = NFD_DEVICE_VULKAN;
             else if (d == "cpu") o.device = NFD_DEVICE_CPU;
             else fail(2, "--device expects auto, vulkan or cpu, got '" + d + "'");
+        } else if (arg == "--threads") {
+            o.threads = uint32_t(parse_count("--threads", value(), 1, 1024));
         } else if (arg == "--stream-chunk") {
             o.stream_chunk = size_t(parse_count("--stream-chunk", value(), 1, NFD_MAX_FILE_SIZE));
         } else if (arg == "--bandwidth") {
@@ -240,6 +245,7 @@ void create_context(const Options& o, nfd_context** out) {
     nfd_context_options co = {};
     co.struct_size = sizeof co;
     co.device = o.device;
+    co.cpu_threads = o.threads;
     co.pipeline_cache = cache.data();
     co.pipeline_cache_size = cache.size();
     check(nfd_context_create(&co, out), "device");

@@ -135,6 +135,8 @@ TEST(Cli, ErrorsAreOneLineWithNonZeroStatus) {
     expect_one_line_error(run_cli(good + " -o x.glb --resolution 7"), 2, "--resolution");
     expect_one_line_error(run_cli(good + " -o x.glb --resolution 12abc"), 2, "--resolution");
     expect_one_line_error(run_cli(good + " -o x.glb --device gpu"), 2, "--device");
+    expect_one_line_error(run_cli(good + " -o x.glb --threads 0"), 2, "--threads");
+    expect_one_line_error(run_cli(good + " -o x.glb --threads -2"), 2, "--threads");
     expect_one_line_error(run_cli(good + " -o x.glb --points 5"), 2, "point cloud");
     expect_one_line_error(run_cli(good + " -o x.vdb --points 5"), 2, "point cloud");
     expect_one_line_error(run_cli(good + " -o x.glb --frobnicate"), 2, "unknown option");
@@ -167,6 +169,14 @@ TEST(Cli, StreamedInputWritesTheSameFile) {
         const CliRun r = run_cli(in + common + "streamed" + chunk + ".glb --stream-chunk " + chunk);
         ASSERT_EQ(r.status, 0) << chunk << r.err;
         EXPECT_TRUE(read_bytes(out) == plain) << "--stream-chunk " << chunk;
+        std::remove(out.c_str());
+    }
+    // The thread count changes nothing either.
+    for (const char* threads : {"1", "3"}) {
+        const std::string out = dir + "threads" + threads + ".glb";
+        const CliRun r = run_cli(in + common + "threads" + threads + ".glb --threads " + threads);
+        ASSERT_EQ(r.status, 0) << threads << r.err;
+        EXPECT_TRUE(read_bytes(out) == plain) << "--threads " << threads;
         std::remove(out.c_str());
     }
     const CliRun stats = run_cli(in + common + "stats.glb --stream-chunk 64 --stats");
