@@ -13,8 +13,8 @@ instructions of a run whose input is cut after 64 bytes: the context, then a par
 is what the ladder's `cpu_ms` covers (from the first byte on; the written `.ply` is the same in
 both runs). Under valgrind, lavapipe's LLVM targets valgrind's CPU (no AVX-512), so each network
 shape's kernels are first compiled into Mesa's shader cache by a warm-up run that is not counted;
-the C++ path runs its AVX2 clones, where a network evaluation costs relatively more than in the
-AVX-512 clones a native run picks: on the CPU path the counts overweight evaluations against
+the C++ path runs its AVX2 build, where a network evaluation costs relatively more than in the
+AVX-512 build a native run picks: on the CPU path the counts overweight evaluations against
 bookkeeping, so a change that trades one for the other must be timed too (bench/RESULTS.md,
 "0.13.2: the C++ gradient in reverse mode", its third try). A lavapipe run takes 1-2 minutes
 under callgrind.

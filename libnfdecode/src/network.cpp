@@ -106,7 +106,7 @@ void sum_rows(uint32_t terms, Coefficient&& coefficient, const float* rows, size
 // Rows o .. o + B - 1 of a layer over `count` points: acc[b][p] = sum_i w[o + b][i] x[i][p], in
 // input order. The gradient path's forward pass is this one (value_layer), so its values are the
 // value path's bit for bit; network.cpp is compiled without floating-point contraction, so no
-// instruction-set clone fuses the multiply-adds differently.
+// instruction-set build fuses the multiply-adds differently.
 template <size_t N, uint32_t B>
 void layer_rows(const Layer& layer, uint32_t o, const float* h, size_t count,
                 float (&acc)[kOutputBlock][kBlock]) {
