@@ -240,7 +240,14 @@ public:
     }
     // fn(rank, x, y, z) for every vertex, in rank order.
     template <class Fn>
-    void for_each(Fn&& fn) const;
+    void for_each(Fn&& fn) const {
+        for_each_in_blocks(0, blocks_.size(), fn);
+    }
+    // The same for the vertices of blocks [first, end) of the blocks() the set occupies (8^3
+    // vertices each, in rank order): threads can share a walk by block ranges.
+    size_t blocks() const { return blocks_.size(); }
+    template <class Fn>
+    void for_each_in_blocks(size_t first, size_t end, Fn&& fn) const;
 
 private:
     static constexpr uint32_t kNoBlock = ~0u;
@@ -416,9 +423,11 @@ nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const G
                           SparseGrid* grid, unsigned threads = 0);
 
 template <class Fn>
-void VertexSet::for_each(Fn&& fn) const {
-    uint32_t r = 0;
-    for (const Block& b : blocks_) {
+void VertexSet::for_each_in_blocks(size_t first, size_t end, Fn&& fn) const {
+    if (first >= end) return;
+    uint32_t r = blocks_[first].prefix[0];
+    for (size_t s = first; s < end; ++s) {
+        const Block& b = blocks_[s];
         const uint32_t bx = b.index % blocks_per_axis_, by = b.index / blocks_per_axis_ % blocks_per_axis_,
                        bz = b.index / (blocks_per_axis_ * blocks_per_axis_);
         for (uint32_t w = 0; w < 8; ++w)

@@ -138,6 +138,11 @@ public:
     bool claim_visited(uint32_t s) { return claim(bits_[s >> 9].visited, s); }
     float& value(uint32_t s) { return values_[s]; }
     float value(uint32_t s) const { return values_[s]; }
+    // The value at vertex (x, y, z) of a block that exists (the vertex was claimed): makes no
+    // block, so threads may share it.
+    float known_value(uint32_t x, uint32_t y, uint32_t z) const {
+        return values_[in_block(table_[block_index(x, y, z)], x, y, z)];
+    }
     // fn(x, y, z) for every visited cell: blocks in raster order, inside a block by 2^3 groups
     // in raster order, and a group in mc::kCornerOffset order. So a parent's children are
     // consecutive, a sibling group where all eight were visited (marching.h).
@@ -284,10 +289,10 @@ uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
 
 uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices) {
     // The flood's store, its two frontiers (each at most the level's cells, grown by doubling),
-    // a wave's face masks, a UDF's seeded-parent bits, the parents' edge masks (a parent cell's
-    // lowest corner is one of its vertices, so there are no more cells than vertices).
+    // a wave's face masks, a UDF's seeded-parent bits, the parents' edge masks and seeds (a
+    // parent cell's lowest corner is one of its vertices: no more cells than vertices).
     return FloodStore::bytes_bound(next.cells_per_axis + 1, next.blocks) + 17 * next.cells +
-           (parent_vertices + 63) / 64 * 8 + 2 * parent_vertices;
+           (parent_vertices + 63) / 64 * 8 + 6 * parent_vertices;
 }
 
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
@@ -325,17 +330,8 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // surface crosses the edge, the half it crosses is. A parent edge is shared by up to four
     // parents, which evaluate its midpoint once and agree.
     const bool udf = grid.field == FieldType::Udf;
-    struct CrossedParentEdge {
-        uint32_t cell[3];       // the parent
-        const uint8_t* lower;   // its corner at the edge's lower end (mc::kCornerOffset)
-        float f_lower, f_upper;  // the values at the edge's ends
-        int axis;
-        uint32_t middle[3];     // the midpoint, a vertex of this level
-        uint32_t slot;          // the midpoint's
-    };
     // Each parent's crossed (SDF) or valid (UDF) edges, bit k for edge k, found on threads once:
-    // both passes below and the lone parents' test read them, and the corners of the parents
-    // with none are not read again.
+    // the passes below read them, and only the parents with some read their corners again.
     nfd::vector<uint16_t> parent_edges(parent.cells.size());
     parallel_for(parent.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
         for (size_t i = begin; i < end; ++i) {
@@ -347,73 +343,105 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
                 uint16_t(udf ? udf_valid_edges(f, parent.cell_size) : crossed_edges(f));
         }
     });
-    auto for_each_crossed_edge = [&](auto&& fn) {
-        for (size_t cell = 0; cell < parent.cells.size(); ++cell) {
+    // The midpoint of edge k of parent cell c, a vertex of this level; false past the level's
+    // last vertex (an odd cell count), where the half's cells are dropped.
+    auto edge_midpoint = [n](const uint32_t c[3], int k, uint32_t middle[3]) {
+        const uint8_t* lower = mc::kCornerOffset[mc::kEdgeCorners[k][0]];
+        for (int i = 0; i < 3; ++i) middle[i] = 2 * (c[i] + lower[i]);
+        ++middle[k / 4];
+        return middle[0] <= n && middle[1] <= n && middle[2] <= n;
+    };
+    for (size_t cell = 0; cell < parent.cells.size(); ++cell) {
+        const uint32_t edges = parent_edges[cell];
+        if (!edges) continue;
+        uint32_t c[3], m[3];
+        unpack_coords(parent.cells[cell], c);
+        for (int k = 0; k < 12; ++k) {
+            if (!(edges >> k & 1) || !edge_midpoint(c, k, m)) continue;
+            const uint32_t slot = store.slot(m[0], m[1], m[2]);
+            if (store.claim_known(slot)) fetch(slot, m[0], m[1], m[2]);
+        }
+    }
+    evaluator.finish();
+    // The seeds each parent gives, decided on threads (they only read the midpoints' values):
+    // bit k, the child holding edge k's lower half; bit 16 + k, its upper half's. Then the visits
+    // on this thread, in the order of the parents and their edges.
+    constexpr uint32_t kUpperHalf = 16, kLone = 1u << 31;
+    const float edge_limit = udf_edge_limit(out->cell_size);
+    nfd::vector<uint32_t> seeds(parent.cells.size());
+    parallel_for(parent.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
+        const FloodStore& known = store;
+        for (size_t cell = begin; cell < end; ++cell) {
             const uint32_t edges = parent_edges[cell];
             if (!edges) continue;
-            CrossedParentEdge e;
-            unpack_coords(parent.cells[cell], e.cell);
+            uint32_t c[3];
+            unpack_coords(parent.cells[cell], c);
             float f[8];
-            parent.corners(e.cell, f);
+            parent.corners(c, f);
+            uint32_t children = 0;
             for (int k = 0; k < 12; ++k) {
                 if (!(edges >> k & 1)) continue;
+                uint32_t m[3];
+                if (!edge_midpoint(c, k, m)) continue;
                 const uint8_t a = mc::kEdgeCorners[k][0], b = mc::kEdgeCorners[k][1];
-                e.lower = mc::kCornerOffset[a];
-                e.f_lower = f[a];
-                e.f_upper = f[b];
-                e.axis = k / 4;
-                for (int i = 0; i < 3; ++i) e.middle[i] = 2 * (e.cell[i] + e.lower[i]);
-                ++e.middle[e.axis];
-                // Past the level's last vertex (an odd cell count): the half's cells are dropped.
-                if (e.middle[0] > n || e.middle[1] > n || e.middle[2] > n) continue;
-                e.slot = store.slot(e.middle[0], e.middle[1], e.middle[2]);
-                fn(e);
+                const float f_middle = known.known_value(m[0], m[1], m[2]);
+                if (!udf) {
+                    children |= 1u << (k + ((f[a] < 0.0f) == (f_middle < 0.0f) ? kUpperHalf : 0));
+                    continue;
+                }
+                children |= uint32_t(f[a] + f_middle <= edge_limit) << k;
+                children |= uint32_t(f_middle + f[b] <= edge_limit) << (k + kUpperHalf);
             }
+            seeds[cell] = children;
         }
-    };
-    for_each_crossed_edge([&](const CrossedParentEdge& e) {
-        if (store.claim_known(e.slot)) fetch(e.slot, e.middle[0], e.middle[1], e.middle[2]);
     });
-    evaluator.finish();
-    const float edge_limit = udf_edge_limit(out->cell_size);
     // UDF: the parents whose edges gave a seed, a bit per parent vertex rank of their lowest
     // corner.
     nfd::vector<uint64_t> seeded(udf ? (parent.vertices.size() + 63) / 64 : 0);
-    for_each_crossed_edge([&](const CrossedParentEdge& e) {
-        uint32_t child[3];
-        for (int i = 0; i < 3; ++i) child[i] = 2 * e.cell[i] + e.lower[i];
-        const float f_middle = store.value(e.slot);
-        if (!udf) {
-            child[e.axis] += (e.f_lower < 0.0f) == (f_middle < 0.0f);
-            visit(child[0], child[1], child[2]);
-            return;
+    for (size_t cell = 0; cell < parent.cells.size(); ++cell) {
+        const uint32_t children = seeds[cell];
+        if (!children) continue;
+        uint32_t c[3];
+        unpack_coords(parent.cells[cell], c);
+        for (int k = 0; k < 12; ++k) {
+            if (!(children >> k & (1u | 1u << kUpperHalf))) continue;
+            uint32_t child[3];
+            const uint8_t* lower = mc::kCornerOffset[mc::kEdgeCorners[k][0]];
+            for (int i = 0; i < 3; ++i) child[i] = 2 * c[i] + lower[i];
+            if (children >> k & 1) visit(child[0], child[1], child[2]);
+            ++child[k / 4];
+            if (children >> (k + kUpperHalf) & 1) visit(child[0], child[1], child[2]);
         }
-        const bool lower = e.f_lower + f_middle <= edge_limit;
-        const bool upper = f_middle + e.f_upper <= edge_limit;
-        if (lower) visit(child[0], child[1], child[2]);
-        ++child[e.axis];
-        if (upper) visit(child[0], child[1], child[2]);
-        if (lower || upper) {
-            const uint32_t r = parent.vertices.rank(e.cell[0], e.cell[1], e.cell[2]);
+        if (udf) {
+            const uint32_t r = parent.vertices.rank(c[0], c[1], c[2]);
             seeded[r / 64] |= uint64_t(1) << (r % 64);
         }
-    });
+    }
     // UDF: a parent with a valid edge but no seed, none of whose 26 neighbours has one, holds the
     // surface inside, away from its edges (a small closed piece): all its children are seeds.
     // Where a neighbour has seeds, the surface passes beside it and the flood comes from there.
+    // Found on threads (kLone), visited here in order.
     auto is_seeded = [&](int64_t x, int64_t y, int64_t z) {
         uint32_t r;
         return parent.vertices.find(x, y, z, &r) && (seeded[r / 64] >> (r % 64) & 1);
     };
-    for (size_t i = 0; udf && i < parent.cells.size(); ++i) {
+    const size_t lone_candidates = udf ? parent.cells.size() : 0;
+    parallel_for(lone_candidates, kFloodGrain, threads, [&](size_t begin, size_t end) {
+        for (size_t cell = begin; cell < end; ++cell) {
+            if (!parent_edges[cell] || seeds[cell]) continue;
+            uint32_t c[3];
+            unpack_coords(parent.cells[cell], c);
+            bool lone = true;
+            for (int k = 0; k < 27 && lone; ++k)
+                lone = !is_seeded(int64_t(c[0]) + k % 3 - 1, int64_t(c[1]) + k / 3 % 3 - 1,
+                                  int64_t(c[2]) + k / 9 - 1);
+            if (lone) seeds[cell] = kLone;
+        }
+    });
+    for (size_t cell = 0; udf && cell < parent.cells.size(); ++cell) {
+        if (seeds[cell] != kLone) continue;
         uint32_t c[3];
-        unpack_coords(parent.cells[i], c);
-        if (!parent_edges[i] || is_seeded(c[0], c[1], c[2])) continue;
-        bool lone = true;
-        for (int k = 0; k < 27 && lone; ++k)
-            lone = !is_seeded(int64_t(c[0]) + k % 3 - 1, int64_t(c[1]) + k / 3 % 3 - 1,
-                              int64_t(c[2]) + k / 9 - 1);
-        if (!lone) continue;
+        unpack_coords(parent.cells[cell], c);
         for (const auto& o : mc::kCornerOffset)
             visit(2 * c[0] + o[0], 2 * c[1] + o[1], 2 * c[2] + o[2]);
     }
@@ -496,8 +524,14 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     store.for_each_visited(
         [&](uint32_t x, uint32_t y, uint32_t z) { out->cells.push_back(pack_coords(x, y, z)); });
     out->collect_corners();
-    out->vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-        out->values[r] = store.value(store.slot(x, y, z));
+    // The level's values from the store, by ranges of blocks (64: a few thousand vertices) on
+    // threads.
+    const FloodStore& known = store;
+    parallel_for(out->vertices.blocks(), 64, threads, [&](size_t begin, size_t end) {
+        out->vertices.for_each_in_blocks(
+            begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+                out->values[r] = known.known_value(x, y, z);
+            });
     });
 }
 
