@@ -286,9 +286,9 @@ void gradient_range(const Network& net, const float* unit_xyz, size_t begin, siz
 // Both paths built for each instruction set, with everything they call inlined (`flatten`), so
 // that the row loops and the vectors of sum_rows are the set's own: 16 lanes on AVX-512, 8 on
 // AVX2, 4 on the x86-64 baseline; the widest the CPU has is picked at first use. Without
-// contraction every build computes the same bits. Other compilers and targets build the baseline
-// only (4 lanes: SSE, NEON), ThreadSanitizer builds too (GCC's target_clones resolver, which did
-// this before, ran while the dynamic loader relocates, and TSan's instrumented one crashed there).
+// contraction every build computes the same bits. GCC on x86-64 Linux builds all three; other
+// compilers and targets (Clang's builds serve the fuzzers) and ThreadSanitizer builds, which test
+// the threads rather than the instruction sets, build the baseline only (4 lanes: SSE, NEON).
 struct RangeFunctions {
     void (*values)(const Network&, const float*, size_t, size_t, float*, Scratch&);
     void (*gradients)(const Network&, const float*, size_t, size_t, float*, float*, Scratch&);
@@ -333,9 +333,9 @@ const Build* widest_build(unsigned max_lanes) {
 std::atomic<const Build*> g_build{nullptr};
 const RangeFunctions& ranges() {
     const Build* b = g_build.load(std::memory_order_acquire);
-    if (!b) {
-        b = widest_build(0);
-        g_build.store(b, std::memory_order_release);
+    if (!b) {  // first use; a cap set meanwhile (set_cpu_evaluator_lanes) stays
+        const Build* widest = widest_build(0);
+        b = g_build.compare_exchange_strong(b, widest, std::memory_order_acq_rel) ? widest : b;
     }
     return b->functions;
 }
