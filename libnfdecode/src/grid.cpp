@@ -10,6 +10,7 @@
 
 #include "grid_eval.h"
 #include "mc_tables.h"
+#include "parallel.h"
 
 namespace nfd {
 namespace {
@@ -276,19 +277,25 @@ void GridBuilder::step() {
 // A vertex with all-even coordinates where the level above has gradients (it was meshed, in a
 // progressive extraction) is the same f32 point as that level's vertex (x/2, y/2, z/2): its
 // gradient is copied, not evaluated again. Those gradients are freed then; this level's stay for
-// its mesh and the next level.
+// its mesh and the next level. The near test runs once, on threads (the set is built after it,
+// in cell order); the mesher reads its verdicts.
 void GridBuilder::evaluate_udf_gradients() {
     const auto t0 = std::chrono::steady_clock::now();
     GridLevel& level = grid_.levels[current_];
     GridLevel* above = current_ + 1 < grid_.levels.size() ? &grid_.levels[current_ + 1] : nullptr;
+    nfd::vector<uint8_t>& near = level.near;
+    near.assign(level.cells.size(), 0);
+    parallel_for(level.cells.size(), 16384, threads_, [&](size_t begin, size_t end) {
+        level.for_each_cell(begin, end, nullptr, [&](size_t i, const uint32_t*, const float* f) {
+            near[i] = uint8_t(udf_cell_is_near(f, level.cell_size));
+        });
+    });
     VertexSet& wanted = level.gradient_vertices;
     wanted = VertexSet(level.cells_per_axis + 1);
-    for (uint32_t packed : level.cells) {
+    for (size_t i = 0; i < level.cells.size(); ++i) {
+        if (!near[i]) continue;
         uint32_t c[3];
-        unpack_coords(packed, c);
-        float f[8];
-        level.corners(c, f);
-        if (!udf_cell_is_near(f, level.cell_size)) continue;
+        unpack_coords(level.cells[i], c);
         wanted.insert_cell(c[0], c[1], c[2]);
     }
     wanted.finish();
@@ -309,6 +316,7 @@ void GridBuilder::evaluate_udf_gradients() {
     });
     grid_.stats.gradients_evaluated += evaluator.finish();
     for (uint32_t l = current_ + 1; l < grid_.levels.size(); ++l) {
+        grid_.levels[l].near = nfd::vector<uint8_t>();
         grid_.levels[l].gradient_vertices = VertexSet();
         grid_.levels[l].gradients = nfd::vector<float>();
     }
@@ -354,7 +362,8 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
 uint64_t GridBuilder::next_gradients_bytes_bound() const {
     if (done()) return 0;
     const LevelSize next = next_level_size();
-    return VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) + 12 * next.vertices +
+    return next.cells + VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) +
+           12 * next.vertices +
            evaluator_bytes(network_, next.vertices, true, threads_);
 }
 

@@ -8,6 +8,7 @@
 // `follow_finest`, gpu/levels.h's evaluate_finest_flood: 0.63-0.74 of the band's evaluations).
 #pragma once
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "mc_tables.h"
@@ -275,8 +276,10 @@ struct GridLevel {
     nfd::vector<uint32_t> cells;  // packed cell coordinates (their minimum corner)
     VertexSet vertices;           // the corners of `cells`
     nfd::vector<float> values;    // field at each vertex, by rank
-    // For the UDF mesher of this level (GridBuilder::evaluate_udf_gradients): the corners of its
-    // near cells and the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
+    // For the UDF mesher of this level (GridBuilder::evaluate_udf_gradients): whether each cell
+    // is near (udf_cell_is_near, 1 or 0, by index in `cells`), the corners of the near cells and
+    // the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
+    nfd::vector<uint8_t> near;
     VertexSet gradient_vertices;
     nfd::vector<float> gradients;
     // vertices := the corners of `cells`; values sized to match, zero.
@@ -293,6 +296,13 @@ struct GridLevel {
         vertices.sibling_ranks(cell[0], cell[1], cell[2], r);
         for (int k = 0; k < 27; ++k) v[k] = values[r[k]];
     }
+    // fn(i, cell, f) for cells[i], i in [begin, end), with the cell's coordinates and its eight
+    // corner values (mc::kCornerOffset order), in order; where `only` is given, for the cells
+    // with only[i] != 0. Eight siblings listed together (the levels below the coarsest list each
+    // parent's children so, unless the domain's end dropped some) read their 27 corners once,
+    // and not at all when `only` skips all eight.
+    template <class Fn>
+    void for_each_cell(size_t begin, size_t end, const uint8_t* only, Fn&& fn) const;
     // -1 + v * h equals the fine grid's -1 + (v << l) * step in f32: both products are the same
     // real number times a power of two, rounded once.
     float coord(uint32_t v) const { return -1.0f + float(v) * cell_size; }
@@ -435,6 +445,55 @@ void VertexSet::for_each_in_blocks(size_t first, size_t end, Fn&& fn) const {
                 const uint32_t i = uint32_t(__builtin_ctzll(bits));  // x + 8 y within slice z = w
                 fn(r++, 8 * bx + (i & 7), 8 * by + (i >> 3), 8 * bz + w);
             }
+    }
+}
+
+template <class Fn>
+void GridLevel::for_each_cell(size_t begin, size_t end, const uint8_t* only, Fn&& fn) const {
+    // Whether cells[i..i+8) are the eight children of one parent in mc::kCornerOffset order.
+    auto sibling_group = [this](size_t i) {
+        const uint32_t base = cells[i];
+        if (base & (1u | 1u << 11 | 1u << 22)) return false;  // an odd coordinate: not a first child
+        for (int k = 1; k < 8; ++k) {
+            const uint8_t* o = mc::kCornerOffset[k];
+            if (cells[i + k] != base + pack_coords(o[0], o[1], o[2])) return false;
+        }
+        return true;
+    };
+    for (size_t i = begin; i < end;) {
+        uint32_t c[3];
+        unpack_coords(cells[i], c);
+        if (i + 8 <= end && sibling_group(i)) {
+            uint64_t wanted = 0xFF;
+            if (only) {
+                uint64_t group;
+                std::memcpy(&group, only + i, 8);
+                wanted = group;
+            }
+            if (wanted) {
+                float v[27];
+                sibling_values(c, v);
+                for (int k = 0; k < 8; ++k) {
+                    if (only && !only[i + k]) continue;
+                    const uint8_t* o = mc::kCornerOffset[k];
+                    const uint32_t ck[3] = {c[0] + o[0], c[1] + o[1], c[2] + o[2]};
+                    float f[8];
+                    for (int j = 0; j < 8; ++j) {
+                        const uint8_t* q = mc::kCornerOffset[j];
+                        f[j] = v[9 * (o[2] + q[2]) + 3 * (o[1] + q[1]) + o[0] + q[0]];
+                    }
+                    fn(i + k, ck, f);
+                }
+            }
+            i += 8;
+        } else {
+            if (!only || only[i]) {
+                float f[8];
+                corners(c, f);
+                fn(i, c, f);
+            }
+            ++i;
+        }
     }
 }
 

@@ -49,18 +49,6 @@ inline CrossedEdge crossed_edge(const uint32_t c[3], int e, const float f[8]) {
     return {{c[0] + o[0], c[1] + o[1], c[2] + o[2]}, e / 4, f[a], f[b], c, f};
 }
 
-// Whether cells[0..8) are the eight children of one parent in mc::kCornerOffset order, as the
-// levels below the coarsest list them (grid.h) unless the domain's end dropped some.
-inline bool is_sibling_group(const uint32_t* cells) {
-    const uint32_t base = cells[0];
-    if (base & (1u | 1u << 11 | 1u << 22)) return false;  // an odd coordinate: not a first child
-    for (int k = 1; k < 8; ++k) {
-        const uint8_t* o = mc::kCornerOffset[k];
-        if (cells[k] != base + pack_coords(o[0], o[1], o[2])) return false;
-    }
-    return true;
-}
-
 // A grid edge's slot in the welding table: the level's rank of its lower end (`corner_ranks` of
 // the cell, VertexSet::cell_ranks), times 3, plus its axis. At most 3 * 1025^3 < 2^32.
 inline uint32_t edge_key(const uint32_t corner_ranks[8], int e) {
@@ -83,7 +71,8 @@ inline bool first_occurrence(const uint32_t* keys, size_t p) {
 
 }  // namespace marching_detail
 
-// The cells of `level` (the finest, or a coarser one meshed as if it were: progressive.h).
+// The cells of `level` (the finest, or a coarser one meshed as if it were: progressive.h), or
+// those of them with only[i] != 0 where `only` is given (the others emit nothing).
 // classify(cell, f, &case_index) -> bool: whether the cell is meshed, and its case (bit c: corner
 // c inside). edge_valid(edge) -> bool: whether a triangle may use the edge (all three edges of a
 // triangle must be valid). place(edge, u, n): the vertex in the unit frame and its normal.
@@ -93,8 +82,8 @@ inline bool first_occurrence(const uint32_t* keys, size_t p) {
 // not depend on them, and is the one a single loop over the cells would give (each vertex made at
 // its edge's first use): std::length_error past 2^31 emitting cells or vertices.
 template <class Classify, class EdgeValid, class Place>
-uint64_t march_cells(const GridLevel& level, unsigned threads, Classify&& classify,
-                     EdgeValid&& edge_valid, Place&& place, MeshData* mesh) {
+uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* only,
+                     Classify&& classify, EdgeValid&& edge_valid, Place&& place, MeshData* mesh) {
     using namespace marching_detail;
     const mc::Tables& t = mc::tables();
     // Pass 1, over the visited cells: each one's case and the triangles it emits (bit tri). About
@@ -115,29 +104,7 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, Classify&& classi
         emitted[i] = mask;
     };
     parallel_for(visited, 16384, threads, [&](size_t begin, size_t end) {
-        for (size_t i = begin; i < end;) {
-            uint32_t c[3];
-            unpack_coords(level.cells[i], c);
-            if (i + 8 <= end && is_sibling_group(&level.cells[i])) {
-                float v[27];
-                level.sibling_values(c, v);
-                for (int k = 0; k < 8; ++k) {
-                    const uint8_t* o = mc::kCornerOffset[k];
-                    const uint32_t ck[3] = {c[0] + o[0], c[1] + o[1], c[2] + o[2]};
-                    float f[8];
-                    for (int j = 0; j < 8; ++j) {
-                        const uint8_t* q = mc::kCornerOffset[j];
-                        f[j] = v[9 * (o[2] + q[2]) + 3 * (o[1] + q[1]) + o[0] + q[0]];
-                    }
-                    visit(i + k, ck, f);
-                }
-                i += 8;
-            } else {
-                float f[8];
-                level.corners(c, f);
-                visit(i++, c, f);
-            }
-        }
+        level.for_each_cell(begin, end, only, visit);
     });
 
     // The emitting cells in order, and where each one's triangles start.

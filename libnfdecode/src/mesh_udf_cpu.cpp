@@ -28,7 +28,8 @@ bool canonical_direction(const float v[3], float out[3]) {
 
 nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,
                         uint64_t* active_cells) {
-    if (level.gradient_vertices.side() != level.cells_per_axis + 1 ||
+    if (level.near.size() != level.cells.size() ||
+        level.gradient_vertices.side() != level.cells_per_axis + 1 ||
         level.gradients.size() != size_t(3) * level.gradient_vertices.size())
         return NFD_ERROR_INTERNAL;  // the level's gradients were not evaluated
     auto gradient = [&](uint32_t x, uint32_t y, uint32_t z) {
@@ -42,9 +43,8 @@ nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
     };
     const float max_edge_sum = udf_edge_limit(level.cell_size);
     *active_cells = march_cells(
-        level, threads,
+        level, threads, level.near.data(),  // step 1
         [&](const uint32_t* c, const float* f, int* index) {
-            if (!udf_cell_is_near(f, level.cell_size)) return false;  // step 1
             int nearest = 0;
             for (int k = 1; k < 8; ++k)
                 if (f[k] < f[nearest]) nearest = k;
