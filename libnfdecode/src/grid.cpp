@@ -277,37 +277,36 @@ void GridBuilder::step() {
 // A vertex with all-even coordinates where the level above has gradients (it was meshed, in a
 // progressive extraction) is the same f32 point as that level's vertex (x/2, y/2, z/2): its
 // gradient is copied, not evaluated again. Those gradients are freed then; this level's stay for
-// its mesh and the next level. The near test runs once, on threads (the set is built after it,
-// in cell order); the mesher reads its verdicts.
+// its mesh and the next level. The near test runs once, on threads, and marks the corners; the
+// mesher reads its verdicts, and finds the gradients by the ranks it has for the values.
 void GridBuilder::evaluate_udf_gradients() {
     const auto t0 = std::chrono::steady_clock::now();
     GridLevel& level = grid_.levels[current_];
     GridLevel* above = current_ + 1 < grid_.levels.size() ? &grid_.levels[current_ + 1] : nullptr;
     nfd::vector<uint8_t>& near = level.near;
+    nfd::vector<uint8_t>& wanted = level.has_gradient;
     near.assign(level.cells.size(), 0);
+    wanted.assign(level.vertices.size(), 0);
     parallel_for(level.cells.size(), 16384, threads_, [&](size_t begin, size_t end) {
-        level.for_each_cell(begin, end, nullptr, [&](size_t i, const uint32_t*, const float* f) {
-            near[i] = uint8_t(udf_cell_is_near(f, level.cell_size));
-        });
+        level.for_each_cell(begin, end, nullptr,
+                            [&](size_t i, const uint32_t*, const float* f, const uint32_t* r) {
+                                if (!udf_cell_is_near(f, level.cell_size)) return;
+                                near[i] = 1;
+                                // Neighbouring cells on other threads mark shared corners too.
+                                for (int k = 0; k < 8; ++k)
+                                    __atomic_store_n(&wanted[r[k]], uint8_t(1), __ATOMIC_RELAXED);
+                            });
     });
-    VertexSet& wanted = level.gradient_vertices;
-    wanted = VertexSet(level.cells_per_axis + 1);
-    for (size_t i = 0; i < level.cells.size(); ++i) {
-        if (!near[i]) continue;
-        uint32_t c[3];
-        unpack_coords(level.cells[i], c);
-        wanted.insert_cell(c[0], c[1], c[2]);
-    }
-    wanted.finish();
     nfd::vector<float>& gradients = level.gradients;
-    gradients.assign(size_t(3) * wanted.size(), 0.0f);
+    gradients.assign(size_t(3) * level.vertices.size(), 0.0f);
     auto evaluator = make_evaluator(network_, true, threads_, [&gradients](uint32_t r, float, const float* g) {
         std::copy(g, g + 3, &gradients[size_t(3) * r]);
     });
-    wanted.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+    level.vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        if (!wanted[r]) return;
         uint32_t known;
-        if (above && ((x | y | z) & 1) == 0 &&
-            above->gradient_vertices.find(x / 2, y / 2, z / 2, &known)) {
+        if (above && ((x | y | z) & 1) == 0 && above->vertices.find(x / 2, y / 2, z / 2, &known) &&
+            known < above->has_gradient.size() && above->has_gradient[known]) {
             std::copy_n(&above->gradients[size_t(3) * known], 3, &gradients[size_t(3) * r]);
             return;
         }
@@ -317,7 +316,7 @@ void GridBuilder::evaluate_udf_gradients() {
     grid_.stats.gradients_evaluated += evaluator.finish();
     for (uint32_t l = current_ + 1; l < grid_.levels.size(); ++l) {
         grid_.levels[l].near = nfd::vector<uint8_t>();
-        grid_.levels[l].gradient_vertices = VertexSet();
+        grid_.levels[l].has_gradient = nfd::vector<uint8_t>();
         grid_.levels[l].gradients = nfd::vector<float>();
     }
     grid_.stats.seconds +=
@@ -362,8 +361,7 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
 uint64_t GridBuilder::next_gradients_bytes_bound() const {
     if (done()) return 0;
     const LevelSize next = next_level_size();
-    return next.cells + VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) +
-           12 * next.vertices +
+    return next.cells + 13 * next.vertices +
            evaluator_bytes(network_, next.vertices, true, threads_);
 }
 

@@ -277,10 +277,11 @@ struct GridLevel {
     VertexSet vertices;           // the corners of `cells`
     nfd::vector<float> values;    // field at each vertex, by rank
     // For the UDF mesher of this level (GridBuilder::evaluate_udf_gradients): whether each cell
-    // is near (udf_cell_is_near, 1 or 0, by index in `cells`), the corners of the near cells and
-    // the field gradient (unit frame) at each, 3 floats per rank. Empty otherwise.
+    // is near (udf_cell_is_near, 1 or 0, by index in `cells`); by vertex rank, whether the vertex
+    // is a near cell's corner, and there the field gradient (unit frame), 3 floats per rank (0
+    // elsewhere). Empty otherwise.
     nfd::vector<uint8_t> near;
-    VertexSet gradient_vertices;
+    nfd::vector<uint8_t> has_gradient;
     nfd::vector<float> gradients;
     // vertices := the corners of `cells`; values sized to match, zero.
     void collect_corners();
@@ -296,8 +297,8 @@ struct GridLevel {
         vertices.sibling_ranks(cell[0], cell[1], cell[2], r);
         for (int k = 0; k < 27; ++k) v[k] = values[r[k]];
     }
-    // fn(i, cell, f) for cells[i], i in [begin, end), with the cell's coordinates and its eight
-    // corner values (mc::kCornerOffset order), in order; where `only` is given, for the cells
+    // fn(i, cell, f, ranks) for cells[i], i in [begin, end), with the cell's coordinates and its
+    // eight corner values and vertex ranks (mc::kCornerOffset order), in order; where `only` is given, for the cells
     // with only[i] != 0. Eight siblings listed together (the levels below the coarsest list each
     // parent's children so, unless the domain's end dropped some) read their 27 corners once,
     // and not at all when `only` skips all eight.
@@ -471,26 +472,30 @@ void GridLevel::for_each_cell(size_t begin, size_t end, const uint8_t* only, Fn&
                 wanted = group;
             }
             if (wanted) {
-                float v[27];
-                sibling_values(c, v);
+                uint32_t r27[27];
+                vertices.sibling_ranks(c[0], c[1], c[2], r27);
                 for (int k = 0; k < 8; ++k) {
                     if (only && !only[i + k]) continue;
                     const uint8_t* o = mc::kCornerOffset[k];
                     const uint32_t ck[3] = {c[0] + o[0], c[1] + o[1], c[2] + o[2]};
+                    uint32_t r[8];
                     float f[8];
                     for (int j = 0; j < 8; ++j) {
                         const uint8_t* q = mc::kCornerOffset[j];
-                        f[j] = v[9 * (o[2] + q[2]) + 3 * (o[1] + q[1]) + o[0] + q[0]];
+                        r[j] = r27[9 * (o[2] + q[2]) + 3 * (o[1] + q[1]) + o[0] + q[0]];
+                        f[j] = values[r[j]];
                     }
-                    fn(i + k, ck, f);
+                    fn(i + k, ck, f, r);
                 }
             }
             i += 8;
         } else {
             if (!only || only[i]) {
+                uint32_t r[8];
+                vertices.cell_ranks(c[0], c[1], c[2], r);
                 float f[8];
-                corners(c, f);
-                fn(i, c, f);
+                for (int k = 0; k < 8; ++k) f[k] = values[r[k]];
+                fn(i, c, f, r);
             }
             ++i;
         }

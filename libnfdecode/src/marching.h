@@ -16,13 +16,14 @@
 namespace nfd {
 
 // A crossed grid edge, seen from one of its cells: from vertex v (coordinates of the level meshed)
-// along `axis`, with the corner values at its two ends, and that cell's lowest corner and eight
-// corner values (mc::kCornerOffset order), which hold one neighbour of each end across each other
-// axis.
+// along `axis`, with the corner values and the level's vertex ranks at its two ends, and that
+// cell's lowest corner and eight corner values (mc::kCornerOffset order), which hold one neighbour
+// of each end across each other axis.
 struct CrossedEdge {
     uint32_t v[3];
     int axis;
     float fa, fb;
+    uint32_t ra, rb;
     const uint32_t* cell;
     const float* cell_values;
 };
@@ -43,10 +44,10 @@ void for_each_emitted_edge(int index, uint8_t emitted, Fn&& fn) {
             for (int j = 0; j < 3; ++j) fn(int(t.triangles[index][3 * tri + j]));
 }
 
-inline CrossedEdge crossed_edge(const uint32_t c[3], int e, const float f[8]) {
+inline CrossedEdge crossed_edge(const uint32_t c[3], int e, const float f[8], const uint32_t r[8]) {
     const int a = mc::kEdgeCorners[e][0], b = mc::kEdgeCorners[e][1];
     const uint8_t* o = mc::kCornerOffset[a];
-    return {{c[0] + o[0], c[1] + o[1], c[2] + o[2]}, e / 4, f[a], f[b], c, f};
+    return {{c[0] + o[0], c[1] + o[1], c[2] + o[2]}, e / 4, f[a], f[b], r[a], r[b], c, f};
 }
 
 // A grid edge's slot in the welding table: the level's rank of its lower end (`corner_ranks` of
@@ -73,7 +74,8 @@ inline bool first_occurrence(const uint32_t* keys, size_t p) {
 
 // The cells of `level` (the finest, or a coarser one meshed as if it were: progressive.h), or
 // those of them with only[i] != 0 where `only` is given (the others emit nothing).
-// classify(cell, f, &case_index) -> bool: whether the cell is meshed, and its case (bit c: corner
+// classify(cell, f, ranks, &case_index) -> bool (f and ranks: the cell's corner values and vertex
+// ranks, mc::kCornerOffset order): whether the cell is meshed, and its case (bit c: corner
 // c inside). edge_valid(edge) -> bool: whether a triangle may use the edge (all three edges of a
 // triangle must be valid). place(edge, u, n): the vertex in the unit frame and its normal.
 // Vertices and normals go to `mesh` in the unit frame; returns the number of cells that emitted
@@ -90,14 +92,14 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
     // one visited cell in four emits; eight siblings read their 27 corners once.
     const size_t visited = level.cells.size();
     nfd::vector<uint8_t> cases(visited), emitted(visited);
-    auto visit = [&](size_t i, const uint32_t c[3], const float f[8]) {
+    auto visit = [&](size_t i, const uint32_t c[3], const float f[8], const uint32_t r[8]) {
         int index = 0;
         uint8_t mask = 0;
-        if (classify(c, f, &index))
+        if (classify(c, f, r, &index))
             for (int tri = 0; tri < t.triangle_count[index]; ++tri) {
                 bool valid = true;
                 for (int j = 0; j < 3 && valid; ++j)
-                    valid = edge_valid(crossed_edge(c, t.triangles[index][3 * tri + j], f));
+                    valid = edge_valid(crossed_edge(c, t.triangles[index][3 * tri + j], f, r));
                 mask |= uint8_t(valid) << tri;
             }
         cases[i] = uint8_t(index);
@@ -165,15 +167,16 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
         for (size_t j = begin; j < end; ++j) {
             uint32_t vertex = first_vertex[j];
             if (vertex == first_vertex[j + 1]) continue;
-            uint32_t c[3];
+            uint32_t c[3], r[8];
             unpack_coords(level.cells[cell_of[j]], c);
+            level.vertices.cell_ranks(c[0], c[1], c[2], r);
             float f[8];
-            level.corners(c, f);
+            for (int k = 0; k < 8; ++k) f[k] = level.values[r[k]];
             const uint32_t* key = keys + size_t(3) * first_triangle[j];
             for_each_emitted_edge(cases[cell_of[j]], emitted[cell_of[j]], [&](int e) {
                 uint32_t* entry = &edge_owner[*key++];
                 if (__atomic_load_n(entry, __ATOMIC_RELAXED) != j) return;
-                place(crossed_edge(c, e, f), &mesh->positions[3 * size_t(vertex)],
+                place(crossed_edge(c, e, f, r), &mesh->positions[3 * size_t(vertex)],
                       &mesh->normals[3 * size_t(vertex)]);
                 __atomic_store_n(entry, vertex++ | kPlaced, __ATOMIC_RELAXED);
             });

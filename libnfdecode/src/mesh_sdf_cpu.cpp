@@ -57,7 +57,7 @@ nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
                         uint64_t* active_cells) {
     *active_cells = march_cells(
         level, threads, nullptr,
-        [](const uint32_t*, const float* f, int* index) {
+        [](const uint32_t*, const float* f, const uint32_t*, int* index) {
             for (int k = 0; k < 8; ++k) *index |= int(f[k] < 0.0f) << k;
             return true;
         },

@@ -29,40 +29,28 @@ bool canonical_direction(const float v[3], float out[3]) {
 nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,
                         uint64_t* active_cells) {
     if (level.near.size() != level.cells.size() ||
-        level.gradient_vertices.side() != level.cells_per_axis + 1 ||
-        level.gradients.size() != size_t(3) * level.gradient_vertices.size())
+        level.has_gradient.size() != level.vertices.size() ||
+        level.gradients.size() != size_t(3) * level.vertices.size())
         return NFD_ERROR_INTERNAL;  // the level's gradients were not evaluated
-    auto gradient = [&](uint32_t x, uint32_t y, uint32_t z) {
-        return level.gradients.data() + size_t(3) * level.gradient_vertices.rank(x, y, z);
-    };
-    auto edge_gradients = [&](const CrossedEdge& e, const float** ga, const float** gb) {
-        uint32_t w[3] = {e.v[0], e.v[1], e.v[2]};
-        *ga = gradient(w[0], w[1], w[2]);
-        ++w[e.axis];
-        *gb = gradient(w[0], w[1], w[2]);
-    };
+    auto gradient = [&](uint32_t rank) { return level.gradients.data() + size_t(3) * rank; };
     const float max_edge_sum = udf_edge_limit(level.cell_size);
     *active_cells = march_cells(
         level, threads, level.near.data(),  // step 1
-        [&](const uint32_t* c, const float* f, int* index) {
+        [&](const uint32_t*, const float* f, const uint32_t* r, int* index) {
             int nearest = 0;
             for (int k = 1; k < 8; ++k)
                 if (f[k] < f[nearest]) nearest = k;
-            uint32_t r[8];
-            level.gradient_vertices.cell_ranks(c[0], c[1], c[2], r);
             float n[3];
-            if (!canonical_direction(level.gradients.data() + size_t(3) * r[nearest], n))
-                return false;  // step 2
+            if (!canonical_direction(gradient(r[nearest]), n)) return false;  // step 2
             for (int k = 0; k < 8; ++k)  // step 3
-                *index |= int(dot3(level.gradients.data() + size_t(3) * r[k], n) < 0.0f) << k;
+                *index |= int(dot3(gradient(r[k]), n) < 0.0f) << k;
             return true;
         },
         [&](const CrossedEdge& e) { return e.fa + e.fb <= max_edge_sum; },  // step 5
         [&](const CrossedEdge& e, float u[3], float n[3]) {
             const float sum = e.fa + e.fb;
             edge_point(level, e, sum > 0.0f ? e.fa / sum : 0.5f, u);  // step 4
-            const float *ga, *gb;
-            edge_gradients(e, &ga, &gb);
+            const float *ga = gradient(e.ra), *gb = gradient(e.rb);
             const float d[3] = {ga[0] - gb[0], ga[1] - gb[1], ga[2] - gb[2]};
             float m[3];
             const float len = std::sqrt(dot3(d, d));
