@@ -291,17 +291,11 @@ struct GridLevel {
         vertices.cell_ranks(cell[0], cell[1], cell[2], r);
         for (int k = 0; k < 8; ++k) f[k] = values[r[k]];
     }
-    // The values at the 27 corners of the 2^3 cells at even `cell` (VertexSet::sibling_ranks).
-    void sibling_values(const uint32_t cell[3], float v[27]) const {
-        uint32_t r[27];
-        vertices.sibling_ranks(cell[0], cell[1], cell[2], r);
-        for (int k = 0; k < 27; ++k) v[k] = values[r[k]];
-    }
-    // fn(i, cell, f, ranks) for cells[i], i in [begin, end), with the cell's coordinates and its
-    // eight corner values and vertex ranks (mc::kCornerOffset order), in order; where `only` is given, for the cells
-    // with only[i] != 0. Eight siblings listed together (the levels below the coarsest list each
-    // parent's children so, unless the domain's end dropped some) read their 27 corners once,
-    // and not at all when `only` skips all eight.
+    // fn(i, cell, f, ranks) for cells[i], i in [begin, end), in order, with the cell's coordinates
+    // and its eight corner values and vertex ranks (mc::kCornerOffset order); where `only` is
+    // given, for the cells with only[i] != 0. Eight siblings listed together (the levels below the
+    // coarsest list each parent's children so, unless the domain's end dropped some) read their 27
+    // corners' ranks once (VertexSet::sibling_ranks), and not at all when `only` skips all eight.
     template <class Fn>
     void for_each_cell(size_t begin, size_t end, const uint8_t* only, Fn&& fn) const;
     // -1 + v * h equals the fine grid's -1 + (v << l) * step in f32: both products are the same
@@ -465,12 +459,8 @@ void GridLevel::for_each_cell(size_t begin, size_t end, const uint8_t* only, Fn&
         uint32_t c[3];
         unpack_coords(cells[i], c);
         if (i + 8 <= end && sibling_group(i)) {
-            uint64_t wanted = 0xFF;
-            if (only) {
-                uint64_t group;
-                std::memcpy(&group, only + i, 8);
-                wanted = group;
-            }
+            uint64_t wanted = 0xFF;  // any of the eight: their bytes as one word
+            if (only) std::memcpy(&wanted, only + i, 8);
             if (wanted) {
                 uint32_t r27[27];
                 vertices.sibling_ranks(c[0], c[1], c[2], r27);
