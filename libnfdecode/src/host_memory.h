@@ -7,6 +7,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <new>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "nfdecode/nfdecode.h"
@@ -39,6 +41,29 @@ bool operator!=(const HostAllocator<T>&, const HostAllocator<U>&) noexcept { ret
 
 template <class T>
 using vector = std::vector<T, HostAllocator<T>>;
+
+// The same allocator, but containers default-initialise new elements (vector(n) and resize(n)
+// leave a trivial type's bytes as they are): for large arrays that a parallel pass then fills.
+template <class T>
+struct HostAllocatorNoInit : HostAllocator<T> {
+    template <class U>
+    struct rebind {
+        using other = HostAllocatorNoInit<U>;
+    };
+    HostAllocatorNoInit() noexcept = default;
+    template <class U>
+    HostAllocatorNoInit(const HostAllocatorNoInit<U>&) noexcept {}
+    template <class U>
+    void construct(U* p) noexcept(std::is_nothrow_default_constructible<U>::value) {
+        ::new (static_cast<void*>(p)) U;
+    }
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+template <class T>
+using uninitialized_vector = std::vector<T, HostAllocatorNoInit<T>>;
 
 // A base of the library's heap objects (the API's handles): their new and delete use the hooks.
 struct HostAllocated {

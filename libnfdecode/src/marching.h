@@ -2,6 +2,7 @@
 // order, the generated table, one welded vertex per grid edge numbered by first use. The meshers
 // differ only in how a cell gets its case, which edges may carry a vertex, and where it sits.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <stdexcept>
 #include <vector>
@@ -32,6 +33,7 @@ namespace marching_detail {
 
 static_assert(mc::kMaxTrianglesPerCase <= 8, "a cell's emitted triangles are one bit each of a byte");
 constexpr size_t kCellGrain = 4096;       // emitting cells per parallel slice at least
+constexpr size_t kOrderRun = 65536;       // visited cells per run of the emitting list's passes
 constexpr uint32_t kPlaced = 1u << 31;    // edge_owner entry: the edge's vertex, not its owner
 
 // fn(e) for the table edge of every corner of the triangles of case `index` whose bit is set in
@@ -109,23 +111,50 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
         level.for_each_cell(begin, end, only, visit);
     });
 
-    // The emitting cells in order, and where each one's triangles start.
-    size_t emitting = 0;
-    for (uint8_t mask : emitted) emitting += mask != 0;
+    // The emitting cells in order, and where each one's triangles start: each run of kOrderRun
+    // cells counts its own, then writes its part after the runs before it.
+    const size_t runs = (visited + kOrderRun - 1) / kOrderRun;
+    nfd::vector<uint64_t> run_cells(runs + 1), run_triangles(runs + 1);
+    parallel_for(runs, 1, threads, [&](size_t begin, size_t end) {
+        for (size_t run = begin; run < end; ++run) {
+            uint64_t cells = 0, triangles = 0;
+            for (size_t i = run * kOrderRun; i < std::min(visited, (run + 1) * kOrderRun); ++i) {
+                cells += emitted[i] != 0;
+                triangles += popcount64(emitted[i]);
+            }
+            run_cells[run + 1] = cells;
+            run_triangles[run + 1] = triangles;
+        }
+    });
+    for (size_t run = 0; run < runs; ++run) {
+        run_cells[run + 1] += run_cells[run];
+        run_triangles[run + 1] += run_triangles[run];
+    }
+    const size_t emitting = run_cells[runs];
     if (emitting >= kPlaced) throw std::length_error("march_cells: too many cells");
     nfd::vector<uint32_t> cell_of(emitting), first_triangle(emitting + 1);
-    for (size_t i = 0, j = 0; i < visited; ++i) {
-        if (!emitted[i]) continue;
-        cell_of[j] = uint32_t(i);
-        first_triangle[j + 1] = first_triangle[j] + popcount64(emitted[i]);
-        ++j;
-    }
+    parallel_for(runs, 1, threads, [&](size_t begin, size_t end) {
+        for (size_t run = begin; run < end; ++run) {
+            size_t j = run_cells[run];
+            uint32_t triangles = uint32_t(run_triangles[run]);
+            for (size_t i = run * kOrderRun; i < std::min(visited, (run + 1) * kOrderRun); ++i) {
+                if (!emitted[i]) continue;
+                cell_of[j] = uint32_t(i);
+                triangles += popcount64(emitted[i]);
+                first_triangle[++j] = triangles;
+            }
+        }
+    });
     mesh->indices.resize(size_t(3) * first_triangle[emitting]);
     uint32_t* const keys = mesh->indices.data();  // edge keys first, vertex indices at the end
 
     // Pass 2: each emitting cell writes the keys of its triangles' edges, and an edge's owner is
     // the first cell to use it: the one that makes its vertex in a single loop over the cells.
-    nfd::vector<uint32_t> edge_owner(size_t(level.vertices.size()) * 3, ~0u);
+    // The owner table (3 slots a vertex: 14 MB at 512 for the bunny) is filled on threads.
+    nfd::uninitialized_vector<uint32_t> edge_owner(size_t(level.vertices.size()) * 3);
+    parallel_for(edge_owner.size(), 1 << 20, threads, [&](size_t begin, size_t end) {
+        std::fill(edge_owner.begin() + begin, edge_owner.begin() + end, ~0u);
+    });
     parallel_for(emitting, kCellGrain, threads, [&](size_t begin, size_t end) {
         for (size_t j = begin; j < end; ++j) {
             uint32_t c[3], r[8];
