@@ -496,6 +496,48 @@ TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
 // triangle) is visited on the golden UDF vectors, at 128 and 150, from fewer evaluations than the
 // keep rule's band, and the mesh is the band's; so too by the band down to level 1 and following
 // at the finest level within its kept cells (follow_finest, the GPU path's schedule).
+// GridLevel::for_each_cell, the walk of the meshers and of the UDF near test: every cell, or the
+// cells a mask selects, in order, each with the corner values and ranks that one lookup per corner
+// gives. On every level of a golden vector at 100, where the domain's end drops children from
+// their sibling groups, whole and in slices of 13 cells that split groups as threads do.
+TEST(Extract, ForEachCellVisitsTheSelectedCellsWithTheirCorners) {
+    const std::vector<GoldenVector> udf = golden_vectors(FieldType::Udf);
+    ASSERT_FALSE(udf.empty());
+    GridBuilder builder(udf.front().second, 100, 1);
+    do builder.step();
+    while (!builder.done());
+    for (const GridLevel& level : builder.grid().levels) {
+        const size_t n = level.cells.size();
+        nfd::vector<uint8_t> mask(n);
+        for (size_t i = 0; i < n; ++i) mask[i] = uint8_t((i * 2654435761u >> 7) % 3 == 0);
+        const uint8_t* selected = mask.data();
+        for (const uint8_t* only : {static_cast<const uint8_t*>(nullptr), selected}) {
+            std::vector<size_t> expected;
+            for (size_t i = 0; i < n; ++i)
+                if (!only || only[i]) expected.push_back(i);
+            for (size_t slice : {n, size_t(13)}) {
+                std::vector<size_t> visited;
+                for (size_t begin = 0; begin < n; begin += slice) {
+                    level.for_each_cell(
+                        begin, std::min(n, begin + slice), only,
+                        [&](size_t i, const uint32_t* c, const float* f, const uint32_t* r) {
+                            visited.push_back(i);
+                            uint32_t cell[3], ranks[8];
+                            unpack_coords(level.cells[i], cell);
+                            level.vertices.cell_ranks(cell[0], cell[1], cell[2], ranks);
+                            for (int a = 0; a < 3; ++a) EXPECT_EQ(c[a], cell[a]);
+                            for (int k = 0; k < 8; ++k) {
+                                EXPECT_EQ(r[k], ranks[k]);
+                                EXPECT_EQ(f[k], level.values[ranks[k]]);
+                            }
+                        });
+                }
+                EXPECT_EQ(visited, expected) << "level " << level.level << ", slices of " << slice;
+            }
+        }
+    }
+}
+
 TEST(Extract, GoldenUdfVectorsLoseNoNearCellAgainstTheDenseGrid) {
     const std::vector<GoldenVector> udf = golden_vectors(FieldType::Udf);
     for (const auto& [name, g] : udf) {
