@@ -294,6 +294,10 @@ struct GridLevel {
     // The values at the eight corners of a cell of this level, mc::kCornerOffset order.
     void corners(const uint32_t cell[3], float f[8]) const {
         uint32_t r[8];
+        corners(cell, f, r);
+    }
+    // The same, and the corners' vertex ranks.
+    void corners(const uint32_t cell[3], float f[8], uint32_t r[8]) const {
         vertices.cell_ranks(cell[0], cell[1], cell[2], r);
         for (int k = 0; k < 8; ++k) f[k] = values[r[k]];
     }
@@ -488,9 +492,8 @@ void GridLevel::for_each_cell(size_t begin, size_t end, const uint8_t* only, Fn&
         } else {
             if (!only || only[i]) {
                 uint32_t r[8];
-                vertices.cell_ranks(c[0], c[1], c[2], r);
                 float f[8];
-                for (int k = 0; k < 8; ++k) f[k] = values[r[k]];
+                corners(c, f, r);
                 fn(i, c, f, r);
             }
             ++i;

@@ -114,17 +114,21 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
     // The emitting cells in order, and where each one's triangles start: each run of kOrderRun
     // cells counts its own, then writes its part after the runs before it.
     const size_t runs = (visited + kOrderRun - 1) / kOrderRun;
+    auto for_each_run = [&](auto&& fn) {  // fn(run, its first cell, the cell after its last)
+        parallel_for(runs, 1, threads, [&](size_t begin, size_t end) {
+            for (size_t run = begin; run < end; ++run)
+                fn(run, run * kOrderRun, std::min(visited, (run + 1) * kOrderRun));
+        });
+    };
     nfd::vector<uint64_t> run_cells(runs + 1), run_triangles(runs + 1);
-    parallel_for(runs, 1, threads, [&](size_t begin, size_t end) {
-        for (size_t run = begin; run < end; ++run) {
-            uint64_t cells = 0, triangles = 0;
-            for (size_t i = run * kOrderRun; i < std::min(visited, (run + 1) * kOrderRun); ++i) {
-                cells += emitted[i] != 0;
-                triangles += popcount64(emitted[i]);
-            }
-            run_cells[run + 1] = cells;
-            run_triangles[run + 1] = triangles;
+    for_each_run([&](size_t run, size_t first, size_t last) {
+        uint64_t cells = 0, triangles = 0;
+        for (size_t i = first; i < last; ++i) {
+            cells += emitted[i] != 0;
+            triangles += popcount64(emitted[i]);
         }
+        run_cells[run + 1] = cells;
+        run_triangles[run + 1] = triangles;
     });
     for (size_t run = 0; run < runs; ++run) {
         run_cells[run + 1] += run_cells[run];
@@ -133,16 +137,14 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
     const size_t emitting = run_cells[runs];
     if (emitting >= kPlaced) throw std::length_error("march_cells: too many cells");
     nfd::vector<uint32_t> cell_of(emitting), first_triangle(emitting + 1);
-    parallel_for(runs, 1, threads, [&](size_t begin, size_t end) {
-        for (size_t run = begin; run < end; ++run) {
-            size_t j = run_cells[run];
-            uint32_t triangles = uint32_t(run_triangles[run]);
-            for (size_t i = run * kOrderRun; i < std::min(visited, (run + 1) * kOrderRun); ++i) {
-                if (!emitted[i]) continue;
-                cell_of[j] = uint32_t(i);
-                triangles += popcount64(emitted[i]);
-                first_triangle[++j] = triangles;
-            }
+    for_each_run([&](size_t run, size_t first, size_t last) {
+        size_t j = run_cells[run];
+        uint32_t triangles = uint32_t(run_triangles[run]);
+        for (size_t i = first; i < last; ++i) {
+            if (!emitted[i]) continue;
+            cell_of[j] = uint32_t(i);
+            triangles += popcount64(emitted[i]);
+            first_triangle[++j] = triangles;
         }
     });
     mesh->indices.resize(size_t(3) * first_triangle[emitting]);
@@ -198,9 +200,8 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
             if (vertex == first_vertex[j + 1]) continue;
             uint32_t c[3], r[8];
             unpack_coords(level.cells[cell_of[j]], c);
-            level.vertices.cell_ranks(c[0], c[1], c[2], r);
             float f[8];
-            for (int k = 0; k < 8; ++k) f[k] = level.values[r[k]];
+            level.corners(c, f, r);
             const uint32_t* key = keys + size_t(3) * first_triangle[j];
             for_each_emitted_edge(cases[cell_of[j]], emitted[cell_of[j]], [&](int e) {
                 uint32_t* entry = &edge_owner[*key++];
