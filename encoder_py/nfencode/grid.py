@@ -14,8 +14,9 @@ whole in raster order (x fastest). Below it (grid.h has the rules and their reas
   the crossed edges of the sign-change cells above, flooded across faces with a sign change and,
   above the finest level, across every face of a cell whose corners all lie within
   SDF_NEAR_ZERO_CELL * h of zero, inside the region of those cells and their 26 neighbours, plus
-  every child of the isolated cells above (no sign change, kept by the keep rule, no sign-change
-  neighbour); in visit_order().
+  every child of the isolated cells above (no sign change, no sign-change neighbour, kept by the
+  keep rule, or above the finest level a corner within SDF_NEAR_ZERO_CELL * the finest step of
+  zero: isolated_threshold()); in visit_order().
 * UDF, surface following with the mesher's valid edges (f_a + f_b <= udf_edge_limit(h)) in place
   of sign changes: seeded at the children holding a valid half of each valid edge of the cells
   above, and at every child of a cell above with a valid edge but no seed in itself or its 26
@@ -84,6 +85,12 @@ def grid_coordinates(fine_indices: np.ndarray, resolution: int) -> np.ndarray:
 def keep_threshold(udf: bool, h: np.float32) -> np.float32:
     """grid.h's keep_threshold for a cell of edge h: margin * h * sqrt(3)/2 in f32."""
     return (UDF_KEEP_MARGIN if udf else SDF_KEEP_MARGIN) * h * HALF_DIAGONAL
+
+
+def isolated_threshold(udf: bool, level: int, h: np.float32, step: np.float32) -> np.float32:
+    """grid.h's isolated_threshold: the keep rule's, but for an SDF level whose children are the
+    finest, SDF_NEAR_ZERO_CELL times the finest cell's edge `step` (f32)."""
+    return SDF_NEAR_ZERO_CELL * step if not udf and level == 1 else keep_threshold(udf, h)
 
 
 def cell_may_contain_surface(corner_values: np.ndarray, threshold: np.float32) -> np.ndarray:
@@ -248,7 +255,8 @@ def _follow_region(level: GridLevel, step: np.float32, udf: bool) -> tuple[np.nd
     active = _followed(f, h, udf)
     around = (level.cells[active][:, None, :] + _AROUND[None]).reshape(-1, 3)
     region = np.unique(cell_keys(around[((around >= 0) & (around < n)).all(axis=1)], n))
-    candidates = ~active & cell_may_contain_surface(f, keep_threshold(udf, h))
+    threshold = isolated_threshold(udf, level.level, h, step)
+    candidates = ~active & cell_may_contain_surface(f, threshold)
     isolated = level.cells[candidates]
     return region, isolated[~np.isin(cell_keys(isolated, n), region)]
 

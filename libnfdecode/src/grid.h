@@ -94,15 +94,25 @@ uint32_t refinement_levels(uint32_t resolution);
 //      1) keeps and that has no sign-change cell among its 26 neighbours has all its children
 //      visited (and flooded from): a small closed component inside one coarse cell, away from the
 //      rest of the surface, is found where the field's slope is at most 1, as the keep rule
-//      found it.
+//      found it. The finest level's parents are held to its near-zero bound instead (a corner
+//      within kSdfNearZeroCell of a *finest* cell of zero): what first shows there is under two
+//      fine cells across, which step 2 gives up for voids too, and the keep rule's margin made
+//      every cell of a hovering area and its fringe isolated (lion at 512: 20,086 parents, 160k
+//      cells, none with a sign change, 0.49 evaluations per active cell). What the finest level
+//      still finds this way is a component that nearly touches a vertex of the level above: the
+//      voids of suzanne at 256 and happy at 512, within 0.02 coarse cells of one.
 //   What the schedule gives up is the keep rule's band: a component of the surface that crosses
 //   no crossed edge of the level above, lies within one cell of its sign-change cells and is
 //   reached from them through no near-zero cell above the finest level, or a thin sheet that runs
-//   farther than one coarse cell from them between its vertices, is not found. Learned distance
-//   fields of shapes have few such spots (bench/RESULTS.md, "0.11.1": ten shapes at 128, 256 and
-//   512 against the dense grid, bench/keep_rule.cpp, bench/lost_cells.py). What near-zero cells
-//   cost is the area where a fit hovers at zero: 2.4-2.7 evaluations per active cell at 256-512 on
-//   nine of those shapes, 3.0-3.2 on the tenth (lion; 2.4-2.7 without near-zero cells). Fields
+//   farther than one coarse cell from them between its vertices, is not found; nor is a component
+//   under two fine cells across that first shows at the finest level and passes no vertex of the
+//   level above within half a fine cell (a sphere of radius 0.6 fine cells in the middle of a
+//   coarse cell: tests/python/test_grid.py). Learned distance fields of shapes have few such
+//   spots (bench/RESULTS.md, "0.11.1" and "0.13.6": ten shapes at 128, 256 and 512 against the
+//   dense grid, bench/keep_rule.cpp, bench/lost_cells.py). What near-zero cells cost is the area
+//   where a fit hovers at zero: 2.4-2.7 evaluations per active cell at 256-512 on nine of those
+//   shapes, 2.7-2.9 on the tenth (lion; 3.0-3.2 while the finest level's isolated cells had the
+//   keep rule's margin, 2.4-2.7 without near-zero cells). Fields
 //   that are no shape's distance field lose more: random SIRENs, whose surfaces fill a quarter of
 //   the cells in small pieces, lose 1-44% of the dense grid's sign-change cells (width 32, seeds
 //   11, 21 and 5 at 64 and 128, 0.11.1; the band: 0-3%). GridBuilder's `band`
@@ -116,6 +126,13 @@ constexpr float kSdfNearZeroCell = 0.5f;
 // The keep rule's threshold (SDF: for isolated cells, step 3 above).
 inline float keep_threshold(FieldType field, float h) {
     return (field == FieldType::Udf ? kUdfKeepMargin : kSdfKeepMargin) * h * kHalfDiagonal;
+}
+// Step 3's threshold for the isolated cells of `level` (0 = finest) of edge h, in a grid of
+// step `finest_h`: the keep rule's, but the finest level's near-zero bound for an SDF's parents
+// of the finest level.
+inline float isolated_threshold(FieldType field, uint32_t level, float h, float finest_h) {
+    return field == FieldType::Sdf && level == 1 ? kSdfNearZeroCell * finest_h
+                                                 : keep_threshold(field, h);
 }
 bool cell_may_contain_surface(const float corner_values[8], float threshold);
 

@@ -215,9 +215,10 @@ private:
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
                    LevelSize* next, bool within_kept) {
     const uint32_t n = level.cells_per_axis;
-    const float threshold = keep_threshold(grid.field, level.cell_size);
+    const float threshold =
+        isolated_threshold(grid.field, level.level, level.cell_size, grid.step);
     region->parents = VertexSet(n + 1);
-    region->refine_all = nfd::vector<uint32_t>();  // first the keep rule's cells not followed
+    region->refine_all = nfd::vector<uint32_t>();  // first step 3's candidates (not followed)
     VertexSet followed(within_kept ? n + 1 : 0);    // within_kept: the followed cells alone
     for (size_t i = 0; i < level.cells.size(); ++i) {
         uint32_t c[3];

@@ -209,6 +209,40 @@ def test_a_component_inside_one_coarse_cell_is_found_by_the_isolated_cell_rule()
     assert len(expected) > 100 and grid.finest.cells.tolist() == expected.tolist()
 
 
+def test_the_finest_level_refines_isolated_cells_that_nearly_touch_zero(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """At the finest level the isolated-cell rule asks for a corner within SDF_NEAR_ZERO_CELL fine
+    cells of zero (isolated_threshold). A sphere of radius 0.005 (1.3 fine cells across at 256)
+    that shows at no vertex of the level above: found when its surface passes 0.002 from one of
+    them, lost when it sits in the middle of a cell of that level (0.0085 from its corners), which
+    the keep rule's margin found."""
+    resolution = 256
+    radius = 0.005
+
+    def found_and_expected(centre: np.ndarray) -> tuple[set, set]:
+        def small_sphere(points: np.ndarray) -> np.ndarray:
+            return np.linalg.norm(points.astype(np.float64) - centre, axis=1) - radius
+
+        fine = build_grid(small_sphere, resolution).finest
+        negative = fine.corner_values() < 0
+        found = fine.cells[negative.any(axis=1) & ~negative.all(axis=1)]
+        expected = dense_sign_change_cells(small_sphere, resolution)
+        return set(map(tuple, found.tolist())), set(map(tuple, expected.tolist()))
+
+    # A vertex of the level above (odd there, so no vertex of the level above that).
+    vertex = grid_coordinates(np.array([70, 90, 110]), resolution).astype(np.float64)
+    touching = vertex + np.array([radius + 0.002, 0.0, 0.0])
+    found, expected = found_and_expected(touching)
+    assert len(expected) >= 8 and found == expected
+    middle = grid_coordinates(np.array([71, 91, 111]), resolution).astype(np.float64)
+    found, expected = found_and_expected(middle)
+    assert len(expected) == 8 and not found
+    monkeypatch.setattr(grid_module, "isolated_threshold",
+                        lambda udf, level, h, step: grid_module.keep_threshold(udf, h))
+    found, expected = found_and_expected(middle)
+    assert found == expected
+
+
 def test_a_void_where_the_field_hovers_at_zero_is_found_through_near_zero_cells(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """A learned SDF may hover just below zero inside a thin part and rise above it at one vertex
