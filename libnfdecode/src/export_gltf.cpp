@@ -17,8 +17,8 @@
 namespace nfd {
 namespace {
 
-template <class T>
-size_t append(std::vector<unsigned char>& bytes, const nfd::vector<T>& values) {
+template <class T, class Allocator>
+size_t append(std::vector<unsigned char>& bytes, const std::vector<T, Allocator>& values) {
     const size_t offset = bytes.size();  // all parts are 4-byte types: alignment holds
     bytes.resize(offset + values.size() * sizeof(T));
     if (!values.empty()) std::memcpy(bytes.data() + offset, values.data(), values.size() * sizeof(T));

@@ -8,11 +8,14 @@
 
 namespace nfd {
 
+// The three geometry arrays are sized by the meshers and the GPU read-back before every element is
+// written (a pass on threads, a download), so `resize` leaves their bytes as they are: zeroing them
+// first, on one thread, was 7-9% of the CPU mesh stage of an SDF at 512 (bench/RESULTS.md, 0.13.6).
 struct MeshData {
-    nfd::vector<float> positions;   // xyz per vertex, original frame relative to `offset`
-    nfd::vector<float> normals;     // xyz per vertex, unit length, pointing outside (towards +SDF)
-    nfd::vector<uint32_t> indices;  // 3 per triangle, counter-clockwise seen from outside
-    nfd::vector<float> colours;     // rgb in [0, 1] per vertex (colour.h), or empty: no colour
+    nfd::uninitialized_vector<float> positions;   // xyz per vertex, original frame - `offset`
+    nfd::uninitialized_vector<float> normals;     // xyz per vertex, unit, outwards (towards +SDF)
+    nfd::uninitialized_vector<uint32_t> indices;  // 3 per triangle, counter-clockwise from outside
+    nfd::vector<float> colours;  // rgb in [0, 1] per vertex (colour.h), or empty: no colour
     std::array<double, 3> offset{};  // Geometry::offset: original = offset + position
     size_t vertex_count() const { return positions.size() / 3; }
     size_t triangle_count() const { return indices.size() / 3; }
