@@ -214,8 +214,8 @@ def test_the_finest_level_refines_isolated_cells_that_nearly_touch_zero(
     """At the finest level the isolated-cell rule asks for a corner within SDF_NEAR_ZERO_CELL fine
     cells of zero (isolated_threshold). A sphere of radius 0.005 (1.3 fine cells across at 256)
     that shows at no vertex of the level above: found when its surface passes 0.002 from one of
-    them, lost when it sits in the middle of a cell of that level (0.0085 from its corners), which
-    the keep rule's margin found."""
+    them (and lost without the rule), lost when it sits in the middle of a cell of that level
+    (0.0085 from its corners), which the keep rule's margin found."""
     resolution = 256
     radius = 0.005
 
@@ -237,10 +237,18 @@ def test_the_finest_level_refines_isolated_cells_that_nearly_touch_zero(
     middle = grid_coordinates(np.array([71, 91, 111]), resolution).astype(np.float64)
     found, expected = found_and_expected(middle)
     assert len(expected) == 8 and not found
+    keep_rule = grid_module.keep_threshold
     monkeypatch.setattr(grid_module, "isolated_threshold",
-                        lambda udf, level, h, step: grid_module.keep_threshold(udf, h))
+                        lambda udf, level, h, step: keep_rule(udf, h))
     found, expected = found_and_expected(middle)
     assert found == expected
+    # The touching sphere is found by this rule, not by a seed: without it, it is lost too.
+    def none_at_the_finest(udf: bool, level: int, h: np.float32, step: np.float32) -> np.float32:
+        return np.float32(0) if level == 1 else keep_rule(udf, h)
+
+    monkeypatch.setattr(grid_module, "isolated_threshold", none_at_the_finest)
+    found, expected = found_and_expected(touching)
+    assert len(expected) >= 8 and not found
 
 
 def test_a_void_where_the_field_hovers_at_zero_is_found_through_near_zero_cells(
