@@ -95,12 +95,13 @@ uint32_t refinement_levels(uint32_t resolution);
 //      visited (and flooded from): a small closed component inside one coarse cell, away from the
 //      rest of the surface, is found where the field's slope is at most 1, as the keep rule
 //      found it. The finest level's parents are held to its near-zero bound instead (a corner
-//      within kSdfNearZeroCell of a *finest* cell of zero): what first shows there is under two
-//      fine cells across, which step 2 gives up for voids too, and the keep rule's margin made
-//      every cell of a hovering area and its fringe isolated (lion at 512: 20,086 parents, 160k
-//      cells, none with a sign change, 0.49 evaluations per active cell). What the finest level
-//      still finds this way is a component that nearly touches a vertex of the level above: the
-//      voids of suzanne at 256 and happy at 512, within 0.02 coarse cells of one.
+//      within kSdfNearZeroCell fine-cell edges of zero, a quarter of the parent's edge): what
+//      first shows there is under two fine cells across, which step 2 gives up for voids too,
+//      and the keep rule's margin made every cell of a hovering area and its fringe isolated
+//      (lion at 512: 20,086 parents, 160k cells, none with a sign change, 0.49 evaluations per
+//      active cell). What the finest level still finds this way is a component that nearly
+//      touches a vertex of the level above: the voids of suzanne at 256 and happy at 512, within
+//      0.02 coarse cells of one.
 //   What the schedule gives up is the keep rule's band: a component of the surface that crosses
 //   no crossed edge of the level above, lies within one cell of its sign-change cells and is
 //   reached from them through no near-zero cell above the finest level, or a thin sheet that runs
