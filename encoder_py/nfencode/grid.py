@@ -87,10 +87,13 @@ def keep_threshold(udf: bool, h: np.float32) -> np.float32:
     return (UDF_KEEP_MARGIN if udf else SDF_KEEP_MARGIN) * h * HALF_DIAGONAL
 
 
-def isolated_threshold(udf: bool, level: int, h: np.float32, step: np.float32) -> np.float32:
-    """grid.h's isolated_threshold: the keep rule's, but for an SDF level whose children are the
-    finest, SDF_NEAR_ZERO_CELL times the finest cell's edge `step` (f32)."""
-    return SDF_NEAR_ZERO_CELL * step if not udf and level == 1 else keep_threshold(udf, h)
+def isolated_threshold(udf: bool, level: int, step: np.float32) -> np.float32:
+    """grid.h's isolated_threshold: the keep rule's at the level's edge step * 2^level, but for an
+    SDF level whose children are the finest, SDF_NEAR_ZERO_CELL times the finest cell's edge `step`
+    (f32)."""
+    if not udf and level == 1:
+        return SDF_NEAR_ZERO_CELL * step
+    return keep_threshold(udf, step * np.float32(1 << level))
 
 
 def cell_may_contain_surface(corner_values: np.ndarray, threshold: np.float32) -> np.ndarray:
@@ -255,7 +258,7 @@ def _follow_region(level: GridLevel, step: np.float32, udf: bool) -> tuple[np.nd
     active = _followed(f, h, udf)
     around = (level.cells[active][:, None, :] + _AROUND[None]).reshape(-1, 3)
     region = np.unique(cell_keys(around[((around >= 0) & (around < n)).all(axis=1)], n))
-    threshold = isolated_threshold(udf, level.level, h, step)
+    threshold = isolated_threshold(udf, level.level, step)
     candidates = ~active & cell_may_contain_surface(f, threshold)
     isolated = level.cells[candidates]
     return region, isolated[~np.isin(cell_keys(isolated, n), region)]

@@ -128,12 +128,13 @@ constexpr float kSdfNearZeroCell = 0.5f;
 inline float keep_threshold(FieldType field, float h) {
     return (field == FieldType::Udf ? kUdfKeepMargin : kSdfKeepMargin) * h * kHalfDiagonal;
 }
-// Step 3's threshold for the isolated cells of `level` (0 = finest) of edge h, in a grid of
-// step `finest_h`: the keep rule's, but the finest level's near-zero bound for an SDF's parents
-// of the finest level.
-inline float isolated_threshold(FieldType field, uint32_t level, float h, float finest_h) {
-    return field == FieldType::Sdf && level == 1 ? kSdfNearZeroCell * finest_h
-                                                 : keep_threshold(field, h);
+// Step 3's threshold for the isolated cells of `level` (0 = finest) in a grid of step `finest_h`:
+// the keep rule's at the level's edge (finest_h * 2^level, as GridBuilder computes it), but the
+// finest level's near-zero bound for an SDF's parents of the finest level.
+inline float isolated_threshold(FieldType field, uint32_t level, float finest_h) {
+    return field == FieldType::Sdf && level == 1
+               ? kSdfNearZeroCell * finest_h
+               : keep_threshold(field, finest_h * float(1u << level));
 }
 bool cell_may_contain_surface(const float corner_values[8], float threshold);
 

@@ -215,8 +215,7 @@ private:
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
                    LevelSize* next, bool within_kept) {
     const uint32_t n = level.cells_per_axis;
-    const float threshold =
-        isolated_threshold(grid.field, level.level, level.cell_size, grid.step);
+    const float threshold = isolated_threshold(grid.field, level.level, grid.step);
     region->parents = VertexSet(n + 1);
     region->refine_all = nfd::vector<uint32_t>();  // first step 3's candidates (not followed)
     VertexSet followed(within_kept ? n + 1 : 0);    // within_kept: the followed cells alone

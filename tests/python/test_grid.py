@@ -239,12 +239,12 @@ def test_the_finest_level_refines_isolated_cells_that_nearly_touch_zero(
     assert len(expected) == 8 and not found
     keep_rule = grid_module.keep_threshold
     monkeypatch.setattr(grid_module, "isolated_threshold",
-                        lambda udf, level, h, step: keep_rule(udf, h))
+                        lambda udf, level, step: keep_rule(udf, step * np.float32(1 << level)))
     found, expected = found_and_expected(middle)
     assert found == expected
     # The touching sphere is found by this rule, not by a seed: without it, it is lost too.
-    def none_at_the_finest(udf: bool, level: int, h: np.float32, step: np.float32) -> np.float32:
-        return np.float32(0) if level == 1 else keep_rule(udf, h)
+    def none_at_the_finest(udf: bool, level: int, step: np.float32) -> np.float32:
+        return np.float32(0) if level == 1 else keep_rule(udf, step * np.float32(1 << level))
 
     monkeypatch.setattr(grid_module, "isolated_threshold", none_at_the_finest)
     found, expected = found_and_expected(touching)
