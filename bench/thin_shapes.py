@@ -14,11 +14,11 @@ major radius 1, minor radius 0.04) as OBJ and encodes each as an SDF with `nfc e
 from __future__ import annotations
 
 import argparse
-import subprocess
-import sys
 from pathlib import Path
 
 import trimesh
+
+from nfencode import cli
 
 SHAPES = {
     "rod": lambda: trimesh.creation.cylinder(radius=0.05, height=2.0, sections=64),
@@ -32,14 +32,13 @@ def main() -> None:
     parser.add_argument("--width", type=int, default=32)
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    nfc = Path(sys.executable).with_name("nfc")
     for name, make in SHAPES.items():
         mesh_path = args.out / f"{name}.obj"
         make().export(mesh_path)
         encoded = args.out / f"{name}_w{args.width}.nfc"
-        subprocess.run([str(nfc), "encode", str(mesh_path), "-o", str(encoded),
-                        "--width", str(args.width), "--field", "sdf"], check=True)
-        print(encoded)
+        if cli.main(["encode", str(mesh_path), "-o", str(encoded), "--width", str(args.width),
+                     "--field", "sdf"]) != 0:
+            raise SystemExit(f"encoding {mesh_path} failed")
 
 
 if __name__ == "__main__":
