@@ -16,6 +16,7 @@
 #include "nfdecode/nfdecode.h"
 
 #include "host_memory.h"
+#include "parallel.h"
 
 namespace nfd {
 
@@ -208,6 +209,11 @@ public:
     // (x and y not at a block's last vertex), two words of it, four bits each.
     void insert_cell(uint32_t x, uint32_t y, uint32_t z);
     void finish();
+    // Or at once, on threads, instead of insert and finish: words_of(index, words) writes the
+    // words of the block at `index` of the block table (word z & 7, bit (x & 7) + 8 * (y & 7))
+    // and returns whether any is set; it is called twice for every index, on any thread.
+    template <class WordsOf>
+    void assign(WordsOf&& words_of, unsigned threads);
 
     uint32_t size() const { return size_; }
     // The rank of vertex (x, y, z), which must be in the set. Inline: the meshers' inner loops.
@@ -455,6 +461,45 @@ private:
 // outside NFD_MIN_RESOLUTION..NFD_MAX_RESOLUTION or beyond options.max_host_bytes.
 nfd_result build_grid_cpu(const Geometry& geometry, uint32_t resolution, const GridOptions& options,
                           SparseGrid* grid, unsigned threads = 0);
+
+template <class WordsOf>
+void VertexSet::assign(WordsOf&& words_of, unsigned threads) {
+    // Ranges of the block table count their blocks, then write them after the ranges before.
+    constexpr size_t kRange = 4096;
+    const size_t indices = table_.size(), ranges = (indices + kRange - 1) / kRange;
+    auto for_each_range = [&](auto&& fn) {
+        parallel_for(ranges, 1, threads, [&](size_t begin, size_t end) {
+            for (size_t g = begin; g < end; ++g) fn(g, g * kRange, std::min(indices, (g + 1) * kRange));
+        });
+    };
+    nfd::vector<uint32_t> first(ranges + 1);
+    for_each_range([&](size_t g, size_t begin, size_t end) {
+        uint64_t words[8];
+        uint32_t count = 0;
+        for (size_t i = begin; i < end; ++i) count += words_of(i, words);
+        first[g + 1] = count;
+    });
+    for (size_t g = 0; g < ranges; ++g) first[g + 1] += first[g];
+    blocks_.resize(first[ranges]);
+    for_each_range([&](size_t g, size_t begin, size_t end) {
+        uint32_t slot = first[g];
+        for (size_t i = begin; i < end; ++i) {
+            uint64_t words[8];
+            if (!words_of(i, words)) continue;
+            Block& b = blocks_[slot];
+            std::memcpy(b.words, words, sizeof(words));
+            b.index = uint32_t(i);
+            table_[i] = slot++;
+        }
+    });
+    uint32_t total = 0;
+    for (Block& b : blocks_)
+        for (int w = 0; w < 8; ++w) {
+            b.prefix[w] = total;
+            total += popcount64(b.words[w]);
+        }
+    size_ = total;
+}
 
 template <class Fn>
 void VertexSet::for_each_in_blocks(size_t first, size_t end, Fn&& fn) const {

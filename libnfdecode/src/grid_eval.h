@@ -11,19 +11,23 @@ namespace nfd {
 
 constexpr size_t kEvalChunk = size_t(1) << 20;  // points per evaluate call: bounds scratch
 
-// Evaluates points as they are pushed, kEvalChunk at a time, so that scratch memory does not
-// grow with the level: push(slot, xyz) queues a point, and `store(slot, value, gradient)` takes
-// its result at the next flush (gradient null unless `gradients`).
+// Evaluates points as they are pushed, `chunk` (kEvalChunk unless given) at a time, so that
+// scratch memory does not grow with the level: push(slot, xyz) queues a point, and
+// `store(slot, value, gradient)` takes its result at the next flush (gradient null unless
+// `gradients`). Several on threads, each with one thread and its share of kEvalChunk, hold what
+// one holds (evaluator_bytes).
 template <class Store>
 class ChunkedEvaluator {
 public:
-    ChunkedEvaluator(const Network& net, bool gradients, unsigned threads, Store store)
-        : net_(net), gradients_(gradients), threads_(threads), store_(std::move(store)) {}
+    ChunkedEvaluator(const Network& net, bool gradients, unsigned threads, Store store,
+                     size_t chunk = kEvalChunk)
+        : net_(net), gradients_(gradients), threads_(threads), chunk_(std::max<size_t>(chunk, 1)),
+          store_(std::move(store)) {}
     void push(uint32_t slot, const float xyz[3]) {
         if (slots_.empty()) reserve();
         slots_.push_back(slot);
         xyz_.insert(xyz_.end(), xyz, xyz + 3);
-        if (slots_.size() == kEvalChunk) flush();
+        if (slots_.size() == chunk_) flush();
     }
     // Evaluates what is queued; returns the number of points evaluated since construction.
     uint64_t finish() {
@@ -33,8 +37,8 @@ public:
 
 private:
     void reserve() {
-        slots_.reserve(kEvalChunk);
-        xyz_.reserve(3 * kEvalChunk);
+        slots_.reserve(chunk_);
+        xyz_.reserve(3 * chunk_);
     }
     void flush() {
         const size_t n = slots_.size();
@@ -53,6 +57,7 @@ private:
     const Network& net_;
     const bool gradients_;
     const unsigned threads_;
+    const size_t chunk_;
     Store store_;
     nfd::vector<uint32_t> slots_;
     nfd::vector<float> xyz_, values_, grad_;
@@ -61,8 +66,8 @@ private:
 
 template <class Store>
 ChunkedEvaluator<Store> make_evaluator(const Network& net, bool gradients, unsigned threads,
-                                Store store) {
-    return ChunkedEvaluator<Store>(net, gradients, threads, std::move(store));
+                                       Store store, size_t chunk = kEvalChunk) {
+    return ChunkedEvaluator<Store>(net, gradients, threads, std::move(store), chunk);
 }
 
 // The points one ChunkedEvaluator over `points` points holds: its queue and results at a chunk.

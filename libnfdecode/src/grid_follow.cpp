@@ -5,6 +5,9 @@
 // the level starts.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
 
 #include "grid.h"
 #include "grid_eval.h"
@@ -52,9 +55,12 @@ bool is_followed(FieldType field, const float f[8], float h) {
     return field == FieldType::Udf ? udf_valid_edges(f, h) != 0 : has_sign_change(f);
 }
 
-// Cells of a wave per thread, at least: smaller waves stay on the caller's thread, where starting
+// Cells of a pass per thread, at least: smaller passes stay on the caller's thread, where starting
 // a thread would cost more than the tests it takes over.
 constexpr size_t kFloodGrain = 4096;
+// Cells of a wave per thread when its slice also evaluates the corners it claims (~1 per cell):
+// a thread pays for itself sooner.
+constexpr size_t kClaimGrain = 1024;
 
 // The corners of the face of a cell across which its neighbour lies, per face 2 * axis + side,
 // and the edges of that face (mc::kEdgeCorners indices) as a mask.
@@ -82,6 +88,8 @@ constexpr uint32_t kFaceEdges[6] = {face_edges(0), face_edges(1), face_edges(2),
 // per block the vertices whose value is known or queued and the cells visited (a cell's bit is
 // that of its lowest corner), kept apart from the values so that the flood's bit tests stay in
 // cache. A slot is a block's index times 512 plus the vertex's place in it, z, y, x.
+// Threads may make slots and claim bits at once (a claim is an atomic or, a block is made under a
+// lock and published by its table entry); the reads that make no block run between such passes.
 class FloodStore {
 public:
     // `blocks`: at least the blocks it will touch (LevelSize::blocks): reserved, never moved.
@@ -109,6 +117,7 @@ public:
     }
     // Marks the corners of the cell whose corner slots are `s` (cell_slots, `in_block` what it
     // returned) known and calls fn(k) for each corner k that was not: in a block, two words.
+    // Of threads claiming a corner at once, one gets fn.
     template <class Fn>
     void claim_corners(const uint32_t s[8], bool in_block, Fn&& fn) {
         if (!in_block) {
@@ -118,15 +127,65 @@ public:
         }
         uint64_t* words = bits_[s[0] >> 9].known;
         const uint32_t w = s[0] >> 6 & 7, p = s[0] & 63;
-        const uint64_t lower = ~words[w] >> p & 0x303, upper = ~words[w + 1] >> p & 0x303;
-        if (!(lower | upper)) return;
-        words[w] |= uint64_t(0x303) << p;
-        words[w + 1] |= uint64_t(0x303) << p;
+        const uint64_t mask = uint64_t(0x303) << p;
+        if ((__atomic_load_n(&words[w], __ATOMIC_RELAXED) & mask) == mask &&
+            (__atomic_load_n(&words[w + 1], __ATOMIC_RELAXED) & mask) == mask)
+            return;  // the common case: a neighbour claimed all eight
+        const uint64_t lower = ~__atomic_fetch_or(&words[w], mask, __ATOMIC_RELAXED) >> p & 0x303,
+                       upper = ~__atomic_fetch_or(&words[w + 1], mask, __ATOMIC_RELAXED) >> p & 0x303;
         for (int k = 0; k < 4; ++k) {
             const uint32_t bit = (k & 1) + 8 * (k >> 1);
             if (lower >> bit & 1) fn(k);
             if (upper >> bit & 1) fn(k + 4);
         }
+    }
+    // The corners of the visited cells in the block at `index` of the block table, VertexSet's
+    // words (VertexSet::assign): the cells of this block and those of its lower neighbours
+    // across x, y and z that touch it. Every corner of a visited cell was claimed, so a block
+    // that was never made has none. Makes no block.
+    bool corner_words(size_t index, uint64_t out[8]) const {
+        std::memset(out, 0, 8 * sizeof(uint64_t));
+        if (table_[index] == kNoBlock) return false;
+        const uint32_t bx = uint32_t(index % per_axis_), by = uint32_t(index / per_axis_ % per_axis_),
+                       bz = uint32_t(index / (size_t(per_axis_) * per_axis_));
+        // The visited words of block (bx - dx, by - dy, bz - dz), or null.
+        auto cells = [&](uint32_t dx, uint32_t dy, uint32_t dz) -> const uint64_t* {
+            if (dx > bx || dy > by || dz > bz) return nullptr;
+            const uint32_t b = table_[(size_t(bz - dz) * per_axis_ + (by - dy)) * per_axis_ + (bx - dx)];
+            return b == kNoBlock ? nullptr : bits_[b].visited;
+        };
+        constexpr uint64_t kLastX = 0x8080808080808080ull, kLastY = 0xFF00000000000000ull;
+        for (uint32_t dz = 0; dz < 2; ++dz) {
+            const uint64_t *same = cells(0, 0, dz), *below_x = cells(1, 0, dz),
+                           *below_y = cells(0, 1, dz), *below_xy = cells(1, 1, dz);
+            // A layer of cells puts corners on its own layer of vertices and on the next; the
+            // lower z block's last layer on this block's first.
+            for (uint32_t z = dz ? 7 : 0; z < 8; ++z) {
+                uint64_t corners = 0;
+                if (same) {
+                    const uint64_t v = same[z];
+                    corners |= v | (v & ~kLastX) << 1 | (v & ~kLastY) << 8 | (v & ~kLastX & ~kLastY) << 9;
+                }
+                if (below_x) {  // its cells at x = 7: corners at x = 0 here, rows y and y + 1
+                    const uint64_t v = below_x[z] & kLastX;
+                    corners |= v >> 7 | (v & ~kLastY) << 1;
+                }
+                if (below_y) {  // its cells at y = 7: corners at y = 0 here, columns x and x + 1
+                    const uint64_t v = below_y[z] & kLastY;
+                    corners |= v >> 56 | (v & ~kLastX) >> 55;
+                }
+                if (below_xy) corners |= below_xy[z] >> 63;  // its cell (7, 7): corner (0, 0)
+                if (dz) {
+                    out[0] |= corners;
+                } else {
+                    out[z] |= corners;
+                    if (z < 7) out[z + 1] |= corners;
+                }
+            }
+        }
+        uint64_t any = 0;
+        for (int w = 0; w < 8; ++w) any |= out[w];
+        return any != 0;
     }
     // Whether cell (x, y, z) was visited; makes no block.
     bool visited(uint32_t x, uint32_t y, uint32_t z) const {
@@ -189,21 +248,27 @@ private:
         return true;
     }
     uint32_t block(uint32_t x, uint32_t y, uint32_t z) {
-        uint32_t& b = table_[block_index(x, y, z)];
-        if (b == kNoBlock) {
-            b = uint32_t(bits_.size());
-            bits_.push_back(Bits{});
-            values_.resize(values_.size() + 512);
-        }
+        uint32_t* entry = &table_[block_index(x, y, z)];
+        uint32_t b = __atomic_load_n(entry, __ATOMIC_ACQUIRE);
+        if (b != kNoBlock) return b;
+        std::lock_guard<std::mutex> lock(grow_);
+        b = __atomic_load_n(entry, __ATOMIC_RELAXED);
+        if (b != kNoBlock) return b;
+        // Threads read the blocks while one is made: the storage must not move.
+        if (bits_.size() == bits_.capacity()) throw std::length_error("FloodStore: blocks past the bound");
+        b = uint32_t(bits_.size());
+        bits_.push_back(Bits{});
+        values_.resize(values_.size() + 512);
+        __atomic_store_n(entry, b, __ATOMIC_RELEASE);
         return b;
     }
     static bool claim(uint64_t* words, uint32_t s) {
-        uint64_t& word = words[s >> 6 & 7];
+        uint64_t* word = &words[s >> 6 & 7];
         const uint64_t bit = uint64_t(1) << (s & 63);
-        if (word & bit) return false;
-        word |= bit;
-        return true;
+        if (__atomic_load_n(word, __ATOMIC_RELAXED) & bit) return false;
+        return !(__atomic_fetch_or(word, bit, __ATOMIC_RELAXED) & bit);
     }
+    std::mutex grow_;
     uint32_t per_axis_;
     nfd::vector<uint32_t> table_;
     nfd::vector<Bits> bits_;
@@ -301,27 +366,49 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     const uint32_t n = out->cells_per_axis, l = out->level;
     FloodStore store(n + 1, blocks);
     auto store_value = [&store](uint32_t slot, float value, const float*) { store.value(slot) = value; };
-    auto evaluator = make_evaluator(net, false, threads, store_value);
+    // Every pass runs on threads, a slice each (parallel_slices): the slice claims corners and
+    // evaluates the ones it claimed on its own thread, with its share of the evaluator's chunk, and
+    // collects the cells it visits. A cell or corner is claimed once, whichever slice gets it: the
+    // flood reaches the same cells and evaluates the same points in any order, and the level is
+    // read out in raster order (FloodStore::for_each_visited).
+    using Evaluator = decltype(make_evaluator(net, false, 1, store_value));
+    struct Slice {
+        Evaluator evaluator;
+        nfd::vector<uint32_t> visits;  // the next wave's cells this slice found
+        size_t visited = 0;
+    };
+    const unsigned slice_count = resolve_thread_count(threads);
+    nfd::vector<Slice> slices;
+    slices.reserve(slice_count);
+    for (unsigned t = 0; t < slice_count; ++t)
+        slices.push_back(Slice{make_evaluator(net, false, 1, store_value, kEvalChunk / slice_count), {}});
     // The value of vertex (x, y, z) at slot s, just claimed: a corner of the parent level is
     // copied, any other queued.
-    auto fetch = [&](uint32_t s, uint32_t x, uint32_t y, uint32_t z) {
+    auto fetch = [&](Slice& slice, uint32_t s, uint32_t x, uint32_t y, uint32_t z) {
         uint32_t r;
         if (((x | y | z) & 1) == 0 && parent.vertices.find(x / 2, y / 2, z / 2, &r)) {
             store.value(s) = parent.values[r];
         } else {
             const float xyz[3] = {grid.coord(x << l), grid.coord(y << l), grid.coord(z << l)};
-            evaluator.push(s, xyz);
+            slice.evaluator.push(s, xyz);
         }
     };
-    nfd::vector<uint32_t> frontier, wave;
-    nfd::vector<uint8_t> through;  // per cell of a wave: the faces it floods through (bit = face)
-    size_t visited = 0;
-    auto visit = [&](uint32_t x, uint32_t y, uint32_t z) {
+    auto visit = [&](Slice& slice, uint32_t x, uint32_t y, uint32_t z) {
         if (x < n && y < n && z < n && store.claim_visited(store.slot(x, y, z))) {
-            frontier.push_back(pack_coords(x, y, z));
-            ++visited;
+            slice.visits.push_back(pack_coords(x, y, z));
+            ++slice.visited;
         }
     };
+    nfd::vector<uint32_t> wave;
+    // The slices' visits, in slice order, become the next wave.
+    auto gather = [&] {
+        wave.clear();
+        for (Slice& slice : slices) {
+            wave.insert(wave.end(), slice.visits.begin(), slice.visits.end());
+            slice.visits.clear();
+        }
+    };
+    nfd::vector<uint8_t> through;  // per cell of a wave: the faces it floods through (bit = face)
 
     // Seeds. SDF: the midpoint of each crossed edge of a parent with a sign change tells which
     // half the surface crosses; the parent's child holding that half has a sign change. UDF: each
@@ -330,8 +417,8 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // surface crosses the edge, the half it crosses is. A parent edge is shared by up to four
     // parents, which evaluate its midpoint once and agree.
     const bool udf = grid.field == FieldType::Udf;
-    // Each parent's crossed (SDF) or valid (UDF) edges, bit k for edge k, found on threads once:
-    // the passes below read them, and only the parents with some read their corners again.
+    // Each parent's crossed (SDF) or valid (UDF) edges, bit k for edge k, found once: the passes
+    // below read them, and only the parents with some read their corners again.
     nfd::vector<uint16_t> parent_edges(parent.cells.size());
     parallel_for(parent.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
         for (size_t i = begin; i < end; ++i) {
@@ -351,21 +438,22 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
         ++middle[k / 4];
         return middle[0] <= n && middle[1] <= n && middle[2] <= n;
     };
-    for (size_t cell = 0; cell < parent.cells.size(); ++cell) {
-        const uint32_t edges = parent_edges[cell];
-        if (!edges) continue;
-        uint32_t c[3], m[3];
-        unpack_coords(parent.cells[cell], c);
-        for (int k = 0; k < 12; ++k) {
-            if (!(edges >> k & 1) || !edge_midpoint(c, k, m)) continue;
-            const uint32_t slot = store.slot(m[0], m[1], m[2]);
-            if (store.claim_known(slot)) fetch(slot, m[0], m[1], m[2]);
+    parallel_slices(parent.cells.size(), kFloodGrain, threads, [&](size_t t, size_t begin, size_t end) {
+        for (size_t cell = begin; cell < end; ++cell) {
+            const uint32_t edges = parent_edges[cell];
+            if (!edges) continue;
+            uint32_t c[3], m[3];
+            unpack_coords(parent.cells[cell], c);
+            for (int k = 0; k < 12; ++k) {
+                if (!(edges >> k & 1) || !edge_midpoint(c, k, m)) continue;
+                const uint32_t slot = store.slot(m[0], m[1], m[2]);
+                if (store.claim_known(slot)) fetch(slices[t], slot, m[0], m[1], m[2]);
+            }
         }
-    }
-    evaluator.finish();
-    // The seeds each parent gives, decided on threads (they only read the midpoints' values):
-    // bit k, the child holding edge k's lower half; bit 16 + k, its upper half's. Then the visits
-    // on this thread, in the order of the parents and their edges.
+        slices[t].evaluator.finish();
+    });
+    // The seeds each parent gives (they only read the midpoints' values): bit k, the child
+    // holding edge k's lower half; bit 16 + k, its upper half's. Then their visits.
     constexpr uint32_t kUpperHalf = 16, kLone = 1u << 31;
     const float edge_limit = udf_edge_limit(out->cell_size);
     nfd::vector<uint32_t> seeds(parent.cells.size());
@@ -398,29 +486,30 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // UDF: the parents whose edges gave a seed, a bit per parent vertex rank of their lowest
     // corner.
     nfd::vector<uint64_t> seeded(udf ? (parent.vertices.size() + 63) / 64 : 0);
-    for (size_t cell = 0; cell < parent.cells.size(); ++cell) {
-        const uint32_t children = seeds[cell];
-        if (!children) continue;
-        uint32_t c[3];
-        unpack_coords(parent.cells[cell], c);
-        for (int k = 0; k < 12; ++k) {
-            if (!(children >> k & (1u | 1u << kUpperHalf))) continue;
-            uint32_t child[3];
-            const uint8_t* lower = mc::kCornerOffset[mc::kEdgeCorners[k][0]];
-            for (int i = 0; i < 3; ++i) child[i] = 2 * c[i] + lower[i];
-            if (children >> k & 1) visit(child[0], child[1], child[2]);
-            ++child[k / 4];
-            if (children >> (k + kUpperHalf) & 1) visit(child[0], child[1], child[2]);
+    parallel_slices(parent.cells.size(), kFloodGrain, threads, [&](size_t t, size_t begin, size_t end) {
+        for (size_t cell = begin; cell < end; ++cell) {
+            const uint32_t children = seeds[cell];
+            if (!children) continue;
+            uint32_t c[3];
+            unpack_coords(parent.cells[cell], c);
+            for (int k = 0; k < 12; ++k) {
+                if (!(children >> k & (1u | 1u << kUpperHalf))) continue;
+                uint32_t child[3];
+                const uint8_t* lower = mc::kCornerOffset[mc::kEdgeCorners[k][0]];
+                for (int i = 0; i < 3; ++i) child[i] = 2 * c[i] + lower[i];
+                if (children >> k & 1) visit(slices[t], child[0], child[1], child[2]);
+                ++child[k / 4];
+                if (children >> (k + kUpperHalf) & 1) visit(slices[t], child[0], child[1], child[2]);
+            }
+            if (udf) {
+                const uint32_t r = parent.vertices.rank(c[0], c[1], c[2]);
+                __atomic_fetch_or(&seeded[r / 64], uint64_t(1) << (r % 64), __ATOMIC_RELAXED);
+            }
         }
-        if (udf) {
-            const uint32_t r = parent.vertices.rank(c[0], c[1], c[2]);
-            seeded[r / 64] |= uint64_t(1) << (r % 64);
-        }
-    }
+    });
     // UDF: a parent with a valid edge but no seed, none of whose 26 neighbours has one, holds the
     // surface inside, away from its edges (a small closed piece): all its children are seeds.
     // Where a neighbour has seeds, the surface passes beside it and the flood comes from there.
-    // Found on threads (kLone), visited here in order.
     auto is_seeded = [&](int64_t x, int64_t y, int64_t z) {
         uint32_t r;
         return parent.vertices.find(x, y, z, &r) && (seeded[r / 64] >> (r % 64) & 1);
@@ -438,19 +527,22 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
             if (lone) seeds[cell] = kLone;
         }
     });
-    for (size_t cell = 0; udf && cell < parent.cells.size(); ++cell) {
-        if (seeds[cell] != kLone) continue;
-        uint32_t c[3];
-        unpack_coords(parent.cells[cell], c);
-        for (const auto& o : mc::kCornerOffset)
-            visit(2 * c[0] + o[0], 2 * c[1] + o[1], 2 * c[2] + o[2]);
-    }
-    for (uint32_t packed : region.refine_all) {
+    // All children of the lone parents and of step 3's candidates (region.refine_all) are seeds.
+    auto visit_children = [&](Slice& slice, uint32_t packed) {
         uint32_t c[3];
         unpack_coords(packed, c);
         for (const auto& o : mc::kCornerOffset)
-            visit(2 * c[0] + o[0], 2 * c[1] + o[1], 2 * c[2] + o[2]);
-    }
+            visit(slice, 2 * c[0] + o[0], 2 * c[1] + o[1], 2 * c[2] + o[2]);
+    };
+    parallel_slices(lone_candidates, kFloodGrain, threads, [&](size_t t, size_t begin, size_t end) {
+        for (size_t cell = begin; cell < end; ++cell)
+            if (seeds[cell] == kLone) visit_children(slices[t], parent.cells[cell]);
+    });
+    parallel_slices(region.refine_all.size(), kFloodGrain, threads,
+                    [&](size_t t, size_t begin, size_t end) {
+                        for (size_t i = begin; i < end; ++i) visit_children(slices[t], region.refine_all[i]);
+                    });
+    gather();
 
     // The flood, a wave at a time: the wave's corners evaluated together, then the neighbours
     // behind its faces with a sign change (which have one too), or above the finest level behind
@@ -458,21 +550,21 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // an edge with f_a + f_b <= kUdfFloodEdge * h (which the neighbour shares), inside the region.
     const float near_zero = l > 0 && !udf ? kSdfNearZeroCell * out->cell_size : 0.0f;
     const float flood_limit = kUdfFloodEdge * out->cell_size;
-    while (!frontier.empty()) {
-        std::swap(frontier, wave);  // visit() appends the next wave to `frontier`
-        frontier.clear();
-        for (uint32_t packed : wave) {
-            uint32_t c[3], s[8];
-            unpack_coords(packed, c);
-            const bool in_block = store.cell_slots(c[0], c[1], c[2], s);
-            store.claim_corners(s, in_block, [&](int k) {
-                const uint8_t* o = mc::kCornerOffset[k];
-                fetch(s[k], c[0] + o[0], c[1] + o[1], c[2] + o[2]);
-            });
-        }
-        evaluator.finish();
-        // Which faces each cell of the wave floods through, on threads (they only read the
-        // store), then the visits in wave order, as one thread would make them.
+    while (!wave.empty()) {
+        parallel_slices(wave.size(), kClaimGrain, threads, [&](size_t t, size_t begin, size_t end) {
+            for (size_t i = begin; i < end; ++i) {
+                uint32_t c[3], s[8];
+                unpack_coords(wave[i], c);
+                const bool in_block = store.cell_slots(c[0], c[1], c[2], s);
+                store.claim_corners(s, in_block, [&](int k) {
+                    const uint8_t* o = mc::kCornerOffset[k];
+                    fetch(slices[t], s[k], c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+                });
+            }
+            slices[t].evaluator.finish();
+        });
+        // Which faces each cell of the wave floods through (reading the store only), then the
+        // visits.
         through.assign(wave.size(), 0);
         parallel_for(wave.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
             const FloodStore& known = store;
@@ -503,30 +595,41 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
                 }
             }
         });
-        for (size_t i = 0; i < wave.size(); ++i) {
-            if (!through[i]) continue;
-            uint32_t c[3];
-            unpack_coords(wave[i], c);
-            for (int face = 0; face < 6; ++face) {
-                if (!(through[i] >> face & 1)) continue;
-                uint32_t nb[3] = {c[0], c[1], c[2]};
-                nb[face / 2] += face & 1 ? 1 : -1;
-                visit(nb[0], nb[1], nb[2]);
+        parallel_slices(wave.size(), kFloodGrain, threads, [&](size_t t, size_t begin, size_t end) {
+            for (size_t i = begin; i < end; ++i) {
+                if (!through[i]) continue;
+                uint32_t c[3];
+                unpack_coords(wave[i], c);
+                for (int face = 0; face < 6; ++face) {
+                    if (!(through[i] >> face & 1)) continue;
+                    uint32_t nb[3] = {c[0], c[1], c[2]};
+                    nb[face / 2] += face & 1 ? 1 : -1;
+                    visit(slices[t], nb[0], nb[1], nb[2]);
+                }
             }
-        }
+        });
+        gather();
     }
-    *evaluated += evaluator.finish();
-    frontier = nfd::vector<uint32_t>();
+    size_t visited = 0;
+    for (Slice& slice : slices) {
+        *evaluated += slice.evaluator.finish();
+        visited += slice.visited;
+    }
+    slices = nfd::vector<Slice>();
     wave = nfd::vector<uint32_t>();
     through = nfd::vector<uint8_t>();
 
     out->cells.reserve(visited);
     store.for_each_visited(
         [&](uint32_t x, uint32_t y, uint32_t z) { out->cells.push_back(pack_coords(x, y, z)); });
-    out->collect_corners();
-    // The level's values from the store, by ranges of blocks (64: a few thousand vertices) on
+    // The level's vertices, the corners of its cells (GridLevel::collect_corners) from the
+    // store's bits, and their values, by ranges of blocks (64: a few thousand vertices) on
     // threads.
     const FloodStore& known = store;
+    out->vertices = VertexSet(n + 1);
+    out->vertices.assign([&known](size_t index, uint64_t words[8]) { return known.corner_words(index, words); },
+                         threads);
+    out->values.assign(out->vertices.size(), 0.0f);
     parallel_for(out->vertices.blocks(), 64, threads, [&](size_t begin, size_t end) {
         out->vertices.for_each_in_blocks(
             begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
