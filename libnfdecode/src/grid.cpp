@@ -299,21 +299,32 @@ void GridBuilder::evaluate_udf_gradients() {
     });
     nfd::vector<float>& gradients = level.gradients;
     gradients.assign(size_t(3) * level.vertices.size(), 0.0f);
-    auto evaluator = make_evaluator(network_, true, threads_, [&gradients](uint32_t r, float, const float* g) {
+    // By ranges of vertex blocks on threads, each with its own evaluator (one thread, its share of
+    // the chunk: evaluator_bytes holds).
+    auto store = [&gradients](uint32_t r, float, const float* g) {
         std::copy(g, g + 3, &gradients[size_t(3) * r]);
+    };
+    const unsigned slice_count = resolve_thread_count(threads_);
+    using Evaluator = decltype(make_evaluator(network_, true, 1, store));
+    nfd::vector<Evaluator> evaluators;
+    evaluators.reserve(slice_count);
+    for (unsigned t = 0; t < slice_count; ++t)
+        evaluators.push_back(make_evaluator(network_, true, 1, store, kEvalChunk / slice_count));
+    parallel_slices(level.vertices.blocks(), 16, threads_, [&](size_t t, size_t begin, size_t end) {
+        level.vertices.for_each_in_blocks(begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+            if (!wanted[r]) return;
+            uint32_t known;
+            if (above && ((x | y | z) & 1) == 0 && above->vertices.find(x / 2, y / 2, z / 2, &known) &&
+                known < above->has_gradient.size() && above->has_gradient[known]) {
+                std::copy_n(&above->gradients[size_t(3) * known], 3, &gradients[size_t(3) * r]);
+                return;
+            }
+            const float xyz[3] = {level.coord(x), level.coord(y), level.coord(z)};
+            evaluators[t].push(r, xyz);
+        });
+        evaluators[t].finish();
     });
-    level.vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-        if (!wanted[r]) return;
-        uint32_t known;
-        if (above && ((x | y | z) & 1) == 0 && above->vertices.find(x / 2, y / 2, z / 2, &known) &&
-            known < above->has_gradient.size() && above->has_gradient[known]) {
-            std::copy_n(&above->gradients[size_t(3) * known], 3, &gradients[size_t(3) * r]);
-            return;
-        }
-        const float xyz[3] = {level.coord(x), level.coord(y), level.coord(z)};
-        evaluator.push(r, xyz);
-    });
-    grid_.stats.gradients_evaluated += evaluator.finish();
+    for (Evaluator& evaluator : evaluators) grid_.stats.gradients_evaluated += evaluator.finish();
     for (uint32_t l = current_ + 1; l < grid_.levels.size(); ++l) {
         grid_.levels[l].near = nfd::vector<uint8_t>();
         grid_.levels[l].has_gradient = nfd::vector<uint8_t>();
