@@ -154,9 +154,26 @@ ChildLevelSize::ChildLevelSize(uint32_t child_cells)
 
 void ChildLevelSize::add_parent(const uint32_t c[3]) {
     ++parents_;
+    cells_ += mark(c);
+}
+
+void ChildLevelSize::add_parents(const VertexSet& parents, unsigned threads) {
+    nfd::vector<uint64_t> children(resolve_thread_count(threads));
+    parallel_slices(parents.blocks(), 16, threads, [&](size_t t, size_t begin, size_t end) {
+        parents.for_each_in_blocks(begin, end, [&](uint32_t, uint32_t x, uint32_t y, uint32_t z) {
+            const uint32_t c[3] = {x, y, z};
+            children[t] += mark(c);
+        });
+    });
+    parents_ += parents.size();
+    for (uint64_t count : children) cells_ += count;
+}
+
+uint64_t ChildLevelSize::mark(const uint32_t c[3]) {
+    uint64_t cells = 0;
     for (const auto& o : mc::kCornerOffset)
-        cells_ += 2 * c[0] + o[0] < child_cells_ && 2 * c[1] + o[1] < child_cells_ &&
-                  2 * c[2] + o[2] < child_cells_;
+        cells += 2 * c[0] + o[0] < child_cells_ && 2 * c[1] + o[1] < child_cells_ &&
+                 2 * c[2] + o[2] < child_cells_;
     uint32_t lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
         lo[a] = 2 * c[a] >> 3;
@@ -166,8 +183,13 @@ void ChildLevelSize::add_parent(const uint32_t c[3]) {
         for (uint32_t y = lo[1]; y <= hi[1]; ++y)
             for (uint32_t x = lo[0]; x <= hi[0]; ++x) {
                 const uint64_t b = (uint64_t(z) * blocks_per_axis_ + y) * blocks_per_axis_ + x;
-                touched_[b >> 6] |= uint64_t(1) << (b & 63);
+                uint64_t* word = &touched_[b >> 6];
+                const uint64_t bit = uint64_t(1) << (b & 63);
+                // add_parents marks from several threads; most blocks are marked already.
+                if (!(__atomic_load_n(word, __ATOMIC_RELAXED) & bit))
+                    __atomic_fetch_or(word, bit, __ATOMIC_RELAXED);
             }
+    return cells;
 }
 
 LevelSize ChildLevelSize::size() const {
@@ -265,7 +287,7 @@ void GridBuilder::step() {
         evaluate_level(network_, grid_, parent, threads_, &level, &grid_.stats.points_evaluated);
     }
     if (l > 0 && (follow_ || (follow_finest_ && l == 1)))
-        follow_region(grid_, level, &region_, &next_, !follow_);
+        follow_region(grid_, level, &region_, &next_, !follow_, threads_);
     else if (l > 0)
         kept_ = keep_cells(grid_, level, &next_);
     current_ = l;

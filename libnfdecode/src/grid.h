@@ -149,6 +149,8 @@ struct LevelSize {
     uint64_t blocks = 0;    // 8^3-vertex blocks (VertexSet) they touch: exact
 };
 
+class VertexSet;
+
 // LevelSize of a level made of the children of some cells of the level above (those of the keep
 // rule, or a surface-following region), counted parent by parent: the children inside the grid
 // and the vertex blocks their 3^3 corner grids touch, marked in a bitmap of the child level's
@@ -157,10 +159,13 @@ class ChildLevelSize {
 public:
     explicit ChildLevelSize(uint32_t child_cells);  // the child level's cells per axis
     void add_parent(const uint32_t cell[3]);
+    // add_parent for every cell of `parents` (cells named by their lowest corner), on threads.
+    void add_parents(const VertexSet& parents, unsigned threads);
     LevelSize size() const;
     static uint64_t bytes(uint32_t child_cells);
 
 private:
+    uint64_t mark(const uint32_t cell[3]);  // the cell's touched blocks; returns its children
     uint32_t child_cells_, blocks_per_axis_;
     uint64_t cells_ = 0, parents_ = 0;
     nfd::vector<uint64_t> touched_;
@@ -280,9 +285,17 @@ public:
     size_t blocks() const { return blocks_.size(); }
     template <class Fn>
     void for_each_in_blocks(size_t first, size_t end, Fn&& fn) const;
+    // The block table: blocks per axis, and the slot in [0, blocks()) of block (bx, by, bz) (the
+    // vertices 8 bx .. 8 bx + 7, ...), or kNoBlock where the set has none or it is off the grid.
+    static constexpr uint32_t kNoBlock = ~0u;
+    uint32_t blocks_per_axis() const { return blocks_per_axis_; }
+    uint32_t block_slot(int64_t bx, int64_t by, int64_t bz) const {
+        const int64_t m = blocks_per_axis_;
+        if (bx < 0 || by < 0 || bz < 0 || bx >= m || by >= m || bz >= m) return kNoBlock;
+        return table_[size_t((bz * m + by) * m + bx)];
+    }
 
 private:
-    static constexpr uint32_t kNoBlock = ~0u;
     struct Block {
         uint64_t words[8];   // word z & 7, bit (x & 7) + 8 * (y & 7)
         uint32_t prefix[8];  // rank of the first vertex of each word
@@ -397,7 +410,7 @@ struct FollowRegion {
 // stores. Its isolated cells are then the kept ones with no followed cell among their 26
 // neighbours, as without it.
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
-                   LevelSize* next, bool within_kept = false);
+                   LevelSize* next, bool within_kept = false, unsigned threads = 1);
 // Visits and evaluates level `out` (level, cells_per_axis and cell_size set) below `parent`;
 // `blocks`: its LevelSize::blocks, from follow_region.
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,

@@ -275,65 +275,152 @@ private:
     nfd::vector<float> values_;
 };
 
+// A set of a level's cells as bits in the blocks of the level's vertex set (a cell is named by
+// its lowest corner, a vertex of the level): VertexSet's words, one group of eight per block slot.
+// Threads may set bits at once.
+class CellBits {
+public:
+    // `used` false: an empty set that holds no memory (and must not be used).
+    explicit CellBits(const VertexSet& vertices, bool used = true)
+        : vertices_(vertices), words_(used ? size_t(8) * vertices.blocks() : 0) {}
+    static uint64_t bytes(uint64_t blocks) { return 64 * blocks; }
+    void set(const uint32_t c[3]) {
+        const uint32_t slot = vertices_.block_slot(c[0] >> 3, c[1] >> 3, c[2] >> 3);
+        __atomic_fetch_or(&words_[size_t(8) * slot + (c[2] & 7)], bit(c), __ATOMIC_RELAXED);
+    }
+    bool has(int64_t x, int64_t y, int64_t z) const {
+        const uint64_t* w = words(x >> 3, y >> 3, z >> 3);  // arithmetic shift: -1 stays off the grid
+        return w && w[z & 7] >> ((x & 7) + 8 * (y & 7)) & 1;
+    }
+    // The words of block (bx, by, bz), or null where the level has no vertex there.
+    const uint64_t* words(int64_t bx, int64_t by, int64_t bz) const {
+        const uint32_t slot = vertices_.block_slot(bx, by, bz);
+        return slot == VertexSet::kNoBlock ? nullptr : &words_[size_t(8) * slot];
+    }
+    // The cells within one cell (the 3^3 around each) of a cell in the set, below `n` on each
+    // axis, in block `index` of the table: VertexSet::assign's words. x, then y, then z, each
+    // across the block's faces.
+    bool dilated_words(size_t index, uint32_t n, uint64_t out[8]) const {
+        constexpr uint64_t kFirstX = 0x0101010101010101ull, kLastX = kFirstX << 7;
+        const int64_t m = vertices_.blocks_per_axis(), bx = int64_t(index % m), by = int64_t(index / m % m),
+                      bz = int64_t(index / (m * m));
+        uint64_t along_x[3][3][8], along_y[3][8];
+        bool any = false;
+        for (int dz = 0; dz < 3; ++dz)
+            for (int dy = 0; dy < 3; ++dy) {
+                const uint64_t* mid = words(bx, by + dy - 1, bz + dz - 1);
+                const uint64_t* low = words(bx - 1, by + dy - 1, bz + dz - 1);
+                const uint64_t* high = words(bx + 1, by + dy - 1, bz + dz - 1);
+                for (int z = 0; z < 8; ++z) {
+                    const uint64_t v = mid ? mid[z] : 0;
+                    along_x[dz][dy][z] = v | (v & ~kLastX) << 1 | (v & ~kFirstX) >> 1 |
+                                         (low ? (low[z] & kLastX) >> 7 : 0) |
+                                         (high ? (high[z] & kFirstX) << 7 : 0);
+                    any |= along_x[dz][dy][z] != 0;
+                }
+            }
+        if (!any) {
+            std::memset(out, 0, 8 * sizeof(uint64_t));
+            return false;
+        }
+        for (int dz = 0; dz < 3; ++dz)
+            for (int z = 0; z < 8; ++z) {
+                const uint64_t v = along_x[dz][1][z];
+                along_y[dz][z] = v | v << 8 | v >> 8 | along_x[dz][0][z] >> 56 | along_x[dz][2][z] << 56;
+            }
+        // Cells past the level's last (n - 1) on an axis are not cells.
+        uint64_t keep = ~uint64_t(0);
+        for (int64_t i = 0; i < 8; ++i) {
+            if (8 * bx + i >= n) keep &= ~(kFirstX << i);
+            if (8 * by + i >= n) keep &= ~(uint64_t(0xFF) << (8 * i));
+        }
+        uint64_t set = 0;
+        for (int z = 0; z < 8; ++z) {
+            const uint64_t below = z > 0 ? along_y[1][z - 1] : along_y[0][7];
+            const uint64_t above = z < 7 ? along_y[1][z + 1] : along_y[2][0];
+            out[z] = 8 * bz + z < n ? (along_y[1][z] | below | above) & keep : 0;
+            set |= out[z];
+        }
+        return set != 0;
+    }
+
+private:
+    static uint64_t bit(const uint32_t c[3]) { return uint64_t(1) << ((c[0] & 7) + 8 * (c[1] & 7)); }
+    const VertexSet& vertices_;
+    nfd::vector<uint64_t> words_;
+};
+
 }  // namespace
 
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
-                   LevelSize* next, bool within_kept) {
+                   LevelSize* next, bool within_kept, unsigned threads) {
     const uint32_t n = level.cells_per_axis;
     const float threshold = isolated_threshold(grid.field, level.level, grid.step);
-    region->parents = VertexSet(n + 1);
-    region->refine_all = nfd::vector<uint32_t>();  // first step 3's candidates (not followed)
-    VertexSet followed(within_kept ? n + 1 : 0);    // within_kept: the followed cells alone
-    for (size_t i = 0; i < level.cells.size(); ++i) {
-        uint32_t c[3];
-        unpack_coords(level.cells[i], c);
-        float f[8];
-        level.corners(c, f);
-        if (!is_followed(grid.field, f, level.cell_size)) {
-            if (cell_may_contain_surface(f, threshold)) {
-                region->refine_all.push_back(level.cells[i]);
-                if (within_kept) region->parents.insert(c[0], c[1], c[2]);
+    // Each cell's verdict on threads: followed, or a candidate of step 3 (not followed, may hold
+    // the surface); the followed cells (with `within_kept`, also the candidates: `kept`) as bits.
+    constexpr uint8_t kFollowed = 1, kCandidate = 2, kIsolated = 4;
+    nfd::vector<uint8_t> verdict(level.cells.size());
+    CellBits followed(level.vertices), kept(level.vertices, within_kept);
+    parallel_for(level.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+            uint32_t c[3];
+            unpack_coords(level.cells[i], c);
+            float f[8];
+            level.corners(c, f);
+            if (is_followed(grid.field, f, level.cell_size)) {
+                verdict[i] = kFollowed;
+                followed.set(c);
+            } else if (cell_may_contain_surface(f, threshold)) {
+                verdict[i] = kCandidate;
+            } else {
+                continue;
             }
-            continue;
+            if (within_kept) kept.set(c);
         }
-        if (within_kept) {  // a followed cell is kept (a valid edge's ends average <= 0.75 h)
-            followed.insert(c[0], c[1], c[2]);
-            region->parents.insert(c[0], c[1], c[2]);
-            continue;
+    });
+    // The region: the followed cells and their 26 neighbours, or with `within_kept` the kept cells
+    // (a followed cell is kept: a valid edge's ends average <= 0.75 h).
+    region->parents = VertexSet(n + 1);
+    region->parents.assign(
+        [&](size_t index, uint64_t words[8]) {
+            if (!within_kept) return followed.dilated_words(index, n, words);
+            const int64_t m = region->parents.blocks_per_axis();
+            const uint64_t* w = kept.words(int64_t(index % m), int64_t(index / m % m), int64_t(index / (m * m)));
+            uint64_t any = 0;
+            for (int z = 0; z < 8; ++z) any |= words[z] = w ? w[z] : 0;
+            return any != 0;
+        },
+        threads);
+    // The isolated candidates: no followed cell among their 26 neighbours (so, without
+    // `within_kept`, not in the region). Listed in the level's order.
+    parallel_for(level.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i) {
+            if (verdict[i] != kCandidate) continue;
+            uint32_t c[3], r;
+            unpack_coords(level.cells[i], c);
+            bool beside = false;
+            if (!within_kept) {
+                beside = region->parents.find(c[0], c[1], c[2], &r);
+            } else {
+                for (int k = 0; k < 27 && !beside; ++k)
+                    beside = followed.has(int64_t(c[0]) + k % 3 - 1, int64_t(c[1]) + k / 3 % 3 - 1,
+                                          int64_t(c[2]) + k / 9 - 1);
+            }
+            if (!beside) verdict[i] = kIsolated;
         }
-        for (uint32_t z = c[2] ? c[2] - 1 : 0; z <= std::min(c[2] + 1, n - 1); ++z)
-            for (uint32_t y = c[1] ? c[1] - 1 : 0; y <= std::min(c[1] + 1, n - 1); ++y)
-                for (uint32_t x = c[0] ? c[0] - 1 : 0; x <= std::min(c[0] + 1, n - 1); ++x)
-                    region->parents.insert(x, y, z);
-    }
-    region->parents.finish();
-    followed.finish();
-    // Of those, the isolated ones: no followed neighbour (so not in the region, without
-    // `within_kept`).
-    auto beside_followed = [&](uint32_t packed) {
-        uint32_t c[3], r;
-        unpack_coords(packed, c);
-        if (!within_kept) return region->parents.find(c[0], c[1], c[2], &r);
-        for (int k = 0; k < 27; ++k) {
-            const int64_t x = int64_t(c[0]) + k % 3 - 1, y = int64_t(c[1]) + k / 3 % 3 - 1,
-                          z = int64_t(c[2]) + k / 9 - 1;
-            if (followed.find(x, y, z, &r)) return true;
-        }
-        return false;
-    };
-    nfd::vector<uint32_t>& cells = region->refine_all;
-    cells.erase(std::remove_if(cells.begin(), cells.end(), beside_followed), cells.end());
+    });
+    nfd::vector<uint32_t>& isolated = region->refine_all;
+    isolated = nfd::vector<uint32_t>(size_t(std::count(verdict.begin(), verdict.end(), kIsolated)));
+    for (size_t i = 0, j = 0; i < level.cells.size(); ++i)
+        if (verdict[i] == kIsolated) isolated[j++] = level.cells[i];
 
     // The next level's size: the children of the region's cells (within_kept: the isolated
     // cells are among them).
     ChildLevelSize size(cells_at_level(grid.resolution, level.level - 1));
-    region->parents.for_each([&](uint32_t, uint32_t x, uint32_t y, uint32_t z) {
-        const uint32_t c[3] = {x, y, z};
-        size.add_parent(c);
-    });
-    for (size_t i = 0; !within_kept && i < region->refine_all.size(); ++i) {
+    size.add_parents(region->parents, threads);
+    for (size_t i = 0; !within_kept && i < isolated.size(); ++i) {
         uint32_t c[3];
-        unpack_coords(region->refine_all[i], c);
+        unpack_coords(isolated[i], c);
         size.add_parent(c);
     }
     *next = size.size();
@@ -342,14 +429,12 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
 uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
                                    bool within_kept) {
     // The region's cell set, whose cells lie in the level's vertex blocks or beside them; the
-    // refine-all list (grown by doubling); the next level's block bitmap; within_kept, the set of
-    // followed cells, inside the level's blocks.
+    // cells' verdicts and the isolated ones' list; the next level's block bitmap; the followed
+    // cells' bits in the level's blocks and, within_kept, the kept ones'.
     const uint64_t per_axis = (level.cells_per_axis + 1 + 7) / 8;
     const uint64_t region_blocks = std::min(27 * level.blocks, per_axis * per_axis * per_axis);
-    const uint64_t followed =
-        within_kept ? VertexSet::bytes_bound(level.cells_per_axis + 1, level.blocks) : 0;
-    return VertexSet::bytes_bound(level.cells_per_axis + 1, region_blocks) + 8 * level.cells +
-           ChildLevelSize::bytes(child_cells) + followed;
+    return VertexSet::bytes_bound(level.cells_per_axis + 1, region_blocks) + 5 * level.cells +
+           ChildLevelSize::bytes(child_cells) + CellBits::bytes(level.blocks) * (within_kept ? 2 : 1);
 }
 
 uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices) {
