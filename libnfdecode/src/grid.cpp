@@ -129,8 +129,10 @@ void VertexSet::finish() {
 
 uint64_t VertexSet::bytes_bound(uint32_t side, uint64_t blocks) {
     const uint64_t blocks_per_axis = (side + 7) / 8;
-    // blocks_ grows by push_back: its capacity stays under twice the blocks it holds.
-    return 4 * blocks_per_axis * blocks_per_axis * blocks_per_axis + 2 * sizeof(Block) * blocks;
+    const uint64_t table = blocks_per_axis * blocks_per_axis * blocks_per_axis;
+    // blocks_ grows by push_back: its capacity stays under twice the blocks it holds; assign()
+    // sizes it exactly and counts the blocks of each range of 4096 table entries.
+    return 4 * table + 2 * sizeof(Block) * blocks + 4 * (table / 4096 + 2);
 }
 
 // ---- GridLevel -----------------------------------------------------------------------------

@@ -100,7 +100,9 @@ public:
     }
     static uint64_t bytes_bound(uint32_t side, uint64_t blocks) {
         const uint64_t per_axis = (side + 7) / 8;
-        return 4 * per_axis * per_axis * per_axis + (sizeof(Bits) + 512 * 4) * blocks;
+        // The block table, the blocks, visited_cells' counts per range of the table.
+        const uint64_t table = per_axis * per_axis * per_axis;
+        return 4 * table + (sizeof(Bits) + 512 * 4) * blocks + 8 * (table / kListRange + 2);
     }
     uint32_t slot(uint32_t x, uint32_t y, uint32_t z) { return in_block(block(x, y, z), x, y, z); }
     // The slots of the corners of cell (x, y, z), mc::kCornerOffset order: one block lookup
@@ -202,29 +204,51 @@ public:
     float known_value(uint32_t x, uint32_t y, uint32_t z) const {
         return values_[in_block(table_[block_index(x, y, z)], x, y, z)];
     }
-    // fn(x, y, z) for every visited cell: blocks in raster order, inside a block by 2^3 groups
-    // in raster order, and a group in mc::kCornerOffset order. So a parent's children are
-    // consecutive, a sibling group where all eight were visited (marching.h).
-    template <class Fn>
-    void for_each_visited(Fn&& fn) const {
-        for (size_t t = 0; t < table_.size(); ++t) {
-            if (table_[t] == kNoBlock) continue;
-            const uint32_t bx = uint32_t(t % per_axis_), by = uint32_t(t / per_axis_ % per_axis_),
-                           bz = uint32_t(t / (size_t(per_axis_) * per_axis_));
-            const Bits& b = bits_[table_[t]];
-            for (uint32_t g = 0; g < 64; ++g) {
-                const uint32_t gx = 2 * (g & 3), gy = 2 * (g >> 2 & 3), gz = 2 * (g >> 4);
-                for (const auto& o : mc::kCornerOffset) {
-                    const uint32_t x = gx + o[0], y = gy + o[1], z = gz + o[2];
-                    if (b.visited[z] >> (x + 8 * y) & 1) fn(8 * bx + x, 8 * by + y, 8 * bz + z);
+    // The visited cells, packed: blocks in raster order, inside a block by 2^3 groups in raster
+    // order, and a group in mc::kCornerOffset order. So a parent's children are consecutive, a
+    // sibling group where all eight were visited (marching.h). Ranges of the block table count
+    // their cells, then write them after the ranges before, on threads.
+    void visited_cells(nfd::vector<uint32_t>* cells, unsigned threads) const {
+        const size_t ranges = (table_.size() + kListRange - 1) / kListRange;
+        auto for_each_range = [&](auto&& fn) {
+            parallel_for(ranges, 1, threads, [&](size_t begin, size_t end) {
+                for (size_t g = begin; g < end; ++g)
+                    fn(g, g * kListRange, std::min(table_.size(), (g + 1) * kListRange));
+            });
+        };
+        nfd::vector<size_t> first(ranges + 1);
+        for_each_range([&](size_t g, size_t begin, size_t end) {
+            size_t count = 0;
+            for (size_t t = begin; t < end; ++t)
+                if (table_[t] != kNoBlock)
+                    for (uint64_t w : bits_[table_[t]].visited) count += popcount64(w);
+            first[g + 1] = count;
+        });
+        for (size_t g = 0; g < ranges; ++g) first[g + 1] += first[g];
+        cells->resize(first[ranges]);
+        for_each_range([&](size_t g, size_t begin, size_t end) {
+            uint32_t* out = cells->data() + first[g];
+            for (size_t t = begin; t < end; ++t) {
+                if (table_[t] == kNoBlock) continue;
+                const uint32_t bx = uint32_t(t % per_axis_), by = uint32_t(t / per_axis_ % per_axis_),
+                               bz = uint32_t(t / (size_t(per_axis_) * per_axis_));
+                const Bits& b = bits_[table_[t]];
+                for (uint32_t group = 0; group < 64; ++group) {
+                    const uint32_t gx = 2 * (group & 3), gy = 2 * (group >> 2 & 3), gz = 2 * (group >> 4);
+                    for (const auto& o : mc::kCornerOffset) {
+                        const uint32_t x = gx + o[0], y = gy + o[1], z = gz + o[2];
+                        if (b.visited[z] >> (x + 8 * y) & 1)
+                            *out++ = pack_coords(8 * bx + x, 8 * by + y, 8 * bz + z);
+                    }
                 }
             }
-        }
+        });
     }
 
 private:
     static constexpr uint32_t kNoBlock = ~0u;
     static constexpr uint32_t kCornerStep[8] = {0, 1, 8, 9, 64, 65, 72, 73};
+    static constexpr size_t kListRange = 1024;  // block table entries per range of visited_cells
     struct Bits {
         uint64_t known[8], visited[8];
     };
@@ -455,12 +479,11 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // evaluates the ones it claimed on its own thread, with its share of the evaluator's chunk, and
     // collects the cells it visits. A cell or corner is claimed once, whichever slice gets it: the
     // flood reaches the same cells and evaluates the same points in any order, and the level is
-    // read out in raster order (FloodStore::for_each_visited).
+    // read out in raster order (FloodStore::visited_cells).
     using Evaluator = decltype(make_evaluator(net, false, 1, store_value));
     struct Slice {
         Evaluator evaluator;
         nfd::vector<uint32_t> visits;  // the next wave's cells this slice found
-        size_t visited = 0;
     };
     const unsigned slice_count = resolve_thread_count(threads);
     nfd::vector<Slice> slices;
@@ -481,7 +504,6 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     auto visit = [&](Slice& slice, uint32_t x, uint32_t y, uint32_t z) {
         if (x < n && y < n && z < n && store.claim_visited(store.slot(x, y, z))) {
             slice.visits.push_back(pack_coords(x, y, z));
-            ++slice.visited;
         }
     };
     nfd::vector<uint32_t> wave;
@@ -695,18 +717,12 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
         });
         gather();
     }
-    size_t visited = 0;
-    for (Slice& slice : slices) {
-        *evaluated += slice.evaluator.finish();
-        visited += slice.visited;
-    }
+    for (Slice& slice : slices) *evaluated += slice.evaluator.finish();
     slices = nfd::vector<Slice>();
     wave = nfd::vector<uint32_t>();
     through = nfd::vector<uint8_t>();
 
-    out->cells.reserve(visited);
-    store.for_each_visited(
-        [&](uint32_t x, uint32_t y, uint32_t z) { out->cells.push_back(pack_coords(x, y, z)); });
+    store.visited_cells(&out->cells, threads);
     // The level's vertices, the corners of its cells (GridLevel::collect_corners) from the
     // store's bits, and their values, by ranges of blocks (64: a few thousand vertices) on
     // threads.
