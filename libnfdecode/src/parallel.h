@@ -1,9 +1,10 @@
-// The CPU path's only threading primitive: a blocking parallel loop over contiguous ranges.
+// The CPU path's only threading primitive: a blocking parallel loop over contiguous slices, run
+// by the calling thread and by workers that the process shares (parallel.cpp).
 #pragma once
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <exception>
-#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -14,11 +15,28 @@ inline unsigned resolve_thread_count(unsigned requested) {
     return std::max(1u, std::thread::hardware_concurrency());
 }
 
+namespace parallel_detail {
+
+// One parallel loop: slices are taken in turn by whichever thread asks next.
+struct Loop {
+    void (*run)(void* context, size_t slice);
+    void* context;
+    size_t slices;
+    std::atomic<size_t> next{0};
+    unsigned helpers = 0;  // workers inside the loop (under the pool's lock)
+};
+
+// Runs every slice of `loop`, on the caller and on up to `workers` workers; returns when all
+// have run.
+void run_loop(Loop* loop, unsigned workers);
+
+}  // namespace parallel_detail
+
 // Calls fn(slice, begin, end) over contiguous slices of [0, n), on up to `threads` threads (0 =
 // hardware concurrency), each slice at least `grain` long so that small calls stay on the
-// caller's thread; `slice` < resolve_thread_count(threads) indexes per-thread state. A worker's
-// exception is rethrown here (std::thread would otherwise terminate the host); a thread that
-// cannot be started is not an error: its slice runs on the calling thread.
+// caller's thread; `slice` < resolve_thread_count(threads) indexes per-thread state (one thread
+// may run several slices). A slice's exception is rethrown here. The caller takes slices too,
+// so a loop completes whether or not a worker can start or is free.
 template <class Fn>
 void parallel_slices(size_t n, size_t grain, unsigned threads, Fn&& fn) {
     if (n == 0) return;
@@ -29,24 +47,16 @@ void parallel_slices(size_t n, size_t grain, unsigned threads, Fn&& fn) {
         return;
     }
     std::vector<std::exception_ptr> errors(slices);
-    std::vector<std::thread> workers;
-    workers.reserve(slices - 1);
-    auto run = [&](size_t s) {
+    auto body = [&](size_t s) {
         try {
             fn(s, n * s / slices, n * (s + 1) / slices);
         } catch (...) {
             errors[s] = std::current_exception();
         }
     };
-    for (size_t s = 1; s < slices; ++s) {
-        try {
-            workers.emplace_back(run, s);
-        } catch (const std::system_error&) {
-            run(s);
-        }
-    }
-    run(0);
-    for (std::thread& w : workers) w.join();
+    parallel_detail::Loop loop{[](void* context, size_t s) { (*static_cast<decltype(body)*>(context))(s); },
+                               &body, slices};
+    parallel_detail::run_loop(&loop, unsigned(slices - 1));
     for (const std::exception_ptr& e : errors)
         if (e) std::rethrow_exception(e);
 }

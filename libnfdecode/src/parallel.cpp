@@ -1,0 +1,85 @@
+// The workers of parallel.h's loops. Starting a std::thread per loop cost ~40 us a loop here,
+// and a decode makes dozens of loops (bench/RESULTS.md, "0.13.7"); these threads start on first
+// use, grow to the most a loop has asked for (kMaxWorkers at most) and then wait for loops.
+// The pool is never destroyed: at exit or in a forked child, where its threads are gone or
+// still running, joining them could hang; a loop never waits for a worker to start.
+#include "parallel.h"
+
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <system_error>
+
+namespace nfd {
+namespace parallel_detail {
+namespace {
+
+constexpr unsigned kMaxWorkers = 255;
+
+class Pool {
+public:
+    void run(Loop* loop, unsigned workers) {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            grow(std::min(workers, kMaxWorkers));
+            loops_.push_back(loop);
+        }
+        wake_.notify_all();
+        take(loop);
+        std::unique_lock<std::mutex> lock(mutex_);
+        remove(loop);  // no worker joins it from now on
+        finished_.wait(lock, [loop] { return loop->helpers == 0; });
+    }
+
+private:
+    static void take(Loop* loop) {
+        for (size_t s; (s = loop->next.fetch_add(1, std::memory_order_relaxed)) < loop->slices;)
+            loop->run(loop->context, s);
+    }
+    void grow(unsigned workers) {  // under the lock
+        while (started_ < workers) {
+            try {
+                std::thread(&Pool::work, this).detach();
+            } catch (const std::system_error&) {
+                return;  // the loops run on fewer threads
+            }
+            ++started_;
+        }
+    }
+    void remove(Loop* loop) {  // under the lock
+        const auto it = std::find(loops_.begin(), loops_.end(), loop);
+        if (it != loops_.end()) loops_.erase(it);
+    }
+    void work() {
+        std::unique_lock<std::mutex> lock(mutex_);
+        for (;;) {
+            wake_.wait(lock, [this] { return !loops_.empty(); });
+            Loop* loop = loops_.front();
+            if (loop->next.load(std::memory_order_relaxed) >= loop->slices) {
+                remove(loop);  // all taken: its caller waits only for the helpers inside
+                continue;
+            }
+            ++loop->helpers;
+            lock.unlock();
+            take(loop);
+            lock.lock();
+            if (--loop->helpers == 0) finished_.notify_all();
+        }
+    }
+    std::mutex mutex_;
+    std::condition_variable wake_, finished_;
+    std::deque<Loop*> loops_;
+    unsigned started_ = 0;
+};
+
+Pool& pool() {
+    static Pool* const shared = new Pool;  // never destroyed (see above)
+    return *shared;
+}
+
+}  // namespace
+
+void run_loop(Loop* loop, unsigned workers) { pool().run(loop, workers); }
+
+}  // namespace parallel_detail
+}  // namespace nfd
