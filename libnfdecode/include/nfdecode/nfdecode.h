@@ -203,7 +203,11 @@ typedef struct nfd_context_options {
                                              lavapipe, which AUTO declines) */
     uint32_t cpu_threads;                 /* threads of the CPU path, and of a Vulkan context's
                                              host work (colours, the coarsest grid level);
-                                             0 = hardware concurrency */
+                                             0 = hardware concurrency. The calling thread and
+                                             (0.13.7) worker threads that every context in the
+                                             process shares: started on first need, as many as
+                                             the largest cpu_threads - 1 asked (255 at most),
+                                             idle between calls, kept until the process ends */
     int enable_validation;                /* non-zero: enable VK_LAYER_KHRONOS_validation if present */
     /* (0.10) Bytes from nfd_context_get_pipeline_cache of an earlier context, e.g. read back from
      * a file in the user's cache directory: the pipelines they hold are not compiled again. Used
