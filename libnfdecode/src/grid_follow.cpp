@@ -386,21 +386,17 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
     nfd::vector<uint8_t> verdict(level.cells.size());
     CellBits followed(level.vertices), kept(level.vertices, within_kept);
     parallel_for(level.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
-        for (size_t i = begin; i < end; ++i) {
-            uint32_t c[3];
-            unpack_coords(level.cells[i], c);
-            float f[8];
-            level.corners(c, f);
+        level.for_each_cell(begin, end, nullptr, [&](size_t i, const uint32_t* c, const float* f, const uint32_t*) {
             if (is_followed(grid.field, f, level.cell_size)) {
                 verdict[i] = kFollowed;
                 followed.set(c);
             } else if (cell_may_contain_surface(f, threshold)) {
                 verdict[i] = kCandidate;
             } else {
-                continue;
+                return;
             }
             if (within_kept) kept.set(c);
-        }
+        });
     });
     // The region: the followed cells and their 26 neighbours, or with `within_kept` the kept cells
     // (a followed cell is kept: a valid edge's ends average <= 0.75 h).
@@ -528,14 +524,9 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // below read them, and only the parents with some read their corners again.
     nfd::vector<uint16_t> parent_edges(parent.cells.size());
     parallel_for(parent.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
-        for (size_t i = begin; i < end; ++i) {
-            uint32_t c[3];
-            unpack_coords(parent.cells[i], c);
-            float f[8];
-            parent.corners(c, f);
-            parent_edges[i] =
-                uint16_t(udf ? udf_valid_edges(f, parent.cell_size) : crossed_edges(f));
-        }
+        parent.for_each_cell(begin, end, nullptr, [&](size_t i, const uint32_t*, const float* f, const uint32_t*) {
+            parent_edges[i] = uint16_t(udf ? udf_valid_edges(f, parent.cell_size) : crossed_edges(f));
+        });
     });
     // The midpoint of edge k of parent cell c, a vertex of this level; false past the level's
     // last vertex (an odd cell count), where the half's cells are dropped.
