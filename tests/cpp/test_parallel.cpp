@@ -1,0 +1,123 @@
+// The CPU path's parallel loops (parallel.h, parallel.cpp): every index once, slice indices for
+// per-thread state, exceptions carried back, nested loops and loops in a forked child that
+// complete, and a decode whose passes split across threads giving the one-thread mesh.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "extract.h"
+#include "parallel.h"
+#include "test_util.h"
+
+namespace nfd::test {
+namespace {
+
+TEST(Parallel, SlicesCoverTheRangeOnceWithTheirIndices) {
+    for (unsigned threads : {1u, 2u, 3u, 8u}) {
+        const size_t n = 100003;
+        std::vector<std::atomic<int>> seen(n);
+        std::vector<std::atomic<int>> slice_used(threads);
+        parallel_slices(n, 1000, threads, [&](size_t slice, size_t begin, size_t end) {
+            ASSERT_LT(slice, threads);
+            ++slice_used[slice];
+            for (size_t i = begin; i < end; ++i) ++seen[i];
+        });
+        for (size_t i = 0; i < n; ++i) ASSERT_EQ(seen[i].load(), 1) << i << ", " << threads << " threads";
+        for (unsigned s = 0; s < threads; ++s) EXPECT_EQ(slice_used[s].load(), 1) << s;
+    }
+    // Below two grains: one slice, on the caller's thread.
+    const std::thread::id caller = std::this_thread::get_id();
+    parallel_slices(1999, 1000, 8, [&](size_t slice, size_t begin, size_t end) {
+        EXPECT_EQ(slice, 0u);
+        EXPECT_EQ(begin, 0u);
+        EXPECT_EQ(end, 1999u);
+        EXPECT_EQ(std::this_thread::get_id(), caller);
+    });
+}
+
+TEST(Parallel, ASlicesExceptionReachesTheCaller) {
+    std::atomic<size_t> ran{0};
+    EXPECT_THROW(parallel_for(8000, 1000, 8,
+                              [&](size_t begin, size_t) {
+                                  ++ran;
+                                  if (begin == 3000) throw std::runtime_error("slice 3");
+                              }),
+                 std::runtime_error);
+    EXPECT_EQ(ran.load(), 8u);  // the other slices still ran
+}
+
+TEST(Parallel, NestedLoopsComplete) {
+    // Each outer slice runs loops of its own, more than there are workers: the callers take the
+    // slices no worker is free for.
+    std::atomic<size_t> total{0};
+    parallel_for(64, 1, 16, [&](size_t begin, size_t end) {
+        for (size_t i = begin; i < end; ++i)
+            parallel_for(4096, 64, 16, [&](size_t b, size_t e) { total += e - b; });
+    });
+    EXPECT_EQ(total.load(), 64u * 4096u);
+}
+
+// A forked child has no workers (their threads were not copied) and still completes its loops,
+// a whole decode included.
+TEST(Parallel, LoopsCompleteInAForkedChild) {
+    std::atomic<size_t> warm{0};
+    parallel_for(4096, 64, 4, [&](size_t b, size_t e) { warm += e - b; });  // the workers exist
+    ASSERT_EQ(warm.load(), 4096u);
+    const Geometry g = parse_or_throw(read_bytes(golden_path("bunny_sdf_w16", ".nfc")));
+    MeshData parent_mesh;
+    ASSERT_EQ(extract_mesh_cpu(g, 128, &parent_mesh, nullptr, 4), NFD_SUCCESS);
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        MeshData mesh;
+        const bool same = extract_mesh_cpu(g, 128, &mesh, nullptr, 4) == NFD_SUCCESS &&
+                          mesh.indices == parent_mesh.indices && mesh.positions == parent_mesh.positions;
+        _exit(same ? 0 : 1);
+    }
+    int status = 0;
+    pid_t done = 0;
+    for (int waited = 0; waited < 600 && done == 0; ++waited) {  // 60 s
+        done = waitpid(child, &status, WNOHANG);
+        if (done == 0) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    if (done == 0) {
+        kill(child, SIGKILL);
+        waitpid(child, &status, 0);
+        FAIL() << "the forked child's decode did not finish";
+    }
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0) << "the child's mesh differs from the parent's";
+}
+
+// At 256 the flood's waves, the region, the level collection and a UDF's gradient corners all
+// split across threads (their grains are a few thousand cells): the mesh and the evaluation
+// counts are the one-thread decode's, whatever the thread count.
+TEST(Parallel, ThreadCountChangesNoMeshWhereThePassesSplit) {
+    for (const char* name : {"bunny_sdf_w32", "tshirt_udf_w16"}) {
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        MeshData one;
+        ExtractStats one_stats;
+        ASSERT_EQ(extract_mesh_cpu(g, 256, &one, &one_stats, 1), NFD_SUCCESS) << name;
+        ASSERT_GT(one.triangle_count(), 10000u) << name;
+        for (unsigned threads : {2u, 5u}) {
+            MeshData mesh;
+            ExtractStats stats;
+            ASSERT_EQ(extract_mesh_cpu(g, 256, &mesh, &stats, threads), NFD_SUCCESS) << name;
+            EXPECT_EQ(mesh.indices, one.indices) << name << ", " << threads << " threads";
+            EXPECT_EQ(mesh.positions, one.positions) << name << ", " << threads << " threads";
+            EXPECT_EQ(mesh.normals, one.normals) << name << ", " << threads << " threads";
+            EXPECT_EQ(stats.points_evaluated, one_stats.points_evaluated) << name;
+            EXPECT_EQ(stats.gradients_evaluated, one_stats.gradients_evaluated) << name;
+        }
+    }
+}
+
+}  // namespace
+}  // namespace nfd::test
