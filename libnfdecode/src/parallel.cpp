@@ -1,13 +1,18 @@
 // The workers of parallel.h's loops. Starting a std::thread per loop cost ~40 us a loop here,
 // and a decode makes dozens of loops (bench/RESULTS.md, "0.13.7"); these threads start on first
 // use, grow to the most a loop has asked for (kMaxWorkers at most) and then wait for loops.
-// The pool is never destroyed: at exit or in a forked child, where its threads are gone or
-// still running, joining them could hang; a loop never waits for a worker to start.
+// The pool is never destroyed: at exit its threads may still be running, and joining them could
+// hang. A fork copies none of them, and the child would wait forever on the parent's lock or
+// condition variables (glibc's broadcast waits for waiters the child does not have): the pool's
+// lock is held across fork() and the child starts from an empty pool.
 #include "parallel.h"
+
+#include <pthread.h>
 
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <new>
 #include <system_error>
 
 namespace nfd {
@@ -18,6 +23,18 @@ constexpr unsigned kMaxWorkers = 255;
 
 class Pool {
 public:
+    // pthread_atfork's handlers.
+    void before_fork() { mutex_.lock(); }
+    void after_fork_in_parent() { mutex_.unlock(); }
+    void after_fork_in_child() {
+        // Only the forking thread exists: it holds the lock, no one waits on the conditions.
+        new (&mutex_) std::mutex;
+        new (&wake_) std::condition_variable;
+        new (&finished_) std::condition_variable;
+        loops_.clear();  // a loop in flight belongs to a thread the child does not have
+        started_ = 0;
+    }
+
     void run(Loop* loop, unsigned workers) {
         {
             std::lock_guard<std::mutex> lock(mutex_);
@@ -72,8 +89,15 @@ private:
     unsigned started_ = 0;
 };
 
+Pool* g_pool = nullptr;
+
 Pool& pool() {
-    static Pool* const shared = new Pool;  // never destroyed (see above)
+    static Pool* const shared = [] {
+        g_pool = new Pool;  // never destroyed (see above)
+        pthread_atfork([] { g_pool->before_fork(); }, [] { g_pool->after_fork_in_parent(); },
+                       [] { g_pool->after_fork_in_child(); });
+        return g_pool;
+    }();
     return *shared;
 }
 

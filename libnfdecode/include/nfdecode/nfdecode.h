@@ -207,7 +207,8 @@ typedef struct nfd_context_options {
                                              (0.13.7) worker threads that every context in the
                                              process shares: started on first need, as many as
                                              the largest cpu_threads - 1 asked (255 at most),
-                                             idle between calls, kept until the process ends */
+                                             idle between calls, kept until the process ends;
+                                             a forked child starts its own */
     int enable_validation;                /* non-zero: enable VK_LAYER_KHRONOS_validation if present */
     /* (0.10) Bytes from nfd_context_get_pipeline_cache of an earlier context, e.g. read back from
      * a file in the user's cache directory: the pipelines they hold are not compiled again. Used
