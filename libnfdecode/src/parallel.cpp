@@ -4,7 +4,9 @@
 // The pool is never destroyed: at exit its threads may still be running, and joining them could
 // hang. A fork copies none of them, and the child would wait forever on the parent's lock or
 // condition variables (glibc's broadcast waits for waiters the child does not have): the pool's
-// lock is held across fork() and the child starts from an empty pool.
+// lock is held across fork(), and the child gets a pool that starts no thread (starting threads
+// after a multi-threaded fork is outside what POSIX allows and ThreadSanitizer supports): its
+// loops run on their callers.
 #include "parallel.h"
 
 #include <pthread.h>
@@ -32,7 +34,7 @@ public:
         new (&wake_) std::condition_variable;
         new (&finished_) std::condition_variable;
         loops_.clear();  // a loop in flight belongs to a thread the child does not have
-        started_ = 0;
+        started_ = kMaxWorkers;  // counts as started: grow() starts none
     }
 
     void run(Loop* loop, unsigned workers) {

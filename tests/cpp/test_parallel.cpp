@@ -65,8 +65,8 @@ TEST(Parallel, NestedLoopsComplete) {
 }
 
 // A fork copies none of the workers, and may come while one holds the pool's lock: the child
-// still completes its loops, a whole decode included (it starts workers of its own). Several
-// forks while another thread keeps the workers busy, so that some land mid-loop.
+// still completes its loops, a whole decode included (on its calling thread: it starts no
+// worker). Several forks while another thread keeps the workers busy, so that some land mid-loop.
 TEST(Parallel, LoopsCompleteInAForkedChild) {
     const Geometry g = parse_or_throw(read_bytes(golden_path("bunny_sdf_w16", ".nfc")));
     MeshData parent_mesh;

@@ -208,7 +208,8 @@ typedef struct nfd_context_options {
                                              process shares: started on first need, as many as
                                              the largest cpu_threads - 1 asked (255 at most),
                                              idle between calls, kept until the process ends;
-                                             a forked child starts its own */
+                                             a child forked after them runs the CPU path on
+                                             its calling thread */
     int enable_validation;                /* non-zero: enable VK_LAYER_KHRONOS_validation if present */
     /* (0.10) Bytes from nfd_context_get_pipeline_cache of an earlier context, e.g. read back from
      * a file in the user's cache directory: the pipelines they hold are not compiled again. Used
