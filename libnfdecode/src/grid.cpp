@@ -323,17 +323,15 @@ void GridBuilder::evaluate_udf_gradients() {
     });
     nfd::vector<float>& gradients = level.gradients;
     gradients.assign(size_t(3) * level.vertices.size(), 0.0f);
-    // By ranges of vertex blocks on threads, each with its own evaluator (one thread, its share of
-    // the chunk: evaluator_bytes holds).
+    // By ranges of vertex blocks on threads, each with its own evaluator.
     auto store = [&gradients](uint32_t r, float, const float* g) {
         std::copy(g, g + 3, &gradients[size_t(3) * r]);
     };
-    const unsigned slice_count = resolve_thread_count(threads_);
-    using Evaluator = decltype(make_evaluator(network_, true, 1, store));
+    using Evaluator = decltype(make_slice_evaluator(network_, true, threads_, store));
     nfd::vector<Evaluator> evaluators;
-    evaluators.reserve(slice_count);
-    for (unsigned t = 0; t < slice_count; ++t)
-        evaluators.push_back(make_evaluator(network_, true, 1, store, kEvalChunk / slice_count));
+    evaluators.reserve(resolve_thread_count(threads_));
+    for (unsigned t = 0; t < resolve_thread_count(threads_); ++t)
+        evaluators.push_back(make_slice_evaluator(network_, true, threads_, store));
     parallel_slices(level.vertices.blocks(), 16, threads_, [&](size_t t, size_t begin, size_t end) {
         level.vertices.for_each_in_blocks(begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
             if (!wanted[r]) return;

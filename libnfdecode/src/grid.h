@@ -479,14 +479,9 @@ template <class WordsOf>
 void VertexSet::assign(WordsOf&& words_of, unsigned threads) {
     // Ranges of the block table count their blocks, then write them after the ranges before.
     constexpr size_t kRange = 4096;
-    const size_t indices = table_.size(), ranges = (indices + kRange - 1) / kRange;
-    auto for_each_range = [&](auto&& fn) {
-        parallel_for(ranges, 1, threads, [&](size_t begin, size_t end) {
-            for (size_t g = begin; g < end; ++g) fn(g, g * kRange, std::min(indices, (g + 1) * kRange));
-        });
-    };
+    const size_t ranges = (table_.size() + kRange - 1) / kRange;
     nfd::vector<uint32_t> first(ranges + 1);
-    for_each_range([&](size_t g, size_t begin, size_t end) {
+    for_each_range(table_.size(), kRange, threads, [&](size_t g, size_t begin, size_t end) {
         uint64_t words[8];
         uint32_t count = 0;
         for (size_t i = begin; i < end; ++i) count += words_of(i, words);
@@ -494,7 +489,7 @@ void VertexSet::assign(WordsOf&& words_of, unsigned threads) {
     });
     for (size_t g = 0; g < ranges; ++g) first[g + 1] += first[g];
     blocks_.resize(first[ranges]);
-    for_each_range([&](size_t g, size_t begin, size_t end) {
+    for_each_range(table_.size(), kRange, threads, [&](size_t g, size_t begin, size_t end) {
         uint32_t slot = first[g];
         for (size_t i = begin; i < end; ++i) {
             uint64_t words[8];

@@ -6,6 +6,7 @@
 
 #include "host_memory.h"
 #include "network.h"
+#include "parallel.h"
 
 namespace nfd {
 
@@ -14,8 +15,7 @@ constexpr size_t kEvalChunk = size_t(1) << 20;  // points per evaluate call: bou
 // Evaluates points as they are pushed, `chunk` (kEvalChunk unless given) at a time, so that
 // scratch memory does not grow with the level: push(slot, xyz) queues a point, and
 // `store(slot, value, gradient)` takes its result at the next flush (gradient null unless
-// `gradients`). Several on threads, each with one thread and its share of kEvalChunk, hold what
-// one holds (evaluator_bytes).
+// `gradients`). make_slice_evaluator gives one per slice of a parallel pass.
 template <class Store>
 class ChunkedEvaluator {
 public:
@@ -68,6 +68,15 @@ template <class Store>
 ChunkedEvaluator<Store> make_evaluator(const Network& net, bool gradients, unsigned threads,
                                        Store store, size_t chunk = kEvalChunk) {
     return ChunkedEvaluator<Store>(net, gradients, threads, std::move(store), chunk);
+}
+
+// The evaluator of one slice of a parallel pass (parallel_slices over `threads`): one thread, the
+// slice's, and its share of kEvalChunk, so that the slices' evaluators together hold what one
+// evaluator over `threads` holds (evaluator_bytes).
+template <class Store>
+ChunkedEvaluator<Store> make_slice_evaluator(const Network& net, bool gradients, unsigned threads,
+                                             Store store) {
+    return make_evaluator(net, gradients, 1, std::move(store), kEvalChunk / resolve_thread_count(threads));
 }
 
 // The points one ChunkedEvaluator over `points` points holds: its queue and results at a chunk.

@@ -210,14 +210,8 @@ public:
     // their cells, then write them after the ranges before, on threads.
     void visited_cells(nfd::vector<uint32_t>* cells, unsigned threads) const {
         const size_t ranges = (table_.size() + kListRange - 1) / kListRange;
-        auto for_each_range = [&](auto&& fn) {
-            parallel_for(ranges, 1, threads, [&](size_t begin, size_t end) {
-                for (size_t g = begin; g < end; ++g)
-                    fn(g, g * kListRange, std::min(table_.size(), (g + 1) * kListRange));
-            });
-        };
         nfd::vector<size_t> first(ranges + 1);
-        for_each_range([&](size_t g, size_t begin, size_t end) {
+        for_each_range(table_.size(), kListRange, threads, [&](size_t g, size_t begin, size_t end) {
             size_t count = 0;
             for (size_t t = begin; t < end; ++t)
                 if (table_[t] != kNoBlock)
@@ -226,7 +220,7 @@ public:
         });
         for (size_t g = 0; g < ranges; ++g) first[g + 1] += first[g];
         cells->resize(first[ranges]);
-        for_each_range([&](size_t g, size_t begin, size_t end) {
+        for_each_range(table_.size(), kListRange, threads, [&](size_t g, size_t begin, size_t end) {
             uint32_t* out = cells->data() + first[g];
             for (size_t t = begin; t < end; ++t) {
                 if (table_[t] == kNoBlock) continue;
@@ -476,16 +470,14 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // collects the cells it visits. A cell or corner is claimed once, whichever slice gets it: the
     // flood reaches the same cells and evaluates the same points in any order, and the level is
     // read out in raster order (FloodStore::visited_cells).
-    using Evaluator = decltype(make_evaluator(net, false, 1, store_value));
     struct Slice {
-        Evaluator evaluator;
+        decltype(make_slice_evaluator(net, false, threads, store_value)) evaluator;
         nfd::vector<uint32_t> visits;  // the next wave's cells this slice found
     };
-    const unsigned slice_count = resolve_thread_count(threads);
     nfd::vector<Slice> slices;
-    slices.reserve(slice_count);
-    for (unsigned t = 0; t < slice_count; ++t)
-        slices.push_back(Slice{make_evaluator(net, false, 1, store_value, kEvalChunk / slice_count), {}});
+    slices.reserve(resolve_thread_count(threads));
+    for (unsigned t = 0; t < resolve_thread_count(threads); ++t)
+        slices.push_back(Slice{make_slice_evaluator(net, false, threads, store_value), {}});
     // The value of vertex (x, y, z) at slot s, just claimed: a corner of the parent level is
     // copied, any other queued.
     auto fetch = [&](Slice& slice, uint32_t s, uint32_t x, uint32_t y, uint32_t z) {

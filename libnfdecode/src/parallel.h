@@ -67,4 +67,14 @@ void parallel_for(size_t n, size_t grain, unsigned threads, Fn&& fn) {
     parallel_slices(n, grain, threads, [&fn](size_t, size_t begin, size_t end) { fn(begin, end); });
 }
 
+// fn(k, begin, end) for the ranges [k * range, min(n, (k + 1) * range)) of [0, n), on threads:
+// passes that count per range, then write each range's part after the ranges before.
+template <class Fn>
+void for_each_range(size_t n, size_t range, unsigned threads, Fn&& fn) {
+    const size_t ranges = (n + range - 1) / range;
+    parallel_for(ranges, 1, threads, [&](size_t begin, size_t end) {
+        for (size_t k = begin; k < end; ++k) fn(k, k * range, std::min(n, (k + 1) * range));
+    });
+}
+
 }  // namespace nfd
