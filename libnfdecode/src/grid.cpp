@@ -13,6 +13,11 @@
 #include "parallel.h"
 
 namespace nfd {
+
+#if defined(NFD_POPCNT_AT_RUN_TIME)
+const bool kCpuHasPopcnt = (__builtin_cpu_init(), __builtin_cpu_supports("popcnt"));
+#endif
+
 namespace {
 
 constexpr uint32_t kMinCoarse = 32;

@@ -151,6 +151,24 @@ TEST(Extract, UdfNearCellsAreThoseWhoseValidEdgesHoldATriangle) {
     EXPECT_FALSE(udf_cell_is_near(f, h));  // a non-finite corner: never meshed
 }
 
+// The vertex sets' bit count, the way this CPU and build take and the arithmetic for CPUs without
+// the instruction, against one bit at a time.
+TEST(Extract, PopcountCountsEveryBit) {
+#if defined(NFD_POPCNT_AT_RUN_TIME)
+    __builtin_cpu_init();
+    EXPECT_EQ(kCpuHasPopcnt, __builtin_cpu_supports("popcnt") != 0);  // set before main
+#endif
+    uint64_t x = 0x9E3779B97F4A7C15ull;
+    std::vector<uint64_t> words = {0, ~0ull, 1, 1ull << 63, 0x5555555555555555ull};
+    for (int k = 0; k < 1000; ++k) words.push_back(x = x * 6364136223846793005ull + 1442695040888963407ull);
+    for (uint64_t w : words) {
+        uint32_t bits = 0;
+        for (int b = 0; b < 64; ++b) bits += uint32_t(w >> b & 1);
+        EXPECT_EQ(popcount64(w), bits) << std::hex << w;
+        EXPECT_EQ(popcount64_arithmetic(w), bits) << std::hex << w;
+    }
+}
+
 // insert_cell gives the set of eight single inserts, at block edges too; find, rank and
 // sibling_ranks agree.
 TEST(Extract, VertexSetCellInsertsAndFinds) {
