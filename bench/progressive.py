@@ -12,6 +12,9 @@ Per file and device, medians over --runs interleaved runs of:
     right after it), as median [first quartile, third quartile]: on a shared 2-core machine the
     decode times drift by 20% within minutes, and paired ratios cancel most of that drift.
 
+With --core K every run is pinned to CPU core K (one thread's work, without the second core's
+share of the parallel loops or its noise): the CPU ratio of the ladder's own cost.
+
 With --bandwidth R (e.g. 256KB/s) the progressive runs feed the file through nfd_stream in
 --stream-chunk pieces paced at R (nfc-decode --stream-chunk --bandwidth): the times then count from
 the first byte fed, and two more columns give when the geometry chunk had arrived and the first
@@ -19,12 +22,14 @@ level's time after it.
 
     python3 bench/progressive.py bench/out/nfc/bunny_fast_w32.nfc --levels 32,64,128,256
     python3 bench/progressive.py bench/out/nfc/bunny_fast_w32.nfc --bandwidth 256KB/s
+    python3 bench/progressive.py bench/out/nfc/bunny_fast_w32.nfc --devices cpu --core 1 --runs 7
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import statistics
 import subprocess
@@ -33,23 +38,29 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 NFC_DECODE = REPO / "build" / "samples" / "nfc-decode"
+CORES: set[int] | None = None  # --core: the CPU every run is pinned to
+
+
+def decode(args: list[str]) -> str:
+    """nfc-decode's stdout, on CORES if set."""
+    pin = (lambda: os.sched_setaffinity(0, CORES)) if CORES else None
+    return subprocess.run([str(NFC_DECODE), *args], check=True, capture_output=True, text=True,
+                          preexec_fn=pin).stdout
 
 
 def progressive(path: Path, levels: str, device: str,
                 feed: list[str]) -> tuple[dict[int, float], dict]:
     with tempfile.TemporaryDirectory() as tmp:
-        out = subprocess.run([str(NFC_DECODE), str(path), "-o", f"{tmp}/out.ply", "--levels", levels,
-                              "--device", device, "--stats=json", *feed],
-                             check=True, capture_output=True, text=True).stdout
+        out = decode([str(path), "-o", f"{tmp}/out.ply", "--levels", levels, "--device", device,
+                      "--stats=json", *feed])
     objects = [json.loads(line) for line in out.splitlines()]
     return {o["resolution"]: o["elapsed_ms"] for o in objects[:-1]}, objects[-1]
 
 
 def one_shot(path: Path, resolution: int, device: str) -> float:
     with tempfile.TemporaryDirectory() as tmp:
-        out = subprocess.run([str(NFC_DECODE), str(path), "-o", f"{tmp}/out.ply", "--resolution",
-                              str(resolution), "--device", device, "--stats"],
-                             check=True, capture_output=True, text=True).stdout
+        out = decode([str(path), "-o", f"{tmp}/out.ply", "--resolution", str(resolution),
+                      "--device", device, "--stats"])
     ms = {m[1]: float(m[2]) for m in re.finditer(r"^(parse|field|mesh)\s+([0-9.]+) ms", out, re.M)}
     return ms["parse"] + ms["field"] + ms["mesh"]
 
@@ -70,7 +81,10 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--bandwidth", help="stream the progressive runs at this rate, e.g. 256KB/s")
     ap.add_argument("--stream-chunk", type=int, default=1024, help="bytes per piece with --bandwidth")
+    ap.add_argument("--core", type=int, help="pin every run to this CPU core")
     args = ap.parse_args()
+    global CORES
+    CORES = {args.core} if args.core is not None else None
     feed = ["--stream-chunk", str(args.stream_chunk), "--bandwidth", args.bandwidth] if args.bandwidth else []
     levels = [int(r) for r in args.levels.split(",")]
     final = str(levels[-1])
