@@ -4,11 +4,20 @@
 #include <nfdecode/nfdecode.h>
 
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <unistd.h>
 
+// tinygltf (header-only) reads the .glb files back: an implementation other than the writer's.
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_EXTERNAL_IMAGE
+#include <tiny_gltf.h>
+
+#include "export.h"
 #include "test_util.h"
 
 namespace nfd::test {
@@ -490,6 +499,87 @@ TEST_F(Api, WritesValidGlb) {
     const auto& view = j["bufferViews"][idx["bufferView"].get<int>()];
     const size_t at = bin_at + 8 + view.value("byteOffset", 0u) + idx.value("byteOffset", 0u);
     for (size_t k = 0; k < 3 * d.triangle_count; ++k) ASSERT_EQ(le32(glb, at + 4 * k), d.indices[k]);
+}
+
+// The bytes tinygltf reads through an accessor, as 4-byte words.
+std::vector<uint32_t> accessor_words(const tinygltf::Model& m, int index) {
+    const tinygltf::Accessor& a = m.accessors[size_t(index)];
+    const tinygltf::BufferView& v = m.bufferViews[size_t(a.bufferView)];
+    const size_t words = a.count * size_t(tinygltf::GetNumComponentsInType(uint32_t(a.type)));
+    std::vector<uint32_t> out(words);
+    std::memcpy(out.data(), m.buffers[size_t(v.buffer)].data.data() + v.byteOffset + a.byteOffset,
+                4 * words);
+    return out;
+}
+
+template <class Vector>
+std::vector<uint32_t> words_of(const Vector& values) {
+    std::vector<uint32_t> out(values.size());
+    std::memcpy(out.data(), values.data(), 4 * values.size());
+    return out;
+}
+
+// Every part of a .glb as tinygltf reads it: the arrays where the accessors say, colours, the
+// geo-referenced offset as the node's translation, min/max; an empty mesh is an empty scene.
+TEST_F(Api, GlbLoadsInTinyGltf) {
+    extract(48);
+    MeshData mesh_data;
+    {
+        nfd_mesh_data d;
+        ASSERT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
+        mesh_data.positions.assign(d.positions, d.positions + 3 * d.vertex_count);
+        mesh_data.normals.assign(d.normals, d.normals + 3 * d.vertex_count);
+        mesh_data.indices.assign(d.indices, d.indices + 3 * d.triangle_count);
+    }
+    const std::string path = temp_path("tinygltf.glb");
+    for (bool decorated : {false, true}) {
+        if (decorated) {  // colours and a far frame
+            for (size_t i = 0; i < mesh_data.positions.size(); ++i)
+                mesh_data.colours.push_back(float(i % 7) / 6.0f);
+            mesh_data.offset = {412345.25, 5612345.5, -31.125};
+        }
+        ASSERT_EQ(write_glb(mesh_data, path.c_str()), NFD_SUCCESS);
+        tinygltf::TinyGLTF loader;
+        tinygltf::Model m;
+        std::string err, warn;
+        ASSERT_TRUE(loader.LoadBinaryFromFile(&m, &err, &warn, path)) << err;
+        EXPECT_TRUE(err.empty() && warn.empty()) << err << warn;
+        ASSERT_EQ(m.meshes.size(), 1u);
+        ASSERT_EQ(m.nodes.size(), 1u);
+        const tinygltf::Primitive& p = m.meshes[0].primitives.at(0);
+        EXPECT_EQ(p.mode, TINYGLTF_MODE_TRIANGLES);
+        EXPECT_EQ(accessor_words(m, p.attributes.at("POSITION")), words_of(mesh_data.positions));
+        EXPECT_EQ(accessor_words(m, p.attributes.at("NORMAL")), words_of(mesh_data.normals));
+        EXPECT_EQ(accessor_words(m, p.indices), words_of(mesh_data.indices));
+        EXPECT_EQ(m.accessors[size_t(p.indices)].componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
+        const tinygltf::Accessor& position = m.accessors[size_t(p.attributes.at("POSITION"))];
+        for (int a = 0; a < 3; ++a) {
+            float lo = INFINITY, hi = -INFINITY;
+            for (size_t i = a; i < mesh_data.positions.size(); i += 3) {
+                lo = std::min(lo, mesh_data.positions[i]);
+                hi = std::max(hi, mesh_data.positions[i]);
+            }
+            EXPECT_EQ(position.minValues.at(size_t(a)), double(lo));
+            EXPECT_EQ(position.maxValues.at(size_t(a)), double(hi));
+        }
+        if (decorated) {
+            EXPECT_EQ(accessor_words(m, p.attributes.at("COLOR_0")), words_of(mesh_data.colours));
+            EXPECT_EQ(m.nodes[0].translation,
+                      std::vector<double>(mesh_data.offset.begin(), mesh_data.offset.end()));
+        } else {
+            EXPECT_EQ(p.attributes.count("COLOR_0"), 0u);
+            EXPECT_TRUE(m.nodes[0].translation.empty());
+        }
+    }
+    ASSERT_EQ(write_glb(MeshData{}, path.c_str()), NFD_SUCCESS);
+    tinygltf::TinyGLTF loader;
+    tinygltf::Model m;
+    std::string err, warn;
+    ASSERT_TRUE(loader.LoadBinaryFromFile(&m, &err, &warn, path)) << err;
+    EXPECT_TRUE(m.meshes.empty() && m.nodes.empty() && m.buffers.empty());
+    ASSERT_EQ(m.scenes.size(), 1u);
+    EXPECT_TRUE(m.scenes[0].nodes.empty());
+    std::remove(path.c_str());
 }
 
 TEST_F(Api, WritesPly) {

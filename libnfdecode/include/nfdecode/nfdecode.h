@@ -141,8 +141,8 @@ NFD_API uint32_t nfd_version(void);
  * meshes, stream buffers, the CPU evaluator's batches, marching-cubes bookkeeping, the brotli
  * decoder's state, the bytes of written .ply files. Not through them: fixed bookkeeping of a few
  * hundred bytes per object (a queue's job lists, thread objects, callbacks), threads' stacks, the
- * Vulkan driver's memory, glTF and OpenVDB writing (tinygltf's and OpenVDB's own containers), and
- * tables built once per process. bench/RESULTS.md ("Host memory hooks") measures the share.
+ * Vulkan driver's memory, the JSON text of a written .glb (a few KB), OpenVDB writing (OpenVDB's
+ * own containers), and tables built once per process. bench/RESULTS.md ("Host memory hooks") measures the share.
  *
  * allocate(user, size) returns `size` bytes (never asked for 0) aligned to at least 16 bytes, or
  * NULL when it cannot: the call in progress then fails with NFD_ERROR_OUT_OF_MEMORY, leaving
@@ -612,7 +612,7 @@ NFD_API nfd_result nfd_mesh_sample_points(const nfd_mesh* mesh, size_t count, ui
  * colours; face list uchar uint vertex_indices; with a non-zero offset x,y,z are double,
  * offset + position, exact).
  * NFD_ERROR_INVALID_ARGUMENT for NULL arguments, NFD_ERROR_IO if the file cannot be opened or
- * fully written. */
+ * fully written, NFD_ERROR_LIMIT_EXCEEDED for a .glb past 4 GiB (the format's 32-bit length). */
 NFD_API nfd_result nfd_mesh_write_glb(const nfd_mesh* mesh, const char* path);
 NFD_API nfd_result nfd_mesh_write_ply(const nfd_mesh* mesh, const char* path);
 
