@@ -27,6 +27,7 @@ constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;  // bufferView 
 // Writes n 4-byte words (floats or uint32) little-endian, as glTF stores them: as they are on a
 // little-endian host, a chunk at a time byte-swapped on others.
 bool write_words(std::FILE* f, const void* words, size_t n) {
+    if (n == 0) return true;  // an empty array's data() may be null, which fwrite must not get
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
     const uint8_t* in = static_cast<const uint8_t*>(words);
     uint8_t chunk[4096];
