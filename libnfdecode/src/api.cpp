@@ -488,6 +488,9 @@ nfd_result nfd_stream_create(const nfd_stream_options* options, nfd_stream** out
     });
 }
 
+}  // extern "C"
+
+// Helpers between the C entry points are C++ functions: outside the extern "C" block.
 namespace {
 
 // nfd_stream_options.prepare_context: once the stream has read GEOM's network shape ahead of the
@@ -506,6 +509,8 @@ void prepare_from_stream(nfd_stream& stream) {
 }
 
 }  // namespace
+
+extern "C" {
 
 void nfd_stream_destroy(nfd_stream* stream) { delete stream; }
 
@@ -919,6 +924,8 @@ nfd_result nfd_queue_create(nfd_context* context, const nfd_queue_options* optio
 
 void nfd_queue_destroy(nfd_queue* queue) { delete queue; }
 
+}  // extern "C"
+
 namespace {
 
 nfd_result read_job_request(const nfd_mesh_options* mesh_options, const nfd_job_options* job_options,
@@ -987,6 +994,8 @@ nfd_result input_open(nfd_job& handle) {
 }
 
 }  // namespace
+
+extern "C" {
 
 nfd_result nfd_queue_submit(nfd_queue* queue, const nfd_asset* asset,
                             const nfd_mesh_options* mesh_options,
