@@ -12,8 +12,8 @@ Per file and device, medians over --runs interleaved runs of:
     right after it), as median [first quartile, third quartile]: on a shared 2-core machine the
     decode times drift by 20% within minutes, and paired ratios cancel most of that drift.
 
-With --core K every run is pinned to CPU core K (one thread's work, without the second core's
-share of the parallel loops or its noise): the CPU ratio of the ladder's own cost.
+With --core K every run is pinned to CPU core K (all its threads on that core: the work without
+the second core's share of the parallel loops, or its noise): the CPU ratio of the ladder's own cost.
 
 With --bandwidth R (e.g. 256KB/s) the progressive runs feed the file through nfd_stream in
 --stream-chunk pieces paced at R (nfc-decode --stream-chunk --bandwidth): the times then count from
