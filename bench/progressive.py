@@ -38,29 +38,28 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 NFC_DECODE = REPO / "build" / "samples" / "nfc-decode"
-CORES: set[int] | None = None  # --core: the CPU every run is pinned to
 
 
-def decode(args: list[str]) -> str:
-    """nfc-decode's stdout, on CORES if set."""
-    pin = (lambda: os.sched_setaffinity(0, CORES)) if CORES else None
+def decode(args: list[str], cores: set[int] | None) -> str:
+    """nfc-decode's stdout, pinned to `cores` if given."""
+    pin = (lambda: os.sched_setaffinity(0, cores)) if cores else None
     return subprocess.run([str(NFC_DECODE), *args], check=True, capture_output=True, text=True,
                           preexec_fn=pin).stdout
 
 
-def progressive(path: Path, levels: str, device: str,
-                feed: list[str]) -> tuple[dict[int, float], dict]:
+def progressive(path: Path, levels: str, device: str, feed: list[str],
+                cores: set[int] | None) -> tuple[dict[int, float], dict]:
     with tempfile.TemporaryDirectory() as tmp:
         out = decode([str(path), "-o", f"{tmp}/out.ply", "--levels", levels, "--device", device,
-                      "--stats=json", *feed])
+                      "--stats=json", *feed], cores)
     objects = [json.loads(line) for line in out.splitlines()]
     return {o["resolution"]: o["elapsed_ms"] for o in objects[:-1]}, objects[-1]
 
 
-def one_shot(path: Path, resolution: int, device: str) -> float:
+def one_shot(path: Path, resolution: int, device: str, cores: set[int] | None) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         out = decode([str(path), "-o", f"{tmp}/out.ply", "--resolution", str(resolution),
-                      "--device", device, "--stats"])
+                      "--device", device, "--stats"], cores)
     ms = {m[1]: float(m[2]) for m in re.finditer(r"^(parse|field|mesh)\s+([0-9.]+) ms", out, re.M)}
     return ms["parse"] + ms["field"] + ms["mesh"]
 
@@ -83,8 +82,7 @@ def main() -> None:
     ap.add_argument("--stream-chunk", type=int, default=1024, help="bytes per piece with --bandwidth")
     ap.add_argument("--core", type=int, help="pin every run to this CPU core")
     args = ap.parse_args()
-    global CORES
-    CORES = {args.core} if args.core is not None else None
+    cores = {args.core} if args.core is not None else None
     feed = ["--stream-chunk", str(args.stream_chunk), "--bandwidth", args.bandwidth] if args.bandwidth else []
     levels = [int(r) for r in args.levels.split(",")]
     final = str(levels[-1])
@@ -98,9 +96,9 @@ def main() -> None:
         for device in args.devices:
             full, last, shots = [], [], []
             for _ in range(args.runs):
-                full.append(progressive(path, args.levels, device, feed))
-                last.append(progressive(path, final, device, feed)[1])
-                shots.append(one_shot(path, levels[-1], device))
+                full.append(progressive(path, args.levels, device, feed, cores))
+                last.append(progressive(path, final, device, feed, cores)[1])
+                shots.append(one_shot(path, levels[-1], device, cores))
             to = [med(r[0][res] for r in full) for res in levels]
             create = med(r[1]["prepare_ms"] for r in full)
             cpu_full, cpu_last = med(r[1]["cpu_ms"] for r in full), med(r["cpu_ms"] for r in last)

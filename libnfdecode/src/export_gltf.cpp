@@ -65,14 +65,6 @@ json gltf_json(const MeshData& mesh, uint64_t* bin_bytes) {
                              {"count", count}, {"type", type}});
         return accessors.size() - 1;
     };
-    const uint64_t vertex_bytes = uint64_t(mesh.positions.size()) * 4;
-    attributes["POSITION"] = add(vertex_bytes, kArrayBuffer, kFloat, "VEC3", mesh.vertex_count());
-    attributes["NORMAL"] = add(vertex_bytes, kArrayBuffer, kFloat, "VEC3", mesh.vertex_count());
-    if (!mesh.colours.empty())  // float RGB in [0, 1], as glTF's COLOR_0 allows
-        attributes["COLOR_0"] = add(vertex_bytes, kArrayBuffer, kFloat, "VEC3", mesh.vertex_count());
-    const size_t indices = add(uint64_t(mesh.indices.size()) * 4, kElementArrayBuffer,
-                               kUnsignedInt, "SCALAR", mesh.indices.size());
-
     // POSITION must carry min/max (glTF 2.0, 3.6.2.4); f32 values are exact as JSON doubles.
     double lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
@@ -84,9 +76,15 @@ json gltf_json(const MeshData& mesh, uint64_t* bin_bytes) {
             lo[a] = std::min(lo[a], double(mesh.positions[3 * i + a]));
             hi[a] = std::max(hi[a], double(mesh.positions[3 * i + a]));
         }
-    json& position = accessors[attributes["POSITION"].get<size_t>()];
-    position["min"] = {lo[0], lo[1], lo[2]};
-    position["max"] = {hi[0], hi[1], hi[2]};
+    const uint64_t vertex_bytes = uint64_t(mesh.positions.size()) * 4;
+    attributes["POSITION"] = add(vertex_bytes, kArrayBuffer, kFloat, "VEC3", mesh.vertex_count());
+    accessors.back()["min"] = {lo[0], lo[1], lo[2]};
+    accessors.back()["max"] = {hi[0], hi[1], hi[2]};
+    attributes["NORMAL"] = add(vertex_bytes, kArrayBuffer, kFloat, "VEC3", mesh.vertex_count());
+    if (!mesh.colours.empty())  // float RGB in [0, 1], as glTF's COLOR_0 allows
+        attributes["COLOR_0"] = add(vertex_bytes, kArrayBuffer, kFloat, "VEC3", mesh.vertex_count());
+    const size_t indices = add(uint64_t(mesh.indices.size()) * 4, kElementArrayBuffer,
+                               kUnsignedInt, "SCALAR", mesh.indices.size());
 
     json node = {{"mesh", 0}};
     // A geo-referenced frame: positions stay f32 and local, the far translation is the node's,
