@@ -32,8 +32,8 @@ struct CrossedEdge {
 namespace marching_detail {
 
 static_assert(mc::kMaxTrianglesPerCase <= 8, "a cell's emitted triangles are one bit each of a byte");
-constexpr size_t kCellGrain = 4096;       // emitting cells per parallel slice at least
-constexpr size_t kOrderRun = 65536;       // visited cells per run of the emitting list's passes
+constexpr size_t kOrderRun = 16384;       // visited cells per run of the passes after the first
+constexpr size_t kIndexGrain = 65536;     // indices per parallel slice at least
 constexpr uint32_t kPlaced = 1u << 31;    // edge_owner entry: the edge's vertex, not its owner
 
 // fn(e) for the table edge of every corner of the triangles of case `index` whose bit is set in
@@ -84,7 +84,7 @@ inline bool first_occurrence(const uint32_t* keys, size_t p) {
 // a triangle. mesh_bytes_bound (extract.h) bounds what it allocates. Every pass runs on `threads`
 // (as evaluate_cpu's), so the three callbacks must be safe to call concurrently; the output does
 // not depend on them, and is the one a single loop over the cells would give (each vertex made at
-// its edge's first use): std::length_error past 2^31 emitting cells or vertices.
+// its edge's first use): std::length_error past 2^31 visited cells or vertices.
 template <class Classify, class EdgeValid, class Place>
 uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* only,
                      Classify&& classify, EdgeValid&& edge_valid, Place&& place, MeshData* mesh) {
@@ -111,17 +111,13 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
         level.for_each_cell(begin, end, only, visit);
     });
 
-    // The emitting cells in order, and where each one's triangles start: each run of kOrderRun
-    // cells counts its own, then writes its part after the runs before it.
+    // The visited cells go by runs of kOrderRun, in order: each pass below walks a run's emitting
+    // cells in turn, and what a run starts at (its first triangle, then its first vertex) comes
+    // from the counts of the runs before it, so no per-cell table is needed.
+    if (visited >= kPlaced) throw std::length_error("march_cells: too many cells");
     const size_t runs = (visited + kOrderRun - 1) / kOrderRun;
-    auto for_each_run = [&](auto&& fn) {  // fn(run, its first cell, the cell after its last)
-        parallel_for(runs, 1, threads, [&](size_t begin, size_t end) {
-            for (size_t run = begin; run < end; ++run)
-                fn(run, run * kOrderRun, std::min(visited, (run + 1) * kOrderRun));
-        });
-    };
-    nfd::vector<uint64_t> run_cells(runs + 1), run_triangles(runs + 1);
-    for_each_run([&](size_t run, size_t first, size_t last) {
+    nfd::vector<uint64_t> run_cells(runs + 1), run_triangles(runs + 1), run_vertices(runs + 1);
+    for_each_range(visited, kOrderRun, threads, [&](size_t run, size_t first, size_t last) {
         uint64_t cells = 0, triangles = 0;
         for (size_t i = first; i < last; ++i) {
             cells += emitted[i] != 0;
@@ -134,90 +130,83 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
         run_cells[run + 1] += run_cells[run];
         run_triangles[run + 1] += run_triangles[run];
     }
-    const size_t emitting = run_cells[runs];
-    if (emitting >= kPlaced) throw std::length_error("march_cells: too many cells");
-    nfd::vector<uint32_t> cell_of(emitting), first_triangle(emitting + 1);
-    for_each_run([&](size_t run, size_t first, size_t last) {
-        size_t j = run_cells[run];
-        uint32_t triangles = uint32_t(run_triangles[run]);
+    mesh->indices.resize(size_t(3) * run_triangles[runs]);
+    uint32_t* const keys = mesh->indices.data();  // edge keys first, vertex indices at the end
+    // fn(i, its keys) for the emitting cells of a run, in order.
+    auto for_each_emitting = [&](size_t run, size_t first, size_t last, auto&& fn) {
+        uint32_t* key = keys + size_t(3) * run_triangles[run];
         for (size_t i = first; i < last; ++i) {
             if (!emitted[i]) continue;
-            cell_of[j] = uint32_t(i);
-            triangles += popcount64(emitted[i]);
-            first_triangle[++j] = triangles;
+            fn(uint32_t(i), key);
+            key += size_t(3) * popcount64(emitted[i]);
         }
-    });
-    mesh->indices.resize(size_t(3) * first_triangle[emitting]);
-    uint32_t* const keys = mesh->indices.data();  // edge keys first, vertex indices at the end
+    };
 
     // Pass 2: each emitting cell writes the keys of its triangles' edges, and an edge's owner is
-    // the first cell to use it: the one that makes its vertex in a single loop over the cells.
-    // The owner table (3 slots a vertex: 14 MB at 512 for the bunny) is filled on threads.
+    // the first cell to use it (its index among the visited ones): the one that makes its vertex
+    // in a single loop over the cells. The owner table (3 slots a vertex: 14 MB at 512 for the
+    // bunny) is filled on threads.
     nfd::uninitialized_vector<uint32_t> edge_owner(size_t(level.vertices.size()) * 3);
     parallel_for(edge_owner.size(), 1 << 20, threads, [&](size_t begin, size_t end) {
         std::fill(edge_owner.begin() + begin, edge_owner.begin() + end, ~0u);
     });
-    parallel_for(emitting, kCellGrain, threads, [&](size_t begin, size_t end) {
-        for (size_t j = begin; j < end; ++j) {
+    for_each_range(visited, kOrderRun, threads, [&](size_t run, size_t first, size_t last) {
+        for_each_emitting(run, first, last, [&](uint32_t i, uint32_t* key) {
             uint32_t c[3], r[8];
-            unpack_coords(level.cells[cell_of[j]], c);
+            unpack_coords(level.cells[i], c);
             level.vertices.cell_ranks(c[0], c[1], c[2], r);
-            uint32_t* key = keys + size_t(3) * first_triangle[j];
-            for_each_emitted_edge(cases[cell_of[j]], emitted[cell_of[j]], [&](int e) {
+            for_each_emitted_edge(cases[i], emitted[i], [&](int e) {
                 *key = edge_key(r, e);
-                atomic_min(&edge_owner[*key++], uint32_t(j));
+                atomic_min(&edge_owner[*key++], i);
             });
-        }
+        });
     });
 
-    // Pass 3: the vertices each cell makes (its owned edges, once each); their prefix sums number
-    // them in first-use order.
-    nfd::vector<uint32_t> first_vertex(emitting + 1);
-    parallel_for(emitting, kCellGrain, threads, [&](size_t begin, size_t end) {
-        for (size_t j = begin; j < end; ++j) {
-            const uint32_t* cell_keys = keys + size_t(3) * first_triangle[j];
-            uint32_t made = 0;
-            for (size_t p = 0, n = 3 * size_t(first_triangle[j + 1] - first_triangle[j]); p < n; ++p)
-                made += edge_owner[cell_keys[p]] == j && first_occurrence(cell_keys, p);
-            first_vertex[j + 1] = made;
-        }
+    // Pass 3: the vertices each run makes (its cells' owned edges, once each); their prefix sums
+    // number them in first-use order.
+    for_each_range(visited, kOrderRun, threads, [&](size_t run, size_t first, size_t last) {
+        uint64_t made = 0;
+        for_each_emitting(run, first, last, [&](uint32_t i, const uint32_t* cell_keys) {
+            for (size_t p = 0, n = 3 * size_t(popcount64(emitted[i])); p < n; ++p)
+                made += edge_owner[cell_keys[p]] == i && first_occurrence(cell_keys, p);
+        });
+        run_vertices[run + 1] = made;
     });
-    for (size_t j = 0; j < emitting; ++j) {
-        if (first_vertex[j] + uint64_t(first_vertex[j + 1]) >= kPlaced)
-            throw std::length_error("march_cells: too many vertices");
-        first_vertex[j + 1] += first_vertex[j];
-    }
-    const size_t vertex_count = first_vertex[emitting];
+    for (size_t run = 0; run < runs; ++run) run_vertices[run + 1] += run_vertices[run];
+    const size_t vertex_count = run_vertices[runs];
+    if (vertex_count >= kPlaced) throw std::length_error("march_cells: too many vertices");
     mesh->positions.resize(3 * vertex_count);
     mesh->normals.resize(3 * vertex_count);
 
     // Pass 4: each cell places its vertices; the owner entry becomes the vertex (kPlaced set), so
     // a repeated key in the cell is no longer its own. Other cells read entries meanwhile, hence
     // the atomics.
-    parallel_for(emitting, kCellGrain, threads, [&](size_t begin, size_t end) {
-        for (size_t j = begin; j < end; ++j) {
-            uint32_t vertex = first_vertex[j];
-            if (vertex == first_vertex[j + 1]) continue;
+    for_each_range(visited, kOrderRun, threads, [&](size_t run, size_t first, size_t last) {
+        uint32_t vertex = uint32_t(run_vertices[run]);
+        for_each_emitting(run, first, last, [&](uint32_t i, const uint32_t* key) {
             uint32_t c[3], r[8];
-            unpack_coords(level.cells[cell_of[j]], c);
             float f[8];
-            level.corners(c, f, r);
-            const uint32_t* key = keys + size_t(3) * first_triangle[j];
-            for_each_emitted_edge(cases[cell_of[j]], emitted[cell_of[j]], [&](int e) {
+            bool read = false;  // the corners, read at the cell's first vertex
+            for_each_emitted_edge(cases[i], emitted[i], [&](int e) {
                 uint32_t* entry = &edge_owner[*key++];
-                if (__atomic_load_n(entry, __ATOMIC_RELAXED) != j) return;
+                if (__atomic_load_n(entry, __ATOMIC_RELAXED) != i) return;
+                if (!read) {
+                    unpack_coords(level.cells[i], c);
+                    level.corners(c, f, r);
+                    read = true;
+                }
                 place(crossed_edge(c, e, f, r), &mesh->positions[3 * size_t(vertex)],
                       &mesh->normals[3 * size_t(vertex)]);
                 __atomic_store_n(entry, vertex++ | kPlaced, __ATOMIC_RELAXED);
             });
-        }
+        });
     });
 
     // Pass 5: keys become vertex indices.
-    parallel_for(mesh->indices.size(), 16 * kCellGrain, threads, [&](size_t begin, size_t end) {
+    parallel_for(mesh->indices.size(), kIndexGrain, threads, [&](size_t begin, size_t end) {
         for (size_t p = begin; p < end; ++p) keys[p] = edge_owner[keys[p]] & ~kPlaced;
     });
-    return emitting;
+    return run_cells[runs];
 }
 
 // The unit-frame position of the point at t along a crossed edge.
