@@ -35,10 +35,11 @@ struct ExtractStats {
 // or one-sided where only one neighbour was evaluated (domain boundary, a cell outside the band),
 // or 0 where neither was. All in units of 1 / cell. Where the gradient vanishes: the direction of
 // the edge from its inside to its outside end.
-// `level` is the grid's finest, or a coarser one meshed as if it were (progressive.h). `threads` as
-// evaluate_cpu's run every pass (marching.h); the mesh does not depend on them.
-nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,
-                        uint64_t* active_cells);
+// `level` is the grid's finest, or a coarser one meshed as if it were (progressive.h); positions
+// go to `mesh` in `frame`. `threads` as evaluate_cpu's run every pass (marching.h); the mesh does
+// not depend on them.
+nfd_result mesh_sdf_cpu(const GridLevel& level, const OutputFrame& frame, unsigned threads,
+                        MeshData* mesh, uint64_t* active_cells);
 
 // ---- UDF (MeshUDF-style, fully parallel per cell) -------------------------------------------------
 // A UDF f >= 0 has no sign to mesh; MeshUDF (Guillard et al., ECCV 2022) recovers one locally from
@@ -73,9 +74,9 @@ nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
 //     winding and normals agree with each other cell by cell, not globally.
 //  7. Order: triangles in cell order then table order, vertices numbered by first use, as for SDF.
 // The level must hold its gradients (GridBuilder::evaluate_udf_gradients), else
-// NFD_ERROR_INTERNAL. `threads` as for mesh_sdf_cpu.
-nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,
-                        uint64_t* active_cells);
+// NFD_ERROR_INTERNAL. `frame` and `threads` as for mesh_sdf_cpu.
+nfd_result mesh_udf_cpu(const GridLevel& level, const OutputFrame& frame, unsigned threads,
+                        MeshData* mesh, uint64_t* active_cells);
 
 // An upper bound of the host bytes the mesher of either type allocates on a level of that size
 // (its temporaries and the mesh, vectors at their largest capacity).

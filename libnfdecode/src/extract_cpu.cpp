@@ -6,7 +6,6 @@
 #include "extract.h"
 #include "marching.h"
 #include "mc_tables.h"
-#include "parallel.h"
 
 namespace nfd {
 
@@ -30,15 +29,11 @@ nfd_result mesh_level_cpu(const Geometry& geometry, GridBuilder& builder, MeshDa
     const auto t_mesh = std::chrono::steady_clock::now();
     MeshData out;
     ExtractStats st;
-    const nfd_result m = udf ? mesh_udf_cpu(level, builder.threads(), &out, &st.active_cells)
-                             : mesh_sdf_cpu(level, builder.threads(), &out, &st.active_cells);
+    const OutputFrame frame{geometry.scale,
+                            {geometry.emit_center(0), geometry.emit_center(1), geometry.emit_center(2)}};
+    const nfd_result m = udf ? mesh_udf_cpu(level, frame, builder.threads(), &out, &st.active_cells)
+                             : mesh_sdf_cpu(level, frame, builder.threads(), &out, &st.active_cells);
     if (m != NFD_SUCCESS) return m;
-    const float center[3] = {geometry.emit_center(0), geometry.emit_center(1), geometry.emit_center(2)};
-    parallel_for(out.vertex_count(), 1 << 16, builder.threads(), [&](size_t begin, size_t end) {
-        for (size_t v = begin; v < end; ++v)
-            for (int a = 0; a < 3; ++a)
-                out.positions[3 * v + a] = out.positions[3 * v + a] * geometry.scale + center[a];
-    });
     st.seconds_mesh =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_mesh).count();
     const GridStats& grid = builder.grid().stats;

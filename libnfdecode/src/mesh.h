@@ -11,6 +11,13 @@ namespace nfd {
 // The three geometry arrays are sized by the meshers and the GPU read-back before every element is
 // written (a pass on threads, a download), so `resize` leaves their bytes as they are: zeroing them
 // first, on one thread, was 7-9% of the CPU mesh stage of an SDF at 512 (bench/RESULTS.md, 0.13.6).
+// Where the CPU meshers put a vertex of unit-frame position u: u * scale + center (the geometry's
+// original frame less MeshData::offset; Geometry::scale and emit_center).
+struct OutputFrame {
+    float scale = 1.0f;
+    float center[3] = {0.0f, 0.0f, 0.0f};
+};
+
 struct MeshData {
     nfd::uninitialized_vector<float> positions;   // xyz per vertex, original frame - `offset`
     nfd::uninitialized_vector<float> normals;     // xyz per vertex, unit, outwards (towards +SDF)

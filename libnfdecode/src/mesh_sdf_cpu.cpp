@@ -53,8 +53,8 @@ void edge_normal(const GridLevel& level, const CrossedEdge& e, float t, float n[
 
 }  // namespace
 
-nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,
-                        uint64_t* active_cells) {
+nfd_result mesh_sdf_cpu(const GridLevel& level, const OutputFrame& frame, unsigned threads,
+                        MeshData* mesh, uint64_t* active_cells) {
     *active_cells = march_cells(
         level, threads, nullptr,
         [](const uint32_t*, const float* f, const uint32_t*, int* index) {
@@ -62,10 +62,10 @@ nfd_result mesh_sdf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
             return true;
         },
         [](const CrossedEdge&) { return true; },
-        [&](const CrossedEdge& e, float u[3], float n[3]) {
+        [&](const CrossedEdge& e, float p[3], float n[3]) {
             float t = e.fa / (e.fa - e.fb);              // fa, fb differ in sign
             if (!(t >= 0.0f && t <= 1.0f)) t = 0.5f;     // an infinite corner
-            edge_point(level, e, t, u);
+            edge_point(level, e, t, frame, p);
             edge_normal(level, e, t, n);
         },
         mesh);

@@ -26,8 +26,8 @@ bool canonical_direction(const float v[3], float out[3]) {
 
 }  // namespace
 
-nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh,
-                        uint64_t* active_cells) {
+nfd_result mesh_udf_cpu(const GridLevel& level, const OutputFrame& frame, unsigned threads,
+                        MeshData* mesh, uint64_t* active_cells) {
     if (level.near.size() != level.cells.size() ||
         level.has_gradient.size() != level.vertices.size() ||
         level.gradients.size() != size_t(3) * level.vertices.size())
@@ -47,9 +47,9 @@ nfd_result mesh_udf_cpu(const GridLevel& level, unsigned threads, MeshData* mesh
             return true;
         },
         [&](const CrossedEdge& e) { return e.fa + e.fb <= max_edge_sum; },  // step 5
-        [&](const CrossedEdge& e, float u[3], float n[3]) {
+        [&](const CrossedEdge& e, float p[3], float n[3]) {
             const float sum = e.fa + e.fb;
-            edge_point(level, e, sum > 0.0f ? e.fa / sum : 0.5f, u);  // step 4
+            edge_point(level, e, sum > 0.0f ? e.fa / sum : 0.5f, frame, p);  // step 4
             const float *ga = gradient(e.ra), *gb = gradient(e.rb);
             const float d[3] = {ga[0] - gb[0], ga[1] - gb[1], ga[2] - gb[2]};
             float m[3];
