@@ -462,6 +462,27 @@ TEST_F(Gpu, NetworkIsUploadedOncePerDevice) {
     EXPECT_EQ(gpu::networks_uploaded(device()) - before, 11u);  // a was evicted
 }
 
+// Small buffers share blocks of device memory (vk_context.h, Context::create_buffer): a decode
+// makes far fewer VkDeviceMemory objects than buffers. (Every other test of this file decodes
+// through the blocks too, mapped and, in StagedMemoryGivesTheSameResults, staged.)
+TEST_F(Gpu, SmallBuffersShareDeviceMemory) {
+    for (const std::string name : {"bunny_sdf_w32", "tshirt_udf_w16"}) {
+        SCOPED_TRACE(name);
+        const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
+        const gpu::DeviceMemory before = gpu::device_memory(device());
+        MeshData mesh;
+        ASSERT_EQ(gpu::extract_mesh(device(), g, 128, &mesh, nullptr), NFD_SUCCESS);
+        ASSERT_GT(mesh.triangle_count(), 1000u);
+        const gpu::DeviceMemory after = gpu::device_memory(device());
+        const uint64_t buffers = after.buffers - before.buffers;
+        const uint64_t allocations = after.allocations - before.allocations;
+        EXPECT_GT(buffers, 30u);
+        EXPECT_LT(allocations * 3, buffers) << allocations << " allocations for " << buffers;
+        ::testing::Test::RecordProperty(name + "_buffers", std::to_string(buffers));
+        ::testing::Test::RecordProperty(name + "_allocations", std::to_string(allocations));
+    }
+}
+
 TEST_F(Gpu, MeshMatchesCpuOnRandomSiren) {
     const Geometry g = parse_or_throw(geom_file(random_siren(16, 8, 11)));
     const MeshPair m = extract_both(device(), g, 64);

@@ -530,7 +530,8 @@ typedef struct nfd_mesh_options {
      * could exceed a limit stops with NFD_ERROR_LIMIT_EXCEEDED before allocating it, whatever the
      * file's field makes of the surface. Output triangles are bounded through it (28 bytes per
      * vertex, 12 per triangle). Host: heap bytes; device: Vulkan buffer memory (ignored on the
-     * CPU path). The mesh is the one without limits, byte for byte. Queue jobs honour them too
+     * CPU path), each buffer's own bytes: buffers of up to 1 MiB share 8 MiB blocks of device
+     * memory (0.13.9), so the driver may hold up to a block's free space more per kind of memory. The mesh is the one without limits, byte for byte. Queue jobs honour them too
      * (their job fails with that code), beside the queue's budget. */
     uint64_t max_host_bytes;
     uint64_t max_device_bytes;

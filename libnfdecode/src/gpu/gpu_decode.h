@@ -44,6 +44,7 @@ void set_host_threads(Device& device, unsigned threads);
 // budget are checked against.
 struct DeviceMemory {
     uint64_t live = 0, peak = 0;
+    uint64_t buffers = 0, allocations = 0;  // made so far: buffers, VkDeviceMemory objects
 };
 DeviceMemory device_memory(const Device& device);
 // Whether the device's buffers are mapped (unified memory) or reached through staging copies.

@@ -14,6 +14,7 @@ set(NFD_GPU_SOURCES
   ${CMAKE_CURRENT_LIST_DIR}/mesh_sdf.cpp
   ${CMAKE_CURRENT_LIST_DIR}/mesh_udf.cpp
   ${CMAKE_CURRENT_LIST_DIR}/progressive.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/range_allocator.h
   ${CMAKE_CURRENT_LIST_DIR}/recording.cpp
   ${CMAKE_CURRENT_LIST_DIR}/vk_context.h
   ${CMAKE_CURRENT_LIST_DIR}/vk_context.cpp

@@ -391,6 +391,7 @@ Context::~Context() {
         if (transfer_fence_) vkDestroyFence(device_, transfer_fence_, nullptr);
         if (transfer_pool_) vkDestroyCommandPool(device_, transfer_pool_, nullptr);
         if (cache_) vkDestroyPipelineCache(device_, cache_, nullptr);
+        for (const auto& block : blocks_) vkFreeMemory(device_, block->memory, nullptr);
         if (owns_device_) vkDestroyDevice(device_, nullptr);
     } else if (device_ && owns_device_ && vkDestroyDevice) {
         vkDestroyDevice(device_, nullptr);
@@ -421,33 +422,104 @@ nfd_result Context::create_buffer(VkDeviceSize size, Buffer* out, Memory memory)
         vkDestroyBuffer(device_, b.buffer, nullptr);
         return NFD_ERROR_DEVICE;
     }
-    VkMemoryAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    alloc.allocationSize = requirements.size;
-    alloc.memoryTypeIndex = type;
-    VkResult r = fault_now(Fault::Allocation) ? VK_ERROR_OUT_OF_DEVICE_MEMORY
-                                              : vkAllocateMemory(device_, &alloc, nullptr, &b.memory);
+    const bool mapped = memory == Memory::Host || memory_types_.unified;
+    // An injected fault strikes buffers, pooled or not: each allocation of a decode can fail.
+    VkResult r = VK_ERROR_OUT_OF_DEVICE_MEMORY;
+    if (!fault_now(Fault::Allocation)) {
+        if (requirements.size <= kPooledBytes) {
+            r = place_in_block(requirements, type, mapped, &b);
+        } else {
+            r = allocate_memory(requirements.size, type, &b.memory);
+            if (r == VK_SUCCESS) b.allocated = requirements.size;
+        }
+    }
     if (r == VK_SUCCESS) {
-        b.allocated = alloc.allocationSize;
         const VkDeviceSize live = live_bytes_ += b.allocated;
         VkDeviceSize peak = peak_bytes_.load();
         while (live > peak && !peak_bytes_.compare_exchange_weak(peak, live)) {
         }
-        r = vkBindBufferMemory(device_, b.buffer, b.memory, 0);
+        r = vkBindBufferMemory(device_, b.buffer, b.memory, b.offset);
     }
-    if (r == VK_SUCCESS && (memory == Memory::Host || memory_types_.unified))
+    if (r == VK_SUCCESS && mapped && !b.block)
         r = vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.data);
     if (r != VK_SUCCESS) {
         destroy(b);
         return to_result(r);
     }
+    ++buffers_created_;
     *out = b;
     return NFD_SUCCESS;
 }
 
+VkResult Context::allocate_memory(VkDeviceSize bytes, uint32_t type, VkDeviceMemory* out) {
+    VkMemoryAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    alloc.allocationSize = bytes;
+    alloc.memoryTypeIndex = type;
+    const VkResult r = vkAllocateMemory(device_, &alloc, nullptr, out);
+    if (r == VK_SUCCESS) ++memory_allocations_;
+    return r;
+}
+
+VkResult Context::place_in_block(const VkMemoryRequirements& requirements, uint32_t type,
+                                 bool mapped, Buffer* b) {
+    std::lock_guard<std::mutex> lock(blocks_mutex_);
+    MemoryBlock* block = nullptr;
+    uint64_t offset = 0;
+    for (const auto& candidate : blocks_)
+        if (candidate->type == type && (candidate->mapped != nullptr) == mapped &&
+            candidate->ranges.allocate(requirements.size, requirements.alignment, &offset)) {
+            block = candidate.get();
+            break;
+        }
+    if (!block) {
+        std::unique_ptr<MemoryBlock> fresh;
+        try {
+            fresh = std::make_unique<MemoryBlock>();
+            fresh->ranges = RangeAllocator(kBlockBytes);
+            blocks_.reserve(blocks_.size() + 1);
+        } catch (...) {
+            return VK_ERROR_OUT_OF_HOST_MEMORY;
+        }
+        fresh->type = type;
+        VkResult r = allocate_memory(kBlockBytes, type, &fresh->memory);
+        if (r == VK_SUCCESS && mapped)
+            r = vkMapMemory(device_, fresh->memory, 0, VK_WHOLE_SIZE, 0, &fresh->mapped);
+        if (r != VK_SUCCESS) {
+            if (fresh->memory) vkFreeMemory(device_, fresh->memory, nullptr);
+            return r;
+        }
+        blocks_.push_back(std::move(fresh));  // reserved above: does not throw
+        block = blocks_.back().get();
+        // requirements.size <= kPooledBytes < kBlockBytes, and a fresh block is free from 0
+        block->ranges.allocate(requirements.size, requirements.alignment, &offset);
+    }
+    b->memory = block->memory;
+    b->block = block;
+    b->offset = offset;
+    b->allocated = requirements.size;
+    if (block->mapped) b->data = static_cast<char*>(block->mapped) + offset;
+    return VK_SUCCESS;
+}
+
 void Context::destroy_now(Buffer& b) {
     if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
-    if (b.memory) vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
+    if (b.block) {
+        std::lock_guard<std::mutex> lock(blocks_mutex_);
+        try {
+            b.block->ranges.free(b.offset, b.allocated);
+        } catch (...) {  // no memory for the free list: the range stays taken until the block goes
+        }
+        if (b.block->ranges.empty())
+            for (auto it = blocks_.begin(); it != blocks_.end(); ++it)
+                if (it->get() == b.block) {
+                    vkFreeMemory(device_, b.block->memory, nullptr);  // implicitly unmaps
+                    blocks_.erase(it);
+                    break;
+                }
+    } else if (b.memory) {
+        vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
+    }
     live_bytes_ -= b.allocated;
     b = Buffer{};
 }

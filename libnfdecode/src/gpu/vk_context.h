@@ -30,6 +30,7 @@
 #include "nfd_shaders.h"
 #include "nfdecode/nfdecode.h"
 #include "../pipeline_cache.h"
+#include "range_allocator.h"
 
 namespace nfd::gpu {
 
@@ -77,13 +78,26 @@ struct MemoryTypes {
 };
 bool choose_memory_types(const VkPhysicalDeviceMemoryProperties& memory, MemoryTypes* out);
 
+// Device memory that small buffers share (Context::create_buffer).
+struct MemoryBlock {
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    uint32_t type = 0;           // memory type index
+    void* mapped = nullptr;      // its mapping, for buffers that are mapped (blocks of a type
+                                 // that serves both kinds are not shared between them)
+    RangeAllocator ranges{0};    // where its buffers are
+};
+
 // A buffer and its memory; `data` is its mapping, or null where the host reaches it by staging.
+// A small buffer lives at `offset` in a block that other buffers share (`block` set); a larger
+// one has a VkDeviceMemory of its own.
 struct Buffer {
     VkBuffer buffer = VK_NULL_HANDLE;
     VkDeviceMemory memory = VK_NULL_HANDLE;
     void* data = nullptr;
     VkDeviceSize size = 0;
-    VkDeviceSize allocated = 0;  // bytes of `memory`, counted in Context::live_bytes()
+    VkDeviceSize allocated = 0;  // bytes it takes in `memory`, counted in Context::live_bytes()
+    VkDeviceSize offset = 0;
+    MemoryBlock* block = nullptr;
     template <typename T>
     T* as() const { return static_cast<T*>(data); }
 };
@@ -167,6 +181,13 @@ public:
     nfd_result pipeline_cache(std::vector<uint8_t>* out) const;
     const VkPhysicalDeviceLimits& limits() const { return properties_.limits; }
 
+    // Buffers of at most kPooledBytes share blocks of kBlockBytes (one vkAllocateMemory for
+    // tens of them; a block is freed when its last buffer is): a decode's counters, scan sums and
+    // per-level tables are most of its buffers, and a driver's allocations are slow and limited
+    // in number (maxMemoryAllocationCount, 4096 on some). live_bytes() counts each buffer's own
+    // bytes, so the device holds up to the blocks' free space more.
+    static constexpr VkDeviceSize kPooledBytes = VkDeviceSize(1) << 20;
+    static constexpr VkDeviceSize kBlockBytes = VkDeviceSize(8) << 20;
     nfd_result create_buffer(VkDeviceSize size, Buffer* out, Memory memory = Memory::Device);
     // Destroys it, or while a host's command buffer is being recorded, keeps it until
     // its batch is destroyed (those commands may use it).
@@ -183,6 +204,9 @@ public:
     // Device memory of the live buffers, and its peak since reset_peak(): what the memory bounds
     // (nfd_extraction_level.next_device_bytes, the queue's device budget) are checked against.
     VkDeviceSize live_bytes() const { return live_bytes_; }
+    // Buffers and VkDeviceMemory objects (blocks and own memory) made so far.
+    uint64_t buffers_created() const { return buffers_created_; }
+    uint64_t memory_allocations() const { return memory_allocations_; }
     VkDeviceSize peak_bytes() const { return peak_bytes_; }
     void reset_peak() { peak_bytes_ = live_bytes_.load(); }
     nfd_result create_pipeline(const PipelineDesc& desc, Pipeline* out);
@@ -230,6 +254,11 @@ private:
     nfd_result copy_now(VkBuffer from, VkDeviceSize from_offset, VkBuffer to,
                         VkDeviceSize to_offset, VkDeviceSize bytes);
     void destroy_now(Buffer& buffer);
+    // A place for a buffer of these requirements in a block of memory type `type`, mapped or not
+    // (a new block when none has room).
+    VkResult place_in_block(const VkMemoryRequirements& requirements, uint32_t type, bool mapped,
+                            Buffer* b);
+    VkResult allocate_memory(VkDeviceSize bytes, uint32_t type, VkDeviceMemory* out);
     void barrier(VkCommandBuffer commands);  // between a batch's dispatches
     // A global barrier from shader and transfer writes to `access` in `stages`.
     void after_writes(VkCommandBuffer commands, VkPipelineStageFlags stages, VkAccessFlags access);
@@ -259,6 +288,9 @@ private:
     VkPhysicalDeviceMemoryProperties memory_{};
     MemoryTypes memory_types_;  // pick_memory_types()
     std::atomic<VkDeviceSize> live_bytes_{0}, peak_bytes_{0};
+    std::atomic<uint64_t> buffers_created_{0}, memory_allocations_{0};
+    std::mutex blocks_mutex_;  // blocks_, and the ranges of each block
+    std::vector<std::unique_ptr<MemoryBlock>> blocks_;
     std::atomic<bool> lost_{false};  // a submission reported VK_ERROR_DEVICE_LOST: for good
     std::mutex queue_mutex_;     // vkQueueSubmit: the queue is externally synchronized
     std::mutex transfer_mutex_;  // upload/download's command buffer and fence
