@@ -418,6 +418,25 @@ const char* nfd_context_device_reason(const nfd_context* context) {
     return context ? context->reason.c_str() : "";
 }
 
+nfd_result nfd_context_get_device_memory(const nfd_context* context, nfd_device_memory* out) {
+    if (!context || !out) return NFD_ERROR_INVALID_ARGUMENT;
+    if (out->struct_size && out->struct_size < sizeof(nfd_device_memory))
+        return NFD_ERROR_INVALID_ARGUMENT;
+    nfd_device_memory memory{};
+    memory.struct_size = out->struct_size;
+#if NFD_WITH_VULKAN
+    if (context->gpu) {
+        const nfd::gpu::DeviceMemory m = nfd::gpu::device_memory(*context->gpu);
+        memory.live_bytes = m.live;
+        memory.live_allocations = m.live_allocations;
+        memory.buffers_created = m.buffers;
+        memory.allocations_made = m.allocations;
+    }
+#endif
+    *out = memory;
+    return NFD_SUCCESS;
+}
+
 nfd_result nfd_asset_create(const void* bytes, size_t size, nfd_asset** out_asset) {
     if (!out_asset) return NFD_ERROR_INVALID_ARGUMENT;
     *out_asset = nullptr;

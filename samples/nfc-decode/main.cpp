@@ -260,6 +260,23 @@ void save_pipeline_cache(const Options& o, const nfd_context* context) {
                      o.pipeline_cache.c_str(), why.c_str());
 }
 
+// --stats on a Vulkan context: the buffers the decode made, the device allocations they took
+// (small buffers share blocks), and what is still held (the cached network).
+nfd_device_memory device_memory(const nfd_context* context) {
+    nfd_device_memory m = {};
+    m.struct_size = sizeof m;
+    check(nfd_context_get_device_memory(context, &m), "device");
+    return m;
+}
+void print_device_memory(const nfd_context* context) {
+    if (nfd_context_device_kind(context) != NFD_DEVICE_VULKAN) return;
+    const nfd_device_memory m = device_memory(context);
+    std::printf("device mem  %llu buffers in %llu allocations (held after: %llu, %.2f MB)\n",
+                static_cast<unsigned long long>(m.buffers_created),
+                static_cast<unsigned long long>(m.allocations_made),
+                static_cast<unsigned long long>(m.live_allocations), double(m.live_bytes) / 1e6);
+}
+
 const char* field_name(const nfd_asset_info& info) {
     return info.field_type == NFD_FIELD_SDF ? "SDF" : "UDF";
 }
@@ -316,6 +333,7 @@ void decode_mesh(const Options& o, const nfd_asset_info& info, Handles* h) {
                         info.has_colour && !o.no_colour ? ", with colour" : "");
         std::printf("write       %9.2f ms\n", ms_write);
         std::printf("vertices    %zu\ntriangles   %zu\n", data.vertex_count, data.triangle_count);
+        print_device_memory(h->context);
     }
 }
 
@@ -487,14 +505,20 @@ void decode_progressive(const Options& o, Handles* h) {
                         static_cast<unsigned long long>(info.points_evaluated));
     } while (!info.done);
     const double total = ms_since(t0), cpu = process_cpu_ms() - cpu0;
+    const nfd_device_memory memory = device_memory(h->context);
     if (o.stats_json)
         std::printf("{\"summary\":true,\"device\":\"%s\",\"resolution\":%u,\"levels\":%zu,"
                     "\"elapsed_ms\":%.3f,\"cpu_ms\":%.3f,\"asset_ms\":%.3f,\"geometry_ms\":%.3f,"
-                    "\"prepare_ms\":%.3f,\"points_evaluated\":%llu,\"gradients_evaluated\":%llu}\n",
+                    "\"prepare_ms\":%.3f,\"points_evaluated\":%llu,\"gradients_evaluated\":%llu,"
+                    "\"device_buffers\":%llu,\"device_allocations\":%llu}\n",
                     nfd_context_device_name(h->context), o.resolution, ex.meshes.size(), total,
                     cpu, ms_asset, in.ms_geometry >= 0 ? in.ms_geometry : ms_asset, ms_prepare,
                     static_cast<unsigned long long>(points),
-                    static_cast<unsigned long long>(gradients));
+                    static_cast<unsigned long long>(gradients),
+                    static_cast<unsigned long long>(memory.buffers_created),
+                    static_cast<unsigned long long>(memory.allocations_made));
+    else if (o.stats)
+        print_device_memory(h->context);
 
     write_mesh(ex.meshes.back(), o.output);
     if (o.write_levels)

@@ -133,6 +133,52 @@ TEST(ApiContext, DeviceSelection) {
     nfd_context_destroy(vk);
 }
 
+// nfd_context_get_device_memory: zeros on the CPU; on Vulkan, a decode's buffers in a few
+// shared allocations, and after it only what the device caches (the network, the tables).
+TEST(ApiContext, DeviceMemory) {
+    nfd_device_memory m = {};
+    EXPECT_EQ(nfd_context_get_device_memory(nullptr, &m), NFD_ERROR_INVALID_ARGUMENT);
+    nfd_context* cpu = nullptr;
+    nfd_context_options o = {};
+    o.device = NFD_DEVICE_CPU;
+    ASSERT_EQ(nfd_context_create(&o, &cpu), NFD_SUCCESS);
+    EXPECT_EQ(nfd_context_get_device_memory(cpu, nullptr), NFD_ERROR_INVALID_ARGUMENT);
+    m.struct_size = 4;  // below the first layout
+    EXPECT_EQ(nfd_context_get_device_memory(cpu, &m), NFD_ERROR_INVALID_ARGUMENT);
+    m = {};  // struct_size 0: this layout
+    m.live_bytes = 7;
+    ASSERT_EQ(nfd_context_get_device_memory(cpu, &m), NFD_SUCCESS);
+    EXPECT_EQ(m.struct_size, 0u);
+    EXPECT_EQ(m.live_bytes + m.live_allocations + m.buffers_created + m.allocations_made, 0u);
+    nfd_context_destroy(cpu);
+
+    nfd_context* vk = nullptr;
+    o.device = NFD_DEVICE_VULKAN;
+    if (nfd_context_create(&o, &vk) != NFD_SUCCESS) GTEST_SKIP() << "no Vulkan device";
+    const Bytes bytes = read_bytes(golden_path("tshirt_udf_w16", ".nfc"));
+    nfd_asset* asset = nullptr;
+    ASSERT_EQ(nfd_asset_create(bytes.data(), bytes.size(), &asset), NFD_SUCCESS);
+    nfd_device_memory before = {}, after = {};
+    before.struct_size = after.struct_size = sizeof(nfd_device_memory);
+    ASSERT_EQ(nfd_context_get_device_memory(vk, &before), NFD_SUCCESS);
+    nfd_mesh_options mo = {};
+    mo.resolution = 128;
+    nfd_mesh* mesh = nullptr;
+    ASSERT_EQ(nfd_mesh_extract(vk, asset, &mo, &mesh), NFD_SUCCESS);
+    ASSERT_EQ(nfd_context_get_device_memory(vk, &after), NFD_SUCCESS);
+    EXPECT_EQ(after.struct_size, sizeof(nfd_device_memory));
+    const uint64_t buffers = after.buffers_created - before.buffers_created;
+    const uint64_t allocations = after.allocations_made - before.allocations_made;
+    EXPECT_GT(buffers, 30u);
+    EXPECT_LT(3 * allocations, buffers);
+    EXPECT_GE(after.live_allocations, 1u);  // the cached network, the tables
+    EXPECT_LT(after.live_allocations, 4u);
+    EXPECT_GT(after.live_bytes, 0u);
+    nfd_mesh_destroy(mesh);
+    nfd_asset_destroy(asset);
+    nfd_context_destroy(vk);
+}
+
 TEST_F(Api, AssetArgumentsAndInfo) {
     nfd_asset* a = reinterpret_cast<nfd_asset*>(0x1);
     const uint8_t byte = 0;

@@ -263,6 +263,10 @@ TEST(Cli, ProgressiveLevelsMatchTheOneShotFile) {
         EXPECT_TRUE(summary.at("summary").get<bool>());
         EXPECT_EQ(summary.at("points_evaluated").get<uint64_t>(), points);
         EXPECT_GE(summary.at("elapsed_ms").get<double>(), elapsed);
+        // Device memory (nfd_context_get_device_memory): none on the CPU path.
+        const uint64_t buffers = summary.at("device_buffers").get<uint64_t>();
+        EXPECT_LE(summary.at("device_allocations").get<uint64_t>(), buffers);
+        if (std::string(device) == "cpu") EXPECT_EQ(buffers, 0u);
         for (const std::string& p : {one, prog, base + ".32.glb", base + ".64.glb", base + ".128.glb"})
             std::remove(p.c_str());
     }

@@ -261,6 +261,26 @@ NFD_API const char* nfd_context_device_name(const nfd_context* context);
  * load. Owned by the context; "" for NULL (0.3). */
 NFD_API const char* nfd_context_device_reason(const nfd_context* context);
 
+/* (0.13.9) What the context's device memory holds, for an engine's memory overlay and logs:
+ * buffer bytes (each buffer's own: the measure of nfd_mesh_options.max_device_bytes and of the
+ * queue's device budget) and device allocations (vkAllocateMemory) live now, and the buffers and
+ * allocations made since the context was created. Buffers of up to 1 MiB share 8 MiB blocks, so
+ * a decode's tens of buffers take a few allocations (a driver allows maxMemoryAllocationCount at
+ * once, 4096 on some). All zero on a CPU context.
+ * Set out->struct_size (sizeof(nfd_device_memory), or 0 for this layout) before the call.
+ * Outcomes: NFD_SUCCESS; NFD_ERROR_INVALID_ARGUMENT (NULL, or a non-zero struct_size below this
+ * layout). Thread safety: any thread, beside the context's decodes (each count is read
+ * atomically on its own, so they may be a moment apart). */
+typedef struct nfd_device_memory {
+    uint32_t struct_size;
+    uint64_t live_bytes;        /* buffers' bytes now */
+    uint64_t live_allocations;  /* VkDeviceMemory objects now: blocks and large buffers' own */
+    uint64_t buffers_created;   /* since the context was created */
+    uint64_t allocations_made;  /* since the context was created */
+} nfd_device_memory;
+NFD_API nfd_result nfd_context_get_device_memory(const nfd_context* context,
+                                                 nfd_device_memory* out);
+
 /* ---------------------------------------------------------------------------------------------
  * Asset: one .nfc file
  * ------------------------------------------------------------------------------------------- */
@@ -531,8 +551,9 @@ typedef struct nfd_mesh_options {
      * file's field makes of the surface. Output triangles are bounded through it (28 bytes per
      * vertex, 12 per triangle). Host: heap bytes; device: Vulkan buffer memory (ignored on the
      * CPU path), each buffer's own bytes: buffers of up to 1 MiB share 8 MiB blocks of device
-     * memory (0.13.9), so the driver may hold up to a block's free space more per kind of memory. The mesh is the one without limits, byte for byte. Queue jobs honour them too
-     * (their job fails with that code), beside the queue's budget. */
+     * memory (0.13.9), so the driver may hold up to a block's free space more per kind of
+     * memory (nfd_context_get_device_memory). The mesh is the one without limits, byte for byte.
+     * Queue jobs honour them too (their job fails with that code), beside the queue's budget. */
     uint64_t max_host_bytes;
     uint64_t max_device_bytes;
     /* 0.11: non-zero: the field is sampled on the band around its surface (every child of every

@@ -439,7 +439,7 @@ nfd_result pipeline_cache(const Device& device, std::vector<uint8_t>* out) {
 
 DeviceMemory device_memory(const Device& device) {
     return {device.vk->live_bytes(), device.vk->peak_bytes(), device.vk->buffers_created(),
-            device.vk->memory_allocations()};
+            device.vk->memory_allocations(), device.vk->live_allocations()};
 }
 void reset_device_memory_peak(Device& device) { device.vk->reset_peak(); }
 uint64_t networks_uploaded(const Device& device) { return device.networks_uploaded; }

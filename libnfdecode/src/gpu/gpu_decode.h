@@ -45,6 +45,7 @@ void set_host_threads(Device& device, unsigned threads);
 struct DeviceMemory {
     uint64_t live = 0, peak = 0;
     uint64_t buffers = 0, allocations = 0;  // made so far: buffers, VkDeviceMemory objects
+    uint64_t live_allocations = 0;          // VkDeviceMemory objects now
 };
 DeviceMemory device_memory(const Device& device);
 // Whether the device's buffers are mapped (unified memory) or reached through staging copies.

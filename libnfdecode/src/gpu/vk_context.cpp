@@ -457,8 +457,16 @@ VkResult Context::allocate_memory(VkDeviceSize bytes, uint32_t type, VkDeviceMem
     alloc.allocationSize = bytes;
     alloc.memoryTypeIndex = type;
     const VkResult r = vkAllocateMemory(device_, &alloc, nullptr, out);
-    if (r == VK_SUCCESS) ++memory_allocations_;
+    if (r == VK_SUCCESS) {
+        ++memory_allocations_;
+        ++live_allocations_;
+    }
     return r;
+}
+
+void Context::free_memory(VkDeviceMemory memory) {
+    vkFreeMemory(device_, memory, nullptr);
+    --live_allocations_;
 }
 
 VkResult Context::place_in_block(const VkMemoryRequirements& requirements, uint32_t type,
@@ -486,7 +494,7 @@ VkResult Context::place_in_block(const VkMemoryRequirements& requirements, uint3
         if (r == VK_SUCCESS && mapped)
             r = vkMapMemory(device_, fresh->memory, 0, VK_WHOLE_SIZE, 0, &fresh->mapped);
         if (r != VK_SUCCESS) {
-            if (fresh->memory) vkFreeMemory(device_, fresh->memory, nullptr);
+            if (fresh->memory) free_memory(fresh->memory);
             return r;
         }
         blocks_.push_back(std::move(fresh));  // reserved above: does not throw
@@ -513,12 +521,12 @@ void Context::destroy_now(Buffer& b) {
         if (b.block->ranges.empty())
             for (auto it = blocks_.begin(); it != blocks_.end(); ++it)
                 if (it->get() == b.block) {
-                    vkFreeMemory(device_, b.block->memory, nullptr);  // implicitly unmaps
+                    free_memory(b.block->memory);  // implicitly unmaps
                     blocks_.erase(it);
                     break;
                 }
     } else if (b.memory) {
-        vkFreeMemory(device_, b.memory, nullptr);  // implicitly unmaps
+        free_memory(b.memory);  // implicitly unmaps
     }
     live_bytes_ -= b.allocated;
     b = Buffer{};

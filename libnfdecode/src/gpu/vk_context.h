@@ -204,9 +204,10 @@ public:
     // Device memory of the live buffers, and its peak since reset_peak(): what the memory bounds
     // (nfd_extraction_level.next_device_bytes, the queue's device budget) are checked against.
     VkDeviceSize live_bytes() const { return live_bytes_; }
-    // Buffers and VkDeviceMemory objects (blocks and own memory) made so far.
+    // Buffers and VkDeviceMemory objects (blocks and own memory) made so far, and the latter now.
     uint64_t buffers_created() const { return buffers_created_; }
     uint64_t memory_allocations() const { return memory_allocations_; }
+    uint64_t live_allocations() const { return live_allocations_; }
     VkDeviceSize peak_bytes() const { return peak_bytes_; }
     void reset_peak() { peak_bytes_ = live_bytes_.load(); }
     nfd_result create_pipeline(const PipelineDesc& desc, Pipeline* out);
@@ -259,6 +260,7 @@ private:
     VkResult place_in_block(const VkMemoryRequirements& requirements, uint32_t type, bool mapped,
                             Buffer* b);
     VkResult allocate_memory(VkDeviceSize bytes, uint32_t type, VkDeviceMemory* out);
+    void free_memory(VkDeviceMemory memory);
     void barrier(VkCommandBuffer commands);  // between a batch's dispatches
     // A global barrier from shader and transfer writes to `access` in `stages`.
     void after_writes(VkCommandBuffer commands, VkPipelineStageFlags stages, VkAccessFlags access);
@@ -288,7 +290,7 @@ private:
     VkPhysicalDeviceMemoryProperties memory_{};
     MemoryTypes memory_types_;  // pick_memory_types()
     std::atomic<VkDeviceSize> live_bytes_{0}, peak_bytes_{0};
-    std::atomic<uint64_t> buffers_created_{0}, memory_allocations_{0};
+    std::atomic<uint64_t> buffers_created_{0}, memory_allocations_{0}, live_allocations_{0};
     std::mutex blocks_mutex_;  // blocks_, and the ranges of each block
     std::vector<std::unique_ptr<MemoryBlock>> blocks_;
     std::atomic<bool> lost_{false};  // a submission reported VK_ERROR_DEVICE_LOST: for good
