@@ -6,7 +6,8 @@
 #      kernel the device picks and with the shared-memory (GPU) shape forced;
 #   3. field evaluation throughput per width (bench/field_eval.cpp, C++ and Vulkan);
 #   4. decode times on the Vulkan device and the C++ path (nfc-decode --stats), as a table, for the
-#      golden vectors of width 32 / 16 and bench/out/keep's (or the bundle's nfc/) width-32 files;
+#      golden vectors of width 32 / 16 and bench/out/keep's (or the bundle's nfc/) width-32 files,
+#      with the Vulkan decode's buffers and the device allocations they took;
 #   5. progressive levels streamed at 256 KB/s (bench/progressive.py: first level after the
 #      geometry, the ladder's cost against the final level alone);
 #   6. ten assets through the queue on the Vulkan device (bench/queue_frame.cpp);
@@ -37,8 +38,8 @@ suites='Gpu.*:ColourGpu.*:Devices/*:Record.*:GpuFaults.*:Adopt.*:ProgressiveMemo
 echo "== field evaluation"
 "$build/bench/field_eval" --points 1048576 --repeat 3 --vulkan tests/vectors/v1_0_*.nfc
 echo "== decode: bytes to mesh"
-echo "| file | res | device | field ms | mesh ms | process s |"
-echo "|---|---:|---|---:|---:|---:|"
+echo "| file | res | device | field ms | mesh ms | process s | buffers / allocations |"
+echo "|---|---:|---|---:|---:|---:|---|"
 # shellcheck disable=SC2086  # $keep: a list of paths without spaces
 for f in tests/vectors/v1_0_bunny_sdf_w32.nfc tests/vectors/v1_0_tshirt_udf_w16.nfc $keep; do
   for r in 256 512; do
@@ -49,8 +50,9 @@ for f in tests/vectors/v1_0_bunny_sdf_w32.nfc tests/vectors/v1_0_tshirt_udf_w16.
       end=$(date +%s.%N)
       field=$(awk '$1 == "field" {print $2}' <<< "$stats")
       mesh=$(awk '$1 == "mesh" {print $2}' <<< "$stats")
-      printf "| %s | %s | %s | %s | %s | %s |\n" "$(basename "$f")" "$r" "$device" "$field" \
-        "$mesh" "$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.3f", b - a }')"
+      memory=$(awk '$1 == "device" && $2 == "mem" {print $3 " / " $6}' <<< "$stats")
+      printf "| %s | %s | %s | %s | %s | %s | %s |\n" "$(basename "$f")" "$r" "$device" "$field" \
+        "$mesh" "$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.3f", b - a }')" "${memory:-}"
     done
   done
 done
