@@ -80,7 +80,8 @@ inline bool first_occurrence(const uint32_t* keys, size_t p) {
 // ranks, mc::kCornerOffset order): whether the cell is meshed, and its case (bit c: corner
 // c inside). edge_valid(edge) -> bool: whether a triangle may use the edge (all three edges of a
 // triangle must be valid). place(edge, p, n): the vertex (edge_point) and its normal. Vertices
-// and normals go to `mesh`; returns the number of cells that emitted a triangle. mesh_bytes_bound (extract.h) bounds what it allocates. Every pass runs on `threads`
+// and normals go to `mesh`; returns the number of cells that emitted a triangle.
+// mesh_bytes_bound (extract.h) bounds what it allocates. Every pass runs on `threads`
 // (as evaluate_cpu's), so the three callbacks must be safe to call concurrently; the output does
 // not depend on them, and is the one a single loop over the cells would give (each vertex made at
 // its edge's first use): std::length_error past 2^31 visited cells or vertices.
@@ -209,7 +210,7 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
 }
 
 // The point at t along a crossed edge, in `frame`: its unit-frame position u, then u * scale +
-// center, computed in that order (the meshes of every path agree on these roundings).
+// center.
 inline void edge_point(const GridLevel& level, const CrossedEdge& edge, float t,
                        const OutputFrame& frame, float p[3]) {
     float u[3];
