@@ -143,8 +143,21 @@ TEST(ApiContext, DeviceMemory) {
     o.device = NFD_DEVICE_CPU;
     ASSERT_EQ(nfd_context_create(&o, &cpu), NFD_SUCCESS);
     EXPECT_EQ(nfd_context_get_device_memory(cpu, nullptr), NFD_ERROR_INVALID_ARGUMENT);
-    m.struct_size = 4;  // below the first layout
-    EXPECT_EQ(nfd_context_get_device_memory(cpu, &m), NFD_ERROR_INVALID_ARGUMENT);
+    for (uint32_t below : {1u, 4u, uint32_t(sizeof(nfd_device_memory) - 1)}) {
+        m.struct_size = below;  // below the first layout
+        EXPECT_EQ(nfd_context_get_device_memory(cpu, &m), NFD_ERROR_INVALID_ARGUMENT) << below;
+    }
+    // A newer caller's larger struct: this layout is written, the bytes past it are left alone.
+    struct Newer {
+        nfd_device_memory known;
+        uint64_t later_field;
+    } newer;
+    std::memset(&newer, 0xA5, sizeof newer);
+    newer.known.struct_size = sizeof newer;
+    ASSERT_EQ(nfd_context_get_device_memory(cpu, &newer.known), NFD_SUCCESS);
+    EXPECT_EQ(newer.known.struct_size, sizeof newer);
+    EXPECT_EQ(newer.known.live_bytes + newer.known.allocations_made, 0u);
+    EXPECT_EQ(newer.later_field, 0xA5A5A5A5A5A5A5A5ull);
     m = {};  // struct_size 0: this layout
     m.live_bytes = 7;
     ASSERT_EQ(nfd_context_get_device_memory(cpu, &m), NFD_SUCCESS);
