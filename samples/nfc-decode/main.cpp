@@ -505,8 +505,8 @@ void decode_progressive(const Options& o, Handles* h) {
                         static_cast<unsigned long long>(info.points_evaluated));
     } while (!info.done);
     const double total = ms_since(t0), cpu = process_cpu_ms() - cpu0;
-    const nfd_device_memory memory = device_memory(h->context);
-    if (o.stats_json)
+    if (o.stats_json) {
+        const nfd_device_memory memory = device_memory(h->context);
         std::printf("{\"summary\":true,\"device\":\"%s\",\"resolution\":%u,\"levels\":%zu,"
                     "\"elapsed_ms\":%.3f,\"cpu_ms\":%.3f,\"asset_ms\":%.3f,\"geometry_ms\":%.3f,"
                     "\"prepare_ms\":%.3f,\"points_evaluated\":%llu,\"gradients_evaluated\":%llu,"
@@ -517,8 +517,9 @@ void decode_progressive(const Options& o, Handles* h) {
                     static_cast<unsigned long long>(gradients),
                     static_cast<unsigned long long>(memory.buffers_created),
                     static_cast<unsigned long long>(memory.allocations_made));
-    else if (o.stats)
+    } else if (o.stats) {
         print_device_memory(h->context);
+    }
 
     write_mesh(ex.meshes.back(), o.output);
     if (o.write_levels)
