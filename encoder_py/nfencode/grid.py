@@ -3,7 +3,10 @@
 Grid of `resolution` cells per axis over the unit frame [-1, 1]^3; vertex i sits at
 -1 + 2 i / resolution, computed in f32 as libnfdecode does. Level l (0 = finest) has
 ceil(resolution / 2^l) cells per axis; the coarsest level, refinement_levels() up, is visited
-whole in raster order (x fastest). Below it (grid.h has the rules and their reasons):
+whole in raster order (x fastest), its values from coarsest_values(): above the finest level, a
+probe level twice as coarse is evaluated first, then the child vertices of the probe cells that
+the keep rule keeps, and the other vertices hold the mean of the probe vertices around them.
+Below it (grid.h has the rules and their reasons):
 
 * The band (build_grid's `band`), the keep rule: a cell is kept when
   its corners change sign (SDF) or min |f| <= keep_threshold(udf, h) = margin * h * sqrt(3)/2
@@ -185,21 +188,80 @@ def vertex_keys(vertices: np.ndarray, side: int) -> np.ndarray:
     return (vertices[..., 2] * side + vertices[..., 1]) * side + vertices[..., 0]
 
 
+def _raster_vertices(side: int) -> np.ndarray:
+    """(side^3, 3) int64 vertex coordinates in raster order (x fastest)."""
+    axis = np.arange(side, dtype=np.int64)
+    z, y, x = np.meshgrid(axis, axis, axis, indexing="ij")
+    return np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+
+
+def coarsest_values(field_fn: FieldFn, resolution: int, level: int,
+                    udf: bool) -> tuple[np.ndarray, np.ndarray, int]:
+    """grid.h's evaluate_coarsest_level: the coarsest level's (side^3,) f32 values in raster
+    order, the probe's verdict per cell (cells_at_level(resolution, level + 1)^3, raster order;
+    all kept at level 0) and the evaluations made."""
+    n = cells_at_level(resolution, level)
+    side = n + 1
+    m = cells_at_level(resolution, level + 1)
+    vertices = _raster_vertices(side)
+    if level == 0:  # the coarsest level is the finest: all of it
+        values = field_fn(grid_coordinates(vertices, resolution)).astype(np.float32)
+        return values, np.ones(m ** 3, dtype=bool), len(vertices)
+    values = np.zeros(len(vertices), dtype=np.float32)
+    even = (vertices % 2 == 0).all(axis=1)
+    values[even] = field_fn(grid_coordinates(vertices[even] << level, resolution))
+    probe = _raster_vertices(m)  # the probe's cells, raster order
+    corners = 2 * (probe[:, None, :] + CORNER_OFFSET[None, :, :])
+    past = (corners > n).any(axis=(1, 2))  # reaches past the grid: kept
+    corner_values = values[vertex_keys(np.minimum(corners, n), side)]
+    threshold = keep_threshold(udf, grid_step(resolution) * np.float32(1 << (level + 1)))
+    kept = past | cell_may_contain_surface(corner_values, threshold)
+    offsets = _raster_vertices(3)
+    children = (2 * probe[kept][:, None, :] + offsets[None, :, :]).reshape(-1, 3)
+    children = children[(children <= n).all(axis=1)]
+    wanted = np.zeros(len(vertices), dtype=bool)
+    wanted[vertex_keys(children, side)] = True
+    todo = wanted & ~even
+    values[todo] = field_fn(grid_coordinates(vertices[todo] << level, resolution))
+    # The rest: the f32 sum of the probe vertices at -1 and +1 along the odd axes, in raster
+    # order of the offsets (z slowest, -1 first), times 1/2, 1/4 or 1/8.
+    fill = ~wanted & ~even
+    odd = vertices % 2 == 1
+    for mask in range(1, 8):
+        axes = np.array([(mask >> a) & 1 for a in range(3)], dtype=bool)
+        rows = np.nonzero(fill & (odd == axes).all(axis=1))[0]
+        if len(rows) == 0:
+            continue
+        total = np.zeros(len(rows), dtype=np.float32)
+        for offset in _raster_vertices(2):
+            if (offset.astype(bool) & ~axes).any():
+                continue
+            neighbour = vertices[rows] + np.where(axes, 2 * offset - 1, 0)
+            total += values[vertex_keys(neighbour, side)]
+        values[rows] = total * np.float32(0.5 ** int(axes.sum()))
+    return values, kept, int(even.sum() + todo.sum())
+
+
 def _evaluate_level(
-    field_fn: FieldFn, resolution: int, level: int, cells: np.ndarray, parent: GridLevel | None
+    field_fn: FieldFn, resolution: int, level: int, cells: np.ndarray, parent: GridLevel | None,
+    udf: bool = False
 ) -> tuple[GridLevel, int]:
-    """The level visiting `cells`, with its corner values, and the number of new evaluations."""
+    """The level visiting `cells`, with its corner values, and the number of new evaluations;
+    without a parent, the coarsest level (every cell, coarsest_values())."""
     side = cells_at_level(resolution, level) + 1
     corner_vertices = cells[:, None, :] + CORNER_OFFSET[None, :, :]
     keys, inverse = np.unique(vertex_keys(corner_vertices, side).ravel(), return_inverse=True)
     vertices = np.stack([keys % side, keys // side % side, keys // (side * side)], axis=1)
+    if parent is None:
+        raster, _, evaluated = coarsest_values(field_fn, resolution, level, udf)
+        grid_level = GridLevel(level, side - 1, cells, keys, vertices, inverse.reshape(-1, 8),
+                               raster[keys])
+        return grid_level, evaluated
     values = np.empty(len(keys), dtype=np.float32)
-    todo = np.ones(len(keys), dtype=bool)
-    if parent is not None:
-        todo = (vertices % 2 == 1).any(axis=1)
-        index, found = parent.find(vertices[~todo] // 2)
-        assert found.all(), "an even vertex of a child cell is a corner of its parent"
-        values[~todo] = parent.values[index]
+    todo = (vertices % 2 == 1).any(axis=1)
+    index, found = parent.find(vertices[~todo] // 2)
+    assert found.all(), "an even vertex of a child cell is a corner of its parent"
+    values[~todo] = parent.values[index]
     values[todo] = field_fn(grid_coordinates(vertices[todo] << level, resolution))
     grid_level = GridLevel(level, side - 1, cells, keys, vertices, inverse.reshape(-1, 8), values)
     return grid_level, int(todo.sum())
@@ -431,11 +493,9 @@ def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | No
     if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
         raise InputError(f"resolution {resolution} outside {MIN_RESOLUTION}..{MAX_RESOLUTION}")
     top = refinement_levels(resolution)
-    n = cells_at_level(resolution, top)
-    axis = np.arange(n, dtype=np.int64)
-    z, y, x = np.meshgrid(axis, axis, axis, indexing="ij")
-    cells = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)  # raster order, x fastest
-    level, evaluated = _evaluate_level(field_fn, resolution, top, cells, None)
+    cells = _raster_vertices(cells_at_level(resolution, top))  # every cell, raster order
+    level, evaluated = _evaluate_level(field_fn, resolution, top, cells, None,
+                                       udf_gradient is not None)
     levels = [level]
     for lower in range(top - 1, -1, -1):
         if not band:

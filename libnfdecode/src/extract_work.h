@@ -21,7 +21,7 @@ class Device;
 // included. Measured, not derived (extract_work.cpp gives the measurements and the margin). A job
 // reserves it for its first step only, at the coarsest level's resolution (32 to 63): that step
 // creates the extraction (on Vulkan: the network's upload and pipelines, whose driver memory no
-// derivation bounds) and evaluates that level densely, as the one-shot extraction there does.
+// derivation bounds) and evaluates that level, as the one-shot extraction there does.
 MemoryBytes extract_bytes_bound(const Geometry& geometry, uint32_t resolution, bool vulkan);
 
 // Keeps a copy of the geometry and the colour field (none: geometry only), so that the asset may

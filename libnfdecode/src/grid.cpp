@@ -25,7 +25,7 @@ constexpr uint32_t kMinCoarse = 32;
 // Collects and evaluates the corners of `cells`. Vertices with all-even coordinates were corners
 // of the parent level (every child's even corners are its parent's corners) and are copied, not
 // re-evaluated: one evaluation in eight saved.
-void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel* parent,
+void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel& parent,
                     unsigned threads, GridLevel* out, uint64_t* evaluated) {
     out->collect_corners();
     const uint32_t l = out->level;
@@ -33,14 +33,31 @@ void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel*
         out->values[r] = value;
     });
     out->vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-        if (parent && ((x | y | z) & 1) == 0) {
-            out->values[r] = parent->values[parent->vertices.rank(x / 2, y / 2, z / 2)];
+        if (((x | y | z) & 1) == 0) {
+            out->values[r] = parent.values[parent.vertices.rank(x / 2, y / 2, z / 2)];
         } else {
             const float xyz[3] = {grid.coord(x << l), grid.coord(y << l), grid.coord(z << l)};
             evaluator.push(r, xyz);
         }
     });
     *evaluated += evaluator.finish();
+}
+
+// The coarsest level: every cell, and the values evaluate_coarsest_level gives its vertices.
+void evaluate_coarsest(const Network& net, const SparseGrid& grid, unsigned threads, GridLevel* out,
+                       uint64_t* evaluated) {
+    const uint32_t n = out->cells_per_axis, side = n + 1;
+    out->cells.reserve(size_t(n) * n * n);
+    for (uint32_t z = 0; z < n; ++z)
+        for (uint32_t y = 0; y < n; ++y)
+            for (uint32_t x = 0; x < n; ++x) out->cells.push_back(pack_coords(x, y, z));
+    out->collect_corners();
+    nfd::vector<float> raster(size_t(side) * side * side);
+    *evaluated += evaluate_coarsest_level(net, grid.field, grid.resolution, out->level, threads,
+                                          raster.data());
+    out->vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+        out->values[r] = raster[(size_t(z) * side + y) * side + x];
+    });
 }
 
 // The keep rule's verdict on each cell of `level`, and the size of the level its kept cells'
@@ -255,6 +272,95 @@ bool udf_cell_is_near(const float corner_values[8], float h) {
     return mc::tables().holds_triangle[valid / 32] >> (valid % 32) & 1;
 }
 
+uint64_t evaluate_coarsest_level(const Network& net, FieldType field, uint32_t resolution,
+                                 uint32_t level, unsigned threads, float* values,
+                                 uint8_t* probe_kept) {
+    const uint32_t n = cells_at_level(resolution, level), side = n + 1;
+    const uint32_t m = cells_at_level(resolution, level + 1);  // the probe's cells per axis
+    const float step = 2.0f / float(resolution);
+    auto index = [side](uint32_t x, uint32_t y, uint32_t z) {
+        return (size_t(z) * side + y) * side + x;
+    };
+    // Per vertex: 0 = to fill, 1 = to evaluate next, 2 = evaluated.
+    nfd::vector<uint8_t> state(size_t(side) * side * side, level == 0 ? 1 : 0);
+    auto evaluate_marked = [&]() {
+        const size_t count = size_t(std::count(state.begin(), state.end(), uint8_t(1)));
+        nfd::vector<uint32_t> slots;
+        nfd::vector<float> xyz;
+        slots.reserve(count);
+        xyz.reserve(3 * count);
+        for (uint32_t z = 0; z < side; ++z)
+            for (uint32_t y = 0; y < side; ++y)
+                for (uint32_t x = 0; x < side; ++x) {
+                    const size_t i = index(x, y, z);
+                    if (state[i] != 1) continue;
+                    slots.push_back(uint32_t(i));
+                    for (uint32_t v : {x, y, z}) xyz.push_back(-1.0f + float(v << level) * step);
+                }
+        nfd::vector<float> out(slots.size());
+        evaluate_cpu(net, xyz.data(), slots.size(), out.data(), threads);
+        for (size_t k = 0; k < slots.size(); ++k) {
+            values[slots[k]] = out[k];
+            state[slots[k]] = 2;
+        }
+        return uint64_t(slots.size());
+    };
+    const size_t probe_cells = size_t(m) * m * m;
+    if (level == 0) {  // the coarsest level is the finest: all of it
+        if (probe_kept) std::fill_n(probe_kept, probe_cells, uint8_t(1));
+        return evaluate_marked();
+    }
+    for (uint32_t z = 0; z < side; z += 2)
+        for (uint32_t y = 0; y < side; y += 2)
+            for (uint32_t x = 0; x < side; x += 2) state[index(x, y, z)] = 1;
+    uint64_t evaluated = evaluate_marked();
+    const float threshold = keep_threshold(field, step * float(1u << (level + 1)));
+    for (uint32_t c = 0; c < probe_cells; ++c) {
+        const uint32_t p[3] = {c % m, c / m % m, c / m / m};
+        bool kept = 2 * p[0] + 2 > n || 2 * p[1] + 2 > n || 2 * p[2] + 2 > n;
+        if (!kept) {
+            float f[8];
+            for (int k = 0; k < 8; ++k) {
+                const uint8_t* o = mc::kCornerOffset[k];
+                f[k] = values[index(2 * (p[0] + o[0]), 2 * (p[1] + o[1]), 2 * (p[2] + o[2]))];
+            }
+            kept = cell_may_contain_surface(f, threshold);
+        }
+        if (probe_kept) probe_kept[c] = kept;
+        if (!kept) continue;
+        for (uint32_t dz = 0; dz < 3; ++dz)
+            for (uint32_t dy = 0; dy < 3; ++dy)
+                for (uint32_t dx = 0; dx < 3; ++dx) {
+                    const uint32_t x = 2 * p[0] + dx, y = 2 * p[1] + dy, z = 2 * p[2] + dz;
+                    if (x <= n && y <= n && z <= n && state[index(x, y, z)] == 0)
+                        state[index(x, y, z)] = 1;
+                }
+    }
+    evaluated += evaluate_marked();
+    // The rest lie in probe cells that are not kept, so their probe neighbours are on the grid.
+    auto around = [](uint32_t v) { return v & 1 ? 2u : 1u; };  // probe neighbours along an axis
+    for (uint32_t z = 0; z < side; ++z)
+        for (uint32_t y = 0; y < side; ++y)
+            for (uint32_t x = 0; x < side; ++x) {
+                if (state[index(x, y, z)] != 0) continue;
+                float sum = 0.0f, scale = 1.0f;
+                for (uint32_t a : {x, y, z}) scale *= a & 1 ? 0.5f : 1.0f;
+                for (uint32_t k = 0; k < around(z); ++k)
+                    for (uint32_t j = 0; j < around(y); ++j)
+                        for (uint32_t i = 0; i < around(x); ++i)
+                            sum += values[index(x & 1 ? x - 1 + 2 * i : x, y & 1 ? y - 1 + 2 * j : y,
+                                                z & 1 ? z - 1 + 2 * k : z)];
+                values[index(x, y, z)] = sum * scale;
+            }
+    return evaluated;
+}
+
+uint64_t evaluate_coarsest_level_bytes(const Network& net, uint32_t side, unsigned threads) {
+    const uint64_t vertices = uint64_t(side) * side * side;
+    // The marks, and at most every vertex's slot, point and value.
+    return vertices + 20 * vertices + evaluate_scratch_bytes(net, false, threads);
+}
+
 // ---- the builder ---------------------------------------------------------------------------
 
 GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band,
@@ -284,14 +390,11 @@ void GridBuilder::step() {
         if (parent) {
             level.cells = children_of(grid_, *parent, kept_, next_.cells);
             kept_ = nfd::vector<uint8_t>();
+            evaluate_level(network_, grid_, *parent, threads_, &level,
+                           &grid_.stats.points_evaluated);
         } else {
-            const uint32_t n = level.cells_per_axis;
-            level.cells.reserve(size_t(n) * n * n);
-            for (uint32_t z = 0; z < n; ++z)
-                for (uint32_t y = 0; y < n; ++y)
-                    for (uint32_t x = 0; x < n; ++x) level.cells.push_back(pack_coords(x, y, z));
+            evaluate_coarsest(network_, grid_, threads_, &level, &grid_.stats.points_evaluated);
         }
-        evaluate_level(network_, grid_, parent, threads_, &level, &grid_.stats.points_evaluated);
     }
     if (l > 0 && (follow_ || (follow_finest_ && l == 1)))
         follow_region(grid_, level, &region_, &next_, !follow_, threads_);
@@ -391,9 +494,13 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
     } else if (level > 0) {
         refine = next.cells + ChildLevelSize::bytes(cells_at_level(grid_.resolution, level - 1));
     }
+    // The coarsest level's values come in raster order first (evaluate_coarsest).
+    const uint64_t evaluation =
+        stepped_ ? evaluator_bytes(network_, next.vertices, false, threads_)
+                 : 4 * next.vertices +
+                       evaluate_coarsest_level_bytes(network_, next.cells_per_axis + 1, threads_);
     return 4 * next.cells + VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) +
-           4 * next.vertices + evaluator_bytes(network_, next.vertices, false, threads_) + flood +
-           refine;
+           4 * next.vertices + evaluation + flood + refine;
 }
 
 uint64_t GridBuilder::next_gradients_bytes_bound() const {

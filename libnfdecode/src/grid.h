@@ -34,7 +34,22 @@ uint32_t coarse_resolution(uint32_t resolution);  // ceil(resolution / 2^refinem
 // d* = 0.1, since the keep test below only rejects cells whose half-diagonal is well under d*.
 uint32_t refinement_levels(uint32_t resolution);
 
-// Which cells each level visits. The coarsest level: all of them. Below it, two schedules:
+// Which cells each level visits. The coarsest level: all of them, but above the finest level not
+// every vertex is evaluated (evaluate_coarsest_level): a probe level twice as coarse
+// (cells_at_level(resolution, level + 1) cells per axis, whose vertices are the coarsest level's
+// all-even ones) is evaluated first, and only the 3^3 child vertices of the probe cells that the
+// keep rule keeps; the other vertices hold the mean of the probe vertices around them. A probe
+// cell that is not kept has no sign change and every corner beyond its keep threshold (h_probe
+// * margin * sqrt(3) / 2, twice the coarsest level's), so each mean inside it has the corners'
+// sign and a magnitude beyond every threshold the coarsest level's rules test (keep rule, valid
+// and flood edges, near-zero cells): those cells stay out of every schedule below, as they would
+// with their true values wherever the field's slope is within the keep margin. A surface point
+// inside such a cell is what the keep rule gives up at any level. Every cell whose corners include
+// a mean lies in a probe cell that is not kept, so no triangle or normal is made from one where
+// that slope holds. On thin shapes, whose surface crosses few cells, the dense coarsest level was
+// most of the evaluations (bench/RESULTS.md, "0.13.10").
+//
+// Below the coarsest level, two schedules:
 //
 // - The band (GridBuilder's `band`): the keep rule. A cell of edge length h (unit
 //   frame) is kept for refinement, and its eight children visited, when min |f| over its corners
@@ -138,6 +153,22 @@ inline float isolated_threshold(FieldType field, uint32_t level, float finest_h)
                : keep_threshold(field, finest_h * float(1u << level));
 }
 bool cell_may_contain_surface(const float corner_values[8], float threshold);
+
+// The coarsest level `level` of a grid of `resolution` (refinement_levels(resolution)): its
+// values at all side^3 vertices, side = cells_at_level(resolution, level) + 1, into `values` in
+// raster order (x fastest), evaluated or, above the finest level, filled as the probe above
+// leaves them. A filled vertex has an odd coordinate; its value is the sum, in f32 and in raster
+// order of the offsets (z slowest, -1 before +1), of the probe vertices at -1 and +1 along its
+// odd axes, times 1/2, 1/4 or 1/8. `probe_kept` (optional, cells_at_level(resolution, level +
+// 1)^3 bytes, raster order): each probe cell's verdict, 1 where its child vertices are evaluated
+// (every cell when level is 0: no probe). A probe cell that reaches past the grid (odd cells per
+// axis) is kept. Returns the evaluations made.
+uint64_t evaluate_coarsest_level(const Network& net, FieldType field, uint32_t resolution,
+                                 uint32_t level, unsigned threads, float* values,
+                                 uint8_t* probe_kept = nullptr);
+// What evaluate_coarsest_level allocates for `side` vertices per axis: its marks and the points
+// it evaluates, with the evaluator's scratch.
+uint64_t evaluate_coarsest_level_bytes(const Network& net, uint32_t side, unsigned threads);
 
 // Upper bounds of a level's size, known before it is evaluated (GridBuilder::next_level_size):
 // what its vertex sets, values and meshes can allocate.

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 
 #include "extract.h"
@@ -707,6 +708,107 @@ TEST(Extract, GridMatchesPythonReferenceSummary) {
         }
     }
     EXPECT_GE(checked, 8u) << "the golden vectors are missing";
+}
+
+// The coarsest level's probe (grid.h, evaluate_coarsest_level) on every golden vector at 128 (32
+// cells, a probe of 16), 66 (33 cells: the probe's last cells reach past the grid) and 32 (the
+// finest level: no probe). A vertex of a cell the probe keeps, or of the probe itself, holds the
+// field bit for bit; any other lies inside probe cells the keep rule drops and holds a value
+// between its probe neighbours', beyond the probe's threshold on their side of zero; the verdicts
+// are the keep rule's on the field; and every cell of the dense grid with a sign change (SDF) or
+// near (UDF) has its eight corners evaluated.
+TEST(Extract, CoarsestLevelIsEvaluatedWhereItsProbeKeepsCells) {
+    size_t filled_total = 0;
+    for (FieldType field : {FieldType::Sdf, FieldType::Udf})
+        for (const auto& [name, g] : golden_vectors(field))
+            for (uint32_t resolution : {128u, 66u, 32u}) {
+                SCOPED_TRACE(name + " at " + std::to_string(resolution));
+                const uint32_t level = refinement_levels(resolution);
+                const uint32_t n = cells_at_level(resolution, level), side = n + 1;
+                const uint32_t m = cells_at_level(resolution, level + 1);
+                auto index = [side](uint32_t x, uint32_t y, uint32_t z) {
+                    return (size_t(z) * side + y) * side + x;
+                };
+                const std::vector<float> dense = dense_values(g.network, n);
+                std::vector<float> values(dense.size(), NAN);
+                std::vector<uint8_t> kept(size_t(m) * m * m, 2);
+                const uint64_t evaluated = evaluate_coarsest_level(
+                    g.network, field, resolution, level, 0, values.data(), kept.data());
+                const float threshold =
+                    keep_threshold(field, 2.0f / float(resolution) * float(1u << (level + 1)));
+                std::vector<uint8_t> exact(dense.size(), 0);  // a probe vertex or a kept cell's
+                for (uint32_t z = 0; z < side; z += 2)
+                    for (uint32_t y = 0; y < side; y += 2)
+                        for (uint32_t x = 0; x < side; x += 2) exact[index(x, y, z)] = 1;
+                for (uint32_t c = 0; c < kept.size(); ++c) {
+                    const uint32_t p[3] = {c % m, c / m % m, c / m / m};
+                    bool expected = level == 0 || 2 * p[0] + 2 > n || 2 * p[1] + 2 > n ||
+                                    2 * p[2] + 2 > n;
+                    if (!expected) {
+                        float f[8];
+                        for (int k = 0; k < 8; ++k) {
+                            const uint8_t* o = mc::kCornerOffset[k];
+                            f[k] = dense[index(2 * (p[0] + o[0]), 2 * (p[1] + o[1]),
+                                               2 * (p[2] + o[2]))];
+                        }
+                        expected = cell_may_contain_surface(f, threshold);
+                    }
+                    ASSERT_EQ(kept[c], uint8_t(expected)) << "probe cell " << c;
+                    if (!expected) continue;
+                    for (uint32_t d = 0; d < 27; ++d) {
+                        const uint32_t x = 2 * p[0] + d % 3, y = 2 * p[1] + d / 3 % 3,
+                                       z = 2 * p[2] + d / 9;
+                        if (x <= n && y <= n && z <= n) exact[index(x, y, z)] = 1;
+                    }
+                }
+                uint64_t exact_count = 0;
+                for (uint32_t z = 0; z < side; ++z)
+                    for (uint32_t y = 0; y < side; ++y)
+                        for (uint32_t x = 0; x < side; ++x) {
+                            const size_t i = index(x, y, z);
+                            if (exact[i]) {
+                                ++exact_count;
+                                ASSERT_EQ(std::memcmp(&values[i], &dense[i], 4), 0)
+                                    << x << " " << y << " " << z;
+                                continue;
+                            }
+                            ++filled_total;
+                            float lo = INFINITY, hi = -INFINITY;
+                            for (uint32_t k = 0; k < 8; ++k) {
+                                const uint32_t v[3] = {x, y, z};
+                                uint32_t w[3];
+                                for (int a = 0; a < 3; ++a)
+                                    w[a] = v[a] & 1 ? v[a] - 1 + 2 * (k >> a & 1) : v[a];
+                                const float f = dense[index(w[0], w[1], w[2])];
+                                lo = std::min(lo, f);
+                                hi = std::max(hi, f);
+                            }
+                            ASSERT_GE(values[i], lo) << x << " " << y << " " << z;
+                            ASSERT_LE(values[i], hi) << x << " " << y << " " << z;
+                            ASSERT_TRUE(lo > threshold || hi < -threshold)
+                                << x << " " << y << " " << z;
+                        }
+                EXPECT_EQ(evaluated, exact_count);
+                if (level == 0) EXPECT_EQ(evaluated, dense.size());
+                const float h = 2.0f / float(resolution) * float(1u << level);
+                for (uint32_t z = 0; z < n; ++z)
+                    for (uint32_t y = 0; y < n; ++y)
+                        for (uint32_t x = 0; x < n; ++x) {
+                            float f[8];
+                            bool all_exact = true;
+                            for (int k = 0; k < 8; ++k) {
+                                const uint8_t* o = mc::kCornerOffset[k];
+                                const size_t i = index(x + o[0], y + o[1], z + o[2]);
+                                f[k] = dense[i];
+                                all_exact &= exact[i] != 0;
+                            }
+                            const bool meshed = field == FieldType::Sdf
+                                                    ? cell_may_contain_surface(f, -1.0f)
+                                                    : udf_cell_is_near(f, h);
+                            EXPECT_TRUE(!meshed || all_exact) << "cell " << x << " " << y << " " << z;
+                        }
+            }
+    EXPECT_GT(filled_total, 0u) << "no probe cell was dropped";
 }
 
 }  // namespace

@@ -13,6 +13,7 @@ from nfencode.grid import (
     cell_may_contain_surface,
     cells_at_level,
     coarse_resolution,
+    coarsest_values,
     grid_coordinates,
     grid_step,
     keep_threshold,
@@ -301,6 +302,66 @@ def test_each_vertex_is_evaluated_once_and_even_ones_are_copied() -> None:
         np.testing.assert_array_equal(
             finer.values[~even][:50], sphere(grid.coordinates(odd << finer.level)).astype(np.float32))
     assert grid.finest.values.dtype == np.float32
+
+
+@pytest.mark.parametrize("resolution,udf", [(128, False), (66, False), (128, True), (32, False)])
+def test_the_coarsest_level_is_evaluated_where_its_probe_keeps_cells(resolution: int, udf: bool) -> None:
+    """coarsest_values (grid.h, evaluate_coarsest_level): the probe's vertices and the child
+    vertices of the probe cells the keep rule keeps hold the field, each evaluated once; the others
+    lie in dropped probe cells and hold the mean of their probe neighbours, beyond the probe's
+    threshold on their side of zero; every cell the surface crosses has its corners evaluated. At
+    66 the coarsest level has 33 cells and the probe's last cells reach past it (kept); at 32 the
+    coarsest level is the finest and is evaluated whole."""
+    seen: list[np.ndarray] = []
+
+    def field(points: np.ndarray) -> np.ndarray:
+        seen.append(points)
+        d = sphere(points)
+        return np.abs(d) if udf else d
+
+    level = refinement_levels(resolution)
+    n = cells_at_level(resolution, level)
+    side = n + 1
+    values, kept, evaluated = coarsest_values(field, resolution, level, udf)
+    assert evaluated == sum(len(p) for p in seen)
+    axis = np.arange(side)
+    z, y, x = np.meshgrid(axis, axis, axis, indexing="ij")
+    vertices = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    truth = field(grid_coordinates(vertices << level, resolution)).astype(np.float32)
+    m = cells_at_level(resolution, level + 1)
+    assert kept.shape == (m ** 3,)
+    if level == 0:
+        assert kept.all() and evaluated == side ** 3
+        np.testing.assert_array_equal(values, truth)
+        return
+    exact = (vertices % 2 == 0).all(axis=1)
+    for cell in np.argwhere(kept.reshape(m, m, m))[:, ::-1]:  # (x, y, z) of each kept cell
+        lo = 2 * cell
+        exact[(vertices >= lo).all(axis=1) & (vertices <= lo + 2).all(axis=1)] = True
+    np.testing.assert_array_equal(values[exact], truth[exact])
+    assert evaluated == exact.sum() < side ** 3 // 2
+    threshold = keep_threshold(udf, grid_step(resolution) * np.float32(1 << (level + 1)))
+    odd = vertices[~exact] % 2 == 1
+    neighbours = []
+    for offset in CORNER_OFFSET:
+        w = vertices[~exact] + np.where(odd, 2 * offset - 1, 0)
+        neighbours.append(truth[(w[:, 2] * side + w[:, 1]) * side + w[:, 0]])
+    neighbours = np.stack(neighbours, axis=1)
+    filled = values[~exact]
+    assert ((filled >= neighbours.min(axis=1)) & (filled <= neighbours.max(axis=1))).all()
+    assert ((neighbours > threshold).all(axis=1) | (neighbours < -threshold).all(axis=1)).all()
+    np.testing.assert_allclose(filled, neighbours.astype(np.float64).mean(axis=1), rtol=1e-6)
+    cube = truth.reshape(side, side, side)
+    cell_values = np.stack([cube[o[2]:n + o[2], o[1]:n + o[1], o[0]:n + o[0]] for o in CORNER_OFFSET],
+                           axis=-1).reshape(-1, 8)  # cells in raster order
+    negative = cell_values < 0
+    meshed = (udf_cell_is_near(cell_values, grid_step(resolution) * np.float32(1 << level)) if udf
+              else negative.any(axis=1) & ~negative.all(axis=1))
+    assert meshed.any()
+    i = np.nonzero(meshed)[0]
+    for o in CORNER_OFFSET:
+        x, y, z = i % n + o[0], i // n % n + o[1], i // (n * n) + o[2]
+        assert exact[(z * side + y) * side + x].all()
 
 
 def test_gradients_only_at_corners_of_near_cells() -> None:

@@ -70,30 +70,24 @@ nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& paren
     return record_values(job, net, parent, push, buffers, scratch, dense, g);
 }
 
-// The coarsest level's vertices that `wanted` marks (all when it is empty), evaluated by the C++
-// evaluator into `out` (4 floats a vertex with gradients, else 1).
-nfd_result evaluate_top_vertices(const HostTop& top, const nfd::vector<uint8_t>& wanted,
-                                 bool gradients, float* out) {
-    const size_t n = top.vertices();
+// The value and gradient at the coarsest level's vertices that `wanted` marks, by the C++
+// evaluator, into `out` (4 floats a vertex).
+nfd_result evaluate_top_gradients(const HostTop& top, const nfd::vector<uint8_t>& wanted,
+                                  float* out) {
     try {
         nfd::vector<uint32_t> index;
         nfd::vector<float> xyz;
-        const size_t count =
-            wanted.empty() ? n : size_t(std::count(wanted.begin(), wanted.end(), 1));
+        const size_t count = size_t(std::count(wanted.begin(), wanted.end(), 1));
         index.reserve(count);
         xyz.reserve(3 * count);
         for (uint32_t z = 0; z < top.side; ++z)
             for (uint32_t y = 0; y < top.side; ++y)
                 for (uint32_t x = 0; x < top.side; ++x) {
                     const size_t i = top.index(x, y, z);
-                    if (!wanted.empty() && !wanted[i]) continue;
+                    if (!wanted[i]) continue;
                     index.push_back(uint32_t(i));
                     xyz.insert(xyz.end(), {top.coord(x), top.coord(y), top.coord(z)});
                 }
-        if (!gradients) {
-            evaluate_cpu(*top.network, xyz.data(), index.size(), out, top.threads);
-            return NFD_SUCCESS;
-        }
         nfd::vector<float> values(index.size()), g(3 * index.size());
         evaluate_gradient_cpu(*top.network, xyz.data(), index.size(), values.data(), g.data(),
                               top.threads);
@@ -184,7 +178,7 @@ nfd_result top_gradients(const HostTop& top, float h, Buffers& buffers, Buffer**
                     for (const auto& o : mc::kCornerOffset)
                         wanted[top.index(x + o[0], y + o[1], z + o[2])] = 1;
                 }
-        return evaluate_top_vertices(top, wanted, true, dense);
+        return evaluate_top_gradients(top, wanted, dense);
     } catch (const std::bad_alloc&) {
         return NFD_ERROR_OUT_OF_MEMORY;
     }
@@ -223,10 +217,12 @@ LevelPush LevelBuilder::refine_push(uint32_t child_level, uint32_t parent_cells,
     return push;
 }
 
-// The coarsest level on the host (HostTop): the field at its side^3 vertices into a host-visible
-// buffer that its child grids copy; the level above it, every cell kept, written here too (its
-// bitmap, list, prefix and the corners, from the same values: a vertex v of it is the coarsest
-// level's 2 v). Small (at most 64^3 vertices): host memory, no staging while recording.
+// The coarsest level on the host (HostTop): its values at its side^3 vertices (grid.h,
+// evaluate_coarsest_level) into a host-visible buffer that its child grids copy; the level above
+// it, its cells the probe keeps (every one when the coarsest level is the finest), written here
+// too (bitmap, list, prefix and the corners, from the same values: a vertex v of it is the
+// coarsest level's 2 v), so that the coarsest level's cells are those cells' children. Small (at
+// most 64^3 vertices): host memory, no staging while recording.
 nfd_result LevelBuilder::evaluate_top_on_host() {
     const uint32_t l = top_ + 1, n = cells_at_level(resolution_, l);
     HostTop& top = level_.top;
@@ -237,36 +233,54 @@ nfd_result LevelBuilder::evaluate_top_on_host() {
     top.threads = job_.device.host_threads;
     const uint32_t side = top.side;
     NFD_TRY(level_.buffers.make(VkDeviceSize(top.vertices()) * 4, &top.values, Memory::Host));
-    NFD_TRY(evaluate_top_vertices(top, {}, false, top.values->as<float>()));
-    // Counted as before: the level above's vertices here, the rest with the child grids.
-    const uint32_t above = (side - 1) / 2 + 1;  // 2 v <= the coarsest level's cells per axis
-    level_.points_evaluated += uint64_t(above) * above * above;
-
+    const float* values = top.values->as<float>();
     Level& level = level_.parents;
     level.cells = n;
-    level.capacity = level.kept = n * n * n;
     const uint32_t words = level.words();
     NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.bits, Memory::Host));
     NFD_TRY(level.buffers.make(VkDeviceSize(words) * 4, &level.prefix, Memory::Host));
-    NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 4, &level.list, Memory::Host));
-    NFD_TRY(level.buffers.make(VkDeviceSize(level.kept) * 32, &level.corners, Memory::Host));
     uint32_t* bits = level.bits->as<uint32_t>();
-    std::memset(bits, 0, size_t(words) * 4);
-    const float* values = top.values->as<float>();
-    float* corners = level.corners->as<float>();
-    for (uint32_t c = 0; c < level.kept; ++c) {
-        bits[c >> 5] |= 1u << (c & 31);
-        level.list->as<uint32_t>()[c] = c;
-        const uint32_t p[3] = {c % n, c / n % n, c / (n * n)};
-        for (int k = 0; k < 8; ++k) {
-            const uint8_t* o = mc::kCornerOffset[k];
-            const uint32_t v[3] = {2 * (p[0] + o[0]), 2 * (p[1] + o[1]), 2 * (p[2] + o[2])};
-            // A last cell whose children past the grid are dropped has corners nothing reads.
-            const bool exists = v[0] < side && v[1] < side && v[2] < side;
-            corners[8 * c + k] = exists ? values[top.index(v[0], v[1], v[2])] : 0.0f;
+    uint32_t* prefix = level.prefix->as<uint32_t>();
+    try {
+        nfd::vector<uint8_t> kept(size_t(n) * n * n);
+        evaluate_coarsest_level(network_, field_, resolution_, top_, top.threads,
+                                top.values->as<float>(), kept.data());
+        // Counted as the CPU counts: the level above's vertices here, the new points of the
+        // kept cells' child grids (the rest of what the probe evaluated) with those grids.
+        const uint32_t above = (side - 1) / 2 + 1;  // 2 v <= the coarsest level's cells per axis
+        level_.points_evaluated += uint64_t(above) * above * above;
+        std::memset(bits, 0, size_t(words) * 4);
+        uint32_t count = 0;
+        for (uint32_t c = 0; c < kept.size(); ++c) {
+            if (c % 32 == 0) prefix[c / 32] = count;
+            if (!kept[c]) continue;
+            bits[c >> 5] |= 1u << (c & 31);
+            ++count;
         }
+        level.capacity = level.kept = count;
+        // A buffer holds a byte at least.
+        NFD_TRY(level.buffers.make(VkDeviceSize(std::max(count, 1u)) * 4, &level.list, Memory::Host));
+        NFD_TRY(level.buffers.make(VkDeviceSize(std::max(count, 1u)) * 32, &level.corners,
+                                   Memory::Host));
+        uint32_t* list = level.list->as<uint32_t>();
+        float* corners = level.corners->as<float>();
+        uint32_t i = 0;
+        for (uint32_t c = 0; c < kept.size(); ++c) {
+            if (!kept[c]) continue;
+            list[i] = c;
+            const uint32_t p[3] = {c % n, c / n % n, c / (n * n)};
+            for (int k = 0; k < 8; ++k) {
+                const uint8_t* o = mc::kCornerOffset[k];
+                const uint32_t v[3] = {2 * (p[0] + o[0]), 2 * (p[1] + o[1]), 2 * (p[2] + o[2])};
+                // A last cell whose children past the grid are dropped has corners nothing reads.
+                const bool exists = v[0] < side && v[1] < side && v[2] < side;
+                corners[8 * i + k] = exists ? values[top.index(v[0], v[1], v[2])] : 0.0f;
+            }
+            ++i;
+        }
+    } catch (const std::bad_alloc&) {
+        return NFD_ERROR_OUT_OF_MEMORY;
     }
-    for (uint32_t w = 0; w < words; ++w) level.prefix->as<uint32_t>()[w] = 32 * w;
     return NFD_SUCCESS;
 }
 

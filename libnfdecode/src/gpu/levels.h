@@ -59,8 +59,9 @@ struct PointList {
     uint32_t capacity = 0, slot = NFD_NO_COUNTER, count = 0;
 };
 
-// The coarsest level evaluated on the host (LevelBuilder::step): the field at all of its
-// side^3 vertices in raster order, in a host-visible buffer, which its point lists copy
+// The coarsest level evaluated on the host (LevelBuilder::step): its values at all of its
+// side^3 vertices in raster order (grid.h's evaluate_coarsest_level: evaluated, or filled where
+// the probe keeps no cell), in a host-visible buffer, which its point lists copy
 // (Kernel::DenseValues) instead of running the network's pipelines. So a decode's first level
 // needs none of them (a stream's first level does not wait for their compile), and the C++
 // evaluator gives the UDF mesher the gradients there too (top_gradients).
