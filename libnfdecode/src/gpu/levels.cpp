@@ -258,10 +258,9 @@ nfd_result LevelBuilder::evaluate_top_on_host() {
             ++count;
         }
         level.capacity = level.kept = count;
-        // A buffer holds a byte at least.
-        NFD_TRY(level.buffers.make(VkDeviceSize(std::max(count, 1u)) * 4, &level.list, Memory::Host));
-        NFD_TRY(level.buffers.make(VkDeviceSize(std::max(count, 1u)) * 32, &level.corners,
-                                   Memory::Host));
+        const VkDeviceSize listed = std::max(count, 1u);  // a buffer holds a byte at least
+        NFD_TRY(level.buffers.make(listed * 4, &level.list, Memory::Host));
+        NFD_TRY(level.buffers.make(listed * 32, &level.corners, Memory::Host));
         uint32_t* list = level.list->as<uint32_t>();
         float* corners = level.corners->as<float>();
         uint32_t i = 0;
