@@ -49,7 +49,7 @@ nfd_result extract_mesh_cpu(const Geometry& geometry, uint32_t resolution, MeshD
                             ExtractStats* stats, unsigned threads, bool band, bool follow_finest) {
     if (resolution < NFD_MIN_RESOLUTION || resolution > NFD_MAX_RESOLUTION)
         return NFD_ERROR_LIMIT_EXCEEDED;
-    GridBuilder builder(geometry, resolution, threads, band, follow_finest);
+    GridBuilder builder(geometry, resolution, threads, band, follow_finest, /*gradient_levels=*/1);
     do builder.step();
     while (!builder.done());
     ExtractStats st;

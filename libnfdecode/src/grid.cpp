@@ -364,9 +364,10 @@ uint64_t evaluate_coarsest_level_bytes(const Network& net, uint32_t side, unsign
 // ---- the builder ---------------------------------------------------------------------------
 
 GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band,
-                         bool follow_finest)
+                         bool follow_finest, uint32_t gradient_levels)
     : network_(geometry.network), threads_(threads),
-      follow_(!band), follow_finest_(band && follow_finest && geometry.field == FieldType::Udf) {
+      follow_(!band), follow_finest_(band && follow_finest && geometry.field == FieldType::Udf),
+      gradient_levels_(geometry.field == FieldType::Udf ? gradient_levels : 0) {
     grid_.resolution = resolution;
     grid_.step = 2.0f / float(resolution);
     grid_.field = geometry.field;
@@ -382,9 +383,9 @@ void GridBuilder::step() {
     level.cells_per_axis = cells_at_level(grid_.resolution, l);
     level.cell_size = grid_.step * float(1u << l);
     const GridLevel* parent = stepped_ ? &grid_.levels[l + 1] : nullptr;
-    if (parent && (follow_ || (follow_finest_ && l == 0))) {
+    if (follows(l)) {
         follow_surface(network_, grid_, *parent, region_, next_.blocks, threads_, &level,
-                       &grid_.stats.points_evaluated);
+                       &grid_.stats.points_evaluated, flood_gradients(l));
         region_ = FollowRegion();
     } else {
         if (parent) {
@@ -416,21 +417,28 @@ void GridBuilder::evaluate_udf_gradients() {
     GridLevel& level = grid_.levels[current_];
     GridLevel* above = current_ + 1 < grid_.levels.size() ? &grid_.levels[current_ + 1] : nullptr;
     nfd::vector<uint8_t>& near = level.near;
-    nfd::vector<uint8_t>& wanted = level.has_gradient;
+    nfd::vector<uint8_t>& flags = level.has_gradient;
+    nfd::vector<float>& gradients = level.gradients;
     near.assign(level.cells.size(), 0);
-    wanted.assign(level.vertices.size(), 0);
+    if (flags.size() != level.vertices.size()) {  // not from the flood (follow_surface)
+        flags.assign(level.vertices.size(), 0);
+        gradients.assign(size_t(3) * level.vertices.size(), 0.0f);
+    }
     parallel_for(level.cells.size(), 16384, threads_, [&](size_t begin, size_t end) {
         level.for_each_cell(begin, end, nullptr,
                             [&](size_t i, const uint32_t*, const float* f, const uint32_t* r) {
                                 if (!udf_cell_is_near(f, level.cell_size)) return;
                                 near[i] = 1;
-                                // Neighbouring cells on other threads mark shared corners too.
-                                for (int k = 0; k < 8; ++k)
-                                    __atomic_store_n(&wanted[r[k]], uint8_t(1), __ATOMIC_RELAXED);
+                                // Neighbouring cells on other threads mark shared corners
+                                // too, all with the same value: no other bit changes here.
+                                for (int k = 0; k < 8; ++k) {
+                                    const uint8_t was = __atomic_load_n(&flags[r[k]], __ATOMIC_RELAXED);
+                                    if (!(was & GridLevel::kNearCorner))
+                                        __atomic_store_n(&flags[r[k]], uint8_t(was | GridLevel::kNearCorner),
+                                                         __ATOMIC_RELAXED);
+                                }
                             });
     });
-    nfd::vector<float>& gradients = level.gradients;
-    gradients.assign(size_t(3) * level.vertices.size(), 0.0f);
     // By ranges of vertex blocks on threads, each with its own evaluator.
     auto store = [&gradients](uint32_t r, float, const float* g) {
         std::copy(g, g + 3, &gradients[size_t(3) * r]);
@@ -440,12 +448,20 @@ void GridBuilder::evaluate_udf_gradients() {
     evaluators.reserve(resolve_thread_count(threads_));
     for (unsigned t = 0; t < resolve_thread_count(threads_); ++t)
         evaluators.push_back(make_slice_evaluator(network_, true, threads_, store));
+    nfd::vector<uint64_t> own_corners(evaluators.size());  // per slice: gradients_evaluated
     parallel_slices(level.vertices.blocks(), 16, threads_, [&](size_t t, size_t begin, size_t end) {
         level.vertices.for_each_in_blocks(begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-            if (!wanted[r]) return;
+            if (!(flags[r] & GridLevel::kNearCorner)) return;
             uint32_t known;
-            if (above && ((x | y | z) & 1) == 0 && above->vertices.find(x / 2, y / 2, z / 2, &known) &&
-                known < above->has_gradient.size() && above->has_gradient[known]) {
+            const uint8_t from_above =
+                above && ((x | y | z) & 1) == 0 && above->vertices.find(x / 2, y / 2, z / 2, &known) &&
+                        known < above->has_gradient.size()
+                    ? above->has_gradient[known]
+                    : 0;
+            own_corners[t] += !(from_above & GridLevel::kNearCorner);
+            if (flags[r] & GridLevel::kGradientKnown) return;
+            flags[r] |= GridLevel::kGradientKnown;
+            if (from_above) {
                 std::copy_n(&above->gradients[size_t(3) * known], 3, &gradients[size_t(3) * r]);
                 return;
             }
@@ -454,7 +470,7 @@ void GridBuilder::evaluate_udf_gradients() {
         });
         evaluators[t].finish();
     });
-    for (Evaluator& evaluator : evaluators) grid_.stats.gradients_evaluated += evaluator.finish();
+    for (uint64_t corners : own_corners) grid_.stats.gradients_evaluated += corners;
     for (uint32_t l = current_ + 1; l < grid_.levels.size(); ++l) {
         grid_.levels[l].near = nfd::vector<uint8_t>();
         grid_.levels[l].has_gradient = nfd::vector<uint8_t>();
@@ -483,10 +499,11 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
     // Its cells, its vertex set and values, the evaluator; surface following's flood below the
     // coarsest level; unless it is the finest, what decides the level after: the keep rule's
     // verdicts on it and the bitmap of the blocks of the level after (keep_cells), or the region.
-    const uint64_t flood =
-        (follow_ || (follow_finest_ && level == 0)) && stepped_
-            ? follow_surface_bytes_bound(next, grid_.levels[current_].vertices.size())
-            : 0;
+    const bool gradients = flood_gradients(level);
+    const uint64_t flood = follows(level) ? follow_surface_bytes_bound(
+                                                next, grid_.levels[current_].vertices.size(),
+                                                gradients, threads_)
+                                          : 0;
     uint64_t refine = 0;
     if (level > 0 && (follow_ || (follow_finest_ && level == 1))) {
         refine = follow_region_bytes_bound(next, cells_at_level(grid_.resolution, level - 1),
@@ -496,7 +513,7 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
     }
     // The coarsest level's values come in raster order first (evaluate_coarsest).
     const uint64_t evaluation =
-        stepped_ ? evaluator_bytes(network_, next.vertices, false, threads_)
+        stepped_ ? evaluator_bytes(network_, next.vertices, gradients, threads_)
                  : 4 * next.vertices +
                        evaluate_coarsest_level_bytes(network_, next.cells_per_axis + 1, threads_);
     return 4 * next.cells + VertexSet::bytes_bound(next.cells_per_axis + 1, next.blocks) +
@@ -506,7 +523,10 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
 uint64_t GridBuilder::next_gradients_bytes_bound() const {
     if (done()) return 0;
     const LevelSize next = next_level_size();
-    return next.cells + 13 * next.vertices +
+    // The near verdicts; the flags and gradients, unless the level's flood made them
+    // (follow_surface_bytes_bound counts them then).
+    const bool from_flood = flood_gradients(stepped_ ? current_ - 1 : current_);
+    return next.cells + (from_flood ? 0 : 13 * next.vertices) +
            evaluator_bytes(network_, next.vertices, true, threads_);
 }
 

@@ -371,9 +371,11 @@ struct GridLevel {
     VertexSet vertices;           // the corners of `cells`
     nfd::vector<float> values;    // field at each vertex, by rank
     // For the UDF mesher of this level (GridBuilder::evaluate_udf_gradients): whether each cell
-    // is near (udf_cell_is_near, 1 or 0, by index in `cells`); by vertex rank, whether the vertex
-    // is a near cell's corner, and there the field gradient (unit frame), 3 floats per rank (0
-    // elsewhere). Empty otherwise.
+    // is near (udf_cell_is_near, 1 or 0, by index in `cells`); by vertex rank, kGradientKnown
+    // where the gradient is known (every near cell's corner; with GridBuilder's gradient_levels,
+    // every vertex the level's flood evaluated too) and kNearCorner at near cells' corners, and
+    // the field gradient (unit frame), 3 floats per rank (0 where unknown). Empty otherwise.
+    static constexpr uint8_t kGradientKnown = 1, kNearCorner = 2;
     nfd::vector<uint8_t> near;
     nfd::vector<uint8_t> has_gradient;
     nfd::vector<float> gradients;
@@ -432,7 +434,7 @@ bool udf_cell_is_near(const float corner_values[8], float h);
 
 struct GridStats {
     uint64_t points_evaluated = 0;     // field evaluations over all levels (values)
-    uint64_t gradients_evaluated = 0;  // value + gradient evaluations (UDF meshing)
+    uint64_t gradients_evaluated = 0;  // UDF meshing: see GridBuilder::evaluate_udf_gradients
     double seconds = 0;
 };
 
@@ -462,16 +464,21 @@ struct FollowRegion {
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
                    LevelSize* next, bool within_kept = false, unsigned threads = 1);
 // Visits and evaluates level `out` (level, cells_per_axis and cell_size set) below `parent`;
-// `blocks`: its LevelSize::blocks, from follow_region.
+// `blocks`: its LevelSize::blocks, from follow_region. `with_gradients` (a UDF level to be
+// meshed): each new vertex is evaluated with its gradient, and out->gradients and
+// out->has_gradient (kGradientKnown) are filled at them: about three in four are corners of the
+// level's near cells (bench/RESULTS.md, "0.13.11"), whose gradients the mesher wants, and one
+// evaluation of value and gradient costs less than a value now and both again later.
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
                     const FollowRegion& region, uint64_t blocks, unsigned threads,
-                    GridLevel* out, uint64_t* evaluated);
+                    GridLevel* out, uint64_t* evaluated, bool with_gradients = false);
 // What follow_region on a level of size `level` allocates, and what follow_surface allocates
 // for a level of size `next` below a level of `parent_vertices` vertices beyond its cells, vertex
-// set, values and evaluator.
+// set, values and evaluator (and, `with_gradients`, beyond the evaluator's gradients).
 uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
                                    bool within_kept = false);
-uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices);
+uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices,
+                                    bool with_gradients, unsigned threads);
 
 // CPU reference of the coarse-to-fine evaluation, one level per step(): build_grid_cpu steps it
 // to the finest level; a progressive extraction (progressive.h) meshes the levels on the way.
@@ -484,17 +491,22 @@ public:
     // need only the sign-change or near cells). `follow_finest` (with `band`, UDF): the finest
     // level follows the surface within the kept cells of the level above (follow_region's
     // `within_kept`), as the GPU path does for the UDF mesher (gpu/levels.h,
-    // evaluate_finest_flood).
+    // evaluate_finest_flood). `gradient_levels` (UDF): bit l for each level whose gradients
+    // evaluate_udf_gradients will be asked for (the meshed ones); where such a level follows the
+    // surface, its flood evaluates the gradients as it goes (follow_surface's `with_gradients`).
     GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned threads, bool band = false,
-                bool follow_finest = false);
+                bool follow_finest = false, uint32_t gradient_levels = 0);
     // Evaluates the next level (the coarse one first: all its cells; then the children of the
     // kept cells of the level before, or the cells surface following finds), then, unless it is
     // the finest, what decides the level after: the keep rule on its cells, or the region.
     void step();
     bool done() const { return stepped_ && current_ == 0; }
     uint32_t current() const { return current_; }  // the level the last step() evaluated
-    // Gradients at the corners of the current level's near cells (GridLevel::gradients): copied
-    // where the level above holds them at the same point (then freed), evaluated elsewhere.
+    // Gradients at the corners of the current level's near cells (GridLevel::gradients): known
+    // from the level's flood, copied where the level above holds them at the same point (then
+    // freed), evaluated elsewhere. GridStats::gradients_evaluated counts the near cells' corners
+    // that were not near cells' corners of the level above: the corners whose gradients this
+    // level needs for itself, however they were evaluated (the GPU path's count too).
     void evaluate_udf_gradients();
     // Upper bounds of the host bytes that the next step(), and evaluate_udf_gradients() after it,
     // allocate at their peak over what exists before them (counted: every vector they create at
@@ -508,10 +520,15 @@ public:
     unsigned threads() const { return threads_; }  // as given: 0 = hardware concurrency
 
 private:
+    // Whether level l, the next to be stepped, follows the surface, and whether its flood
+    // evaluates gradients.
+    bool follows(uint32_t l) const { return stepped_ && (follow_ || (follow_finest_ && l == 0)); }
+    bool flood_gradients(uint32_t l) const { return follows(l) && (gradient_levels_ >> l & 1); }
     const Network& network_;
     const unsigned threads_;
     const bool follow_;         // surface following: without `band`
     const bool follow_finest_;  // band, then surface following at the finest level
+    const uint32_t gradient_levels_;  // UDF: the levels whose floods evaluate gradients
     SparseGrid grid_;
     uint32_t current_ = 0;
     bool stepped_ = false;

@@ -96,13 +96,14 @@ public:
     FloodStore(uint32_t side, uint64_t blocks)
         : per_axis_((side + 7) / 8), table_(size_t(per_axis_) * per_axis_ * per_axis_, kNoBlock) {
         bits_.reserve(blocks);
+        block_index_.reserve(blocks);
         values_.reserve(512 * blocks);
     }
     static uint64_t bytes_bound(uint32_t side, uint64_t blocks) {
         const uint64_t per_axis = (side + 7) / 8;
         // The block table, the blocks, visited_cells' counts per range of the table.
         const uint64_t table = per_axis * per_axis * per_axis;
-        return 4 * table + (sizeof(Bits) + 512 * 4) * blocks + 8 * (table / kListRange + 2);
+        return 4 * table + (sizeof(Bits) + 4 + 512 * 4) * blocks + 8 * (table / kListRange + 2);
     }
     uint32_t slot(uint32_t x, uint32_t y, uint32_t z) { return in_block(block(x, y, z), x, y, z); }
     // The slots of the corners of cell (x, y, z), mc::kCornerOffset order: one block lookup
@@ -204,6 +205,13 @@ public:
     float known_value(uint32_t x, uint32_t y, uint32_t z) const {
         return values_[in_block(table_[block_index(x, y, z)], x, y, z)];
     }
+    // The vertex at slot `s` of a block that exists.
+    void vertex(uint32_t s, uint32_t v[3]) const {
+        const size_t index = block_index_[s >> 9];
+        v[0] = 8 * uint32_t(index % per_axis_) + (s & 7);
+        v[1] = 8 * uint32_t(index / per_axis_ % per_axis_) + (s >> 3 & 7);
+        v[2] = 8 * uint32_t(index / (size_t(per_axis_) * per_axis_)) + (s >> 6 & 7);
+    }
     // The visited cells, packed: blocks in raster order, inside a block by 2^3 groups in raster
     // order, and a group in mc::kCornerOffset order. So a parent's children are consecutive, a
     // sibling group where all eight were visited (marching.h). Ranges of the block table count
@@ -276,6 +284,7 @@ private:
         if (bits_.size() == bits_.capacity()) throw std::length_error("FloodStore: blocks past the bound");
         b = uint32_t(bits_.size());
         bits_.push_back(Bits{});
+        block_index_.push_back(uint32_t(block_index(x, y, z)));
         values_.resize(values_.size() + 512);
         __atomic_store_n(entry, b, __ATOMIC_RELEASE);
         return b;
@@ -290,7 +299,40 @@ private:
     uint32_t per_axis_;
     nfd::vector<uint32_t> table_;
     nfd::vector<Bits> bits_;
+    nfd::vector<uint32_t> block_index_;  // per block: its index in the table
     nfd::vector<float> values_;
+};
+
+// The gradients a flood evaluates (follow_surface's `with_gradients`), per slice as they come:
+// (slot, gradient) records in chunks of fixed capacity, so that what grows is never copied and
+// only the pages written are touched; the level's ranks exist only once the flood is over.
+class GradientRecords {
+public:
+    struct Record {
+        uint32_t slot;
+        float gradient[3];
+    };
+    static constexpr size_t kChunk = 4096;  // records: 64 KiB
+    static uint64_t bytes_bound(uint64_t records, unsigned threads) {
+        const uint64_t slices = resolve_thread_count(threads);
+        const uint64_t chunks = records / kChunk + slices;  // a partial chunk per slice at most
+        return chunks * kChunk * sizeof(Record) + 2 * chunks * sizeof(nfd::vector<Record>);
+    }
+    void add(uint32_t slot, const float g[3]) {
+        if (chunks_.empty() || chunks_.back().size() == kChunk) {
+            chunks_.emplace_back();
+            chunks_.back().reserve(kChunk);
+        }
+        chunks_.back().push_back(Record{slot, {g[0], g[1], g[2]}});
+    }
+    template <class Fn>
+    void for_each(Fn&& fn) const {
+        for (const nfd::vector<Record>& chunk : chunks_)
+            for (const Record& record : chunk) fn(record);
+    }
+
+private:
+    nfd::vector<nfd::vector<Record>> chunks_;
 };
 
 // A set of a level's cells as bits in the blocks of the level's vertex set (a cell is named by
@@ -451,33 +493,46 @@ uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
            ChildLevelSize::bytes(child_cells) + CellBits::bytes(level.blocks) * (within_kept ? 2 : 1);
 }
 
-uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices) {
+uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices,
+                                    bool with_gradients, unsigned threads) {
     // The flood's store, its two frontiers (each at most the level's cells, grown by doubling),
     // a wave's face masks, a UDF's seeded-parent bits, the parents' edge masks and seeds (a
-    // parent cell's lowest corner is one of its vertices: no more cells than vertices).
+    // parent cell's lowest corner is one of its vertices: no more cells than vertices); with
+    // gradients, their records (at most one per vertex), the level's flags and gradients.
+    const uint64_t gradients =
+        with_gradients ? GradientRecords::bytes_bound(next.vertices, threads) + 13 * next.vertices : 0;
     return FloodStore::bytes_bound(next.cells_per_axis + 1, next.blocks) + 17 * next.cells +
-           (parent_vertices + 63) / 64 * 8 + 6 * parent_vertices;
+           (parent_vertices + 63) / 64 * 8 + 6 * parent_vertices + gradients;
 }
 
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,
                     const FollowRegion& region, uint64_t blocks, unsigned threads,
-                    GridLevel* out, uint64_t* evaluated) {
+                    GridLevel* out, uint64_t* evaluated, bool with_gradients) {
     const uint32_t n = out->cells_per_axis, l = out->level;
     FloodStore store(n + 1, blocks);
-    auto store_value = [&store](uint32_t slot, float value, const float*) { store.value(slot) = value; };
     // Every pass runs on threads, a slice each (parallel_slices): the slice claims corners and
     // evaluates the ones it claimed on its own thread, with its share of the evaluator's chunk, and
     // collects the cells it visits. A cell or corner is claimed once, whichever slice gets it: the
     // flood reaches the same cells and evaluates the same points in any order, and the level is
     // read out in raster order (FloodStore::visited_cells).
+    nfd::vector<GradientRecords> records(resolve_thread_count(threads));
+    struct StoreValue {
+        FloodStore* store;
+        GradientRecords* records;
+        void operator()(uint32_t slot, float value, const float* gradient) const {
+            store->value(slot) = value;
+            if (gradient) records->add(slot, gradient);
+        }
+    };
     struct Slice {
-        decltype(make_slice_evaluator(net, false, threads, store_value)) evaluator;
+        decltype(make_slice_evaluator(net, false, threads, StoreValue{})) evaluator;
         nfd::vector<uint32_t> visits;  // the next wave's cells this slice found
     };
     nfd::vector<Slice> slices;
-    slices.reserve(resolve_thread_count(threads));
-    for (unsigned t = 0; t < resolve_thread_count(threads); ++t)
-        slices.push_back(Slice{make_slice_evaluator(net, false, threads, store_value), {}});
+    slices.reserve(records.size());
+    for (GradientRecords& slice_records : records)
+        slices.push_back(Slice{
+            make_slice_evaluator(net, with_gradients, threads, StoreValue{&store, &slice_records}), {}});
     // The value of vertex (x, y, z) at slot s, just claimed: a corner of the parent level is
     // copied, any other queued.
     auto fetch = [&](Slice& slice, uint32_t s, uint32_t x, uint32_t y, uint32_t z) {
@@ -718,6 +773,20 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
         out->vertices.for_each_in_blocks(
             begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
                 out->values[r] = known.known_value(x, y, z);
+            });
+    });
+    if (!with_gradients) return;
+    out->has_gradient.assign(out->vertices.size(), 0);
+    out->gradients.assign(size_t(3) * out->vertices.size(), 0.0f);
+    parallel_for(records.size(), 1, threads, [&](size_t begin, size_t end) {
+        for (size_t t = begin; t < end; ++t)
+            records[t].for_each([&](const GradientRecords::Record& record) {
+                uint32_t v[3], r;
+                known.vertex(record.slot, v);
+                // A seed's edge midpoint whose cells were not visited is no vertex of the level.
+                if (!out->vertices.find(v[0], v[1], v[2], &r)) return;
+                out->has_gradient[r] = GridLevel::kGradientKnown;
+                std::copy_n(record.gradient, 3, &out->gradients[size_t(3) * r]);
             });
     });
 }

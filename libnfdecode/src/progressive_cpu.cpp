@@ -10,7 +10,9 @@ class CpuExtraction final : public Extraction {
 public:
     CpuExtraction(const Geometry& geometry, uint32_t resolution, uint32_t mesh_mask,
                   unsigned threads, bool band)
-        : geometry_(geometry), builder_(geometry, resolution, threads, band), mesh_mask_(mesh_mask) {}
+        : geometry_(geometry),
+          builder_(geometry, resolution, threads, band, false, /*gradient_levels=*/mesh_mask),
+          mesh_mask_(mesh_mask) {}
 
     nfd_result step(MeshData* mesh, ExtractStats* stats, LevelReport* report) override {
         if (builder_.done()) return NFD_ERROR_INTERNAL;

@@ -710,6 +710,69 @@ TEST(Extract, GridMatchesPythonReferenceSummary) {
     EXPECT_GE(checked, 8u) << "the golden vectors are missing";
 }
 
+// GridBuilder's gradient_levels (grid.h): a meshed UDF level's flood evaluates its new vertices
+// with their gradients, so evaluate_udf_gradients evaluates only the near-cell corners it still
+// lacks. Against a builder that evaluates every gradient in evaluate_udf_gradients, on every golden
+// UDF vector at 128 and 66 (an odd coarsest cell count), with every level meshed and with only the
+// finest: the same cells, values, near verdicts and near-cell corners, the same gradients bit for
+// bit at those corners, the same counts; and every gradient the flood made is
+// evaluate_gradient_cpu's at its vertex.
+TEST(Extract, FloodGradientsAreTheGradientPassOnes) {
+    const std::vector<GoldenVector> udf = golden_vectors(FieldType::Udf);
+    ASSERT_GE(udf.size(), 3u) << "the UDF vectors are missing";
+    for (const auto& [name, g] : udf) {
+        for (uint32_t r : {128u, 66u}) {
+            const uint32_t every_level = (2u << refinement_levels(r)) - 1;
+            for (uint32_t meshed : {every_level, 1u}) {
+                SCOPED_TRACE(name + " at " + std::to_string(r) + ", meshed levels " +
+                             std::to_string(meshed));
+                GridBuilder plain(g, r, 2), flood(g, r, 2, false, false, meshed);
+                do {
+                    plain.step();
+                    flood.step();
+                    const uint32_t l = flood.current();
+                    if (!(meshed >> l & 1)) continue;
+                    plain.evaluate_udf_gradients();
+                    flood.evaluate_udf_gradients();
+                    const GridLevel &a = plain.grid().levels[l], &b = flood.grid().levels[l];
+                    ASSERT_EQ(a.cells, b.cells);
+                    ASSERT_EQ(a.values, b.values);
+                    ASSERT_EQ(a.near, b.near);
+                    ASSERT_EQ(a.has_gradient.size(), b.has_gradient.size());
+                    std::vector<float> points;
+                    std::vector<uint32_t> known;
+                    size_t near_corners = 0;
+                    b.vertices.for_each_in_blocks(0, b.vertices.blocks(),
+                                                  [&](uint32_t v, uint32_t x, uint32_t y, uint32_t z) {
+                        const bool near = a.has_gradient[v] & GridLevel::kNearCorner;
+                        ASSERT_EQ(near, bool(b.has_gradient[v] & GridLevel::kNearCorner)) << v;
+                        near_corners += near;
+                        if (near)
+                            for (int k = 0; k < 3; ++k)
+                                ASSERT_EQ(a.gradients[3 * v + k], b.gradients[3 * v + k]) << v;
+                        if (b.has_gradient[v] & GridLevel::kGradientKnown) {
+                            known.push_back(v);
+                            points.insert(points.end(), {b.coord(x), b.coord(y), b.coord(z)});
+                        }
+                    });
+                    // Below the coarsest level the flood evaluated more than the near corners.
+                    if (l < refinement_levels(r)) EXPECT_GT(known.size(), near_corners);
+                    std::vector<float> values(known.size()), gradients(3 * known.size());
+                    evaluate_gradient_cpu(g.network, points.data(), known.size(), values.data(),
+                                          gradients.data(), 1);
+                    for (size_t i = 0; i < known.size(); ++i) {
+                        ASSERT_EQ(values[i], b.values[known[i]]) << known[i];
+                        for (int k = 0; k < 3; ++k)
+                            ASSERT_EQ(gradients[3 * i + k], b.gradients[3 * known[i] + k]) << known[i];
+                    }
+                } while (!flood.done());
+                EXPECT_EQ(plain.grid().stats.points_evaluated, flood.grid().stats.points_evaluated);
+                EXPECT_EQ(plain.grid().stats.gradients_evaluated, flood.grid().stats.gradients_evaluated);
+            }
+        }
+    }
+}
+
 // The coarsest level's probe (grid.h, evaluate_coarsest_level) on every golden vector at 128 (32
 // cells, a probe of 16), 66 (33 cells: the probe's last cells reach past the grid) and 32 (the
 // finest level: no probe). A vertex of a cell the probe keeps, or of the probe itself, holds the

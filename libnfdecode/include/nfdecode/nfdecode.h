@@ -55,7 +55,7 @@ extern "C" {
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
 #define NFD_VERSION_MINOR 13
-#define NFD_VERSION_PATCH 10
+#define NFD_VERSION_PATCH 11
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
@@ -707,8 +707,11 @@ typedef struct nfd_extraction_level {
     uint32_t index;               /* its place in the ladder, 0 = coarsest */
     int done;                     /* non-zero: it was the final level */
     uint64_t points_evaluated;    /* field values evaluated by this step (new points only) */
-    uint64_t gradients_evaluated; /* value + gradient evaluations of this step (UDF meshes): the
-                                     corners of its near cells, the same on every device kind */
+    uint64_t gradients_evaluated; /* gradients this step's mesh needs of its own (UDF meshes):
+                                     the corners of its near cells, but those it copies from the
+                                     level above; the same on every device kind (both evaluate
+                                     likely corners with their gradients as they first reach
+                                     them, so they may compute more) */
     /* Upper bounds of the bytes the NEXT step allocates at its peak, above what is allocated when
      * it starts (the mesh it returns included), from what this step found (the cells it kept):
      * host memory, and device memory on a Vulkan context (0 on the CPU). 0 when done. Worst-case
