@@ -5,9 +5,9 @@ Per file and resolution R, three `nfc-decode --device cpu` runs of this tree's b
 
   * `--resolution R --stats`: the active cells (finest cells that emit a triangle);
   * `--levels R --stats=json`: the one-shot decode's evaluations (values, every level) and, for a
-    UDF, its value + gradient evaluations: in a one-shot decode only the finest level's near cells
-    (grid.h, udf_cell_is_near) take gradients, one per corner, so that count is the number of
-    near-cell corners, each of which needs a value too whatever the schedule;
+    UDF, its gradients_evaluated: in a one-shot decode, the number of corners of the finest
+    level's near cells (grid.h, udf_cell_is_near; GridBuilder::evaluate_udf_gradients), each of
+    which needs a value and a gradient whatever the schedule;
   * `--levels R/4,R/2,R --stats=json`: the last level's own evaluations (a ladder evaluates the
     one-shot's values; each level reports its own), so "above" = all - finest.
 

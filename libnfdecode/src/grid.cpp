@@ -417,7 +417,7 @@ void GridBuilder::evaluate_udf_gradients() {
     GridLevel& level = grid_.levels[current_];
     GridLevel* above = current_ + 1 < grid_.levels.size() ? &grid_.levels[current_ + 1] : nullptr;
     nfd::vector<uint8_t>& near = level.near;
-    nfd::vector<uint8_t>& flags = level.has_gradient;
+    nfd::vector<uint8_t>& flags = level.gradient_flags;
     nfd::vector<float>& gradients = level.gradients;
     near.assign(level.cells.size(), 0);
     if (flags.size() != level.vertices.size()) {  // not from the flood (follow_surface)
@@ -455,8 +455,8 @@ void GridBuilder::evaluate_udf_gradients() {
             uint32_t known;
             const uint8_t from_above =
                 above && ((x | y | z) & 1) == 0 && above->vertices.find(x / 2, y / 2, z / 2, &known) &&
-                        known < above->has_gradient.size()
-                    ? above->has_gradient[known]
+                        known < above->gradient_flags.size()
+                    ? above->gradient_flags[known]
                     : 0;
             own_corners[t] += !(from_above & GridLevel::kNearCorner);
             if (flags[r] & GridLevel::kGradientKnown) return;
@@ -473,7 +473,7 @@ void GridBuilder::evaluate_udf_gradients() {
     for (uint64_t corners : own_corners) grid_.stats.gradients_evaluated += corners;
     for (uint32_t l = current_ + 1; l < grid_.levels.size(); ++l) {
         grid_.levels[l].near = nfd::vector<uint8_t>();
-        grid_.levels[l].has_gradient = nfd::vector<uint8_t>();
+        grid_.levels[l].gradient_flags = nfd::vector<uint8_t>();
         grid_.levels[l].gradients = nfd::vector<float>();
     }
     grid_.stats.seconds +=

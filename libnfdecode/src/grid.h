@@ -377,7 +377,7 @@ struct GridLevel {
     // the field gradient (unit frame), 3 floats per rank (0 where unknown). Empty otherwise.
     static constexpr uint8_t kGradientKnown = 1, kNearCorner = 2;
     nfd::vector<uint8_t> near;
-    nfd::vector<uint8_t> has_gradient;
+    nfd::vector<uint8_t> gradient_flags;
     nfd::vector<float> gradients;
     // vertices := the corners of `cells`; values sized to match, zero.
     void collect_corners();
@@ -466,7 +466,7 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
 // Visits and evaluates level `out` (level, cells_per_axis and cell_size set) below `parent`;
 // `blocks`: its LevelSize::blocks, from follow_region. `with_gradients` (a UDF level to be
 // meshed): each new vertex is evaluated with its gradient, and out->gradients and
-// out->has_gradient (kGradientKnown) are filled at them: about three in four are corners of the
+// out->gradient_flags (kGradientKnown) are filled at them: about three in four are corners of the
 // level's near cells (bench/RESULTS.md, "0.13.11"), whose gradients the mesher wants, and one
 // evaluation of value and gradient costs less than a value now and both again later.
 void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel& parent,

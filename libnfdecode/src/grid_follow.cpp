@@ -776,7 +776,7 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
             });
     });
     if (!with_gradients) return;
-    out->has_gradient.assign(out->vertices.size(), 0);
+    out->gradient_flags.assign(out->vertices.size(), 0);
     out->gradients.assign(size_t(3) * out->vertices.size(), 0.0f);
     parallel_for(records.size(), 1, threads, [&](size_t begin, size_t end) {
         for (size_t t = begin; t < end; ++t)
@@ -785,7 +785,7 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
                 known.vertex(record.slot, v);
                 // A seed's edge midpoint whose cells were not visited is no vertex of the level.
                 if (!out->vertices.find(v[0], v[1], v[2], &r)) return;
-                out->has_gradient[r] = GridLevel::kGradientKnown;
+                out->gradient_flags[r] = GridLevel::kGradientKnown;
                 std::copy_n(record.gradient, 3, &out->gradients[size_t(3) * r]);
             });
     });

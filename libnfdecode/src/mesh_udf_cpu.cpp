@@ -29,7 +29,7 @@ bool canonical_direction(const float v[3], float out[3]) {
 nfd_result mesh_udf_cpu(const GridLevel& level, const OutputFrame& frame, unsigned threads,
                         MeshData* mesh, uint64_t* active_cells) {
     if (level.near.size() != level.cells.size() ||
-        level.has_gradient.size() != level.vertices.size() ||
+        level.gradient_flags.size() != level.vertices.size() ||
         level.gradients.size() != size_t(3) * level.vertices.size())
         return NFD_ERROR_INTERNAL;  // the level's gradients were not evaluated
     auto gradient = [&](uint32_t rank) { return level.gradients.data() + size_t(3) * rank; };

@@ -738,19 +738,19 @@ TEST(Extract, FloodGradientsAreTheGradientPassOnes) {
                     ASSERT_EQ(a.cells, b.cells);
                     ASSERT_EQ(a.values, b.values);
                     ASSERT_EQ(a.near, b.near);
-                    ASSERT_EQ(a.has_gradient.size(), b.has_gradient.size());
+                    ASSERT_EQ(a.gradient_flags.size(), b.gradient_flags.size());
                     std::vector<float> points;
                     std::vector<uint32_t> known;
                     size_t near_corners = 0;
                     b.vertices.for_each_in_blocks(0, b.vertices.blocks(),
                                                   [&](uint32_t v, uint32_t x, uint32_t y, uint32_t z) {
-                        const bool near = a.has_gradient[v] & GridLevel::kNearCorner;
-                        ASSERT_EQ(near, bool(b.has_gradient[v] & GridLevel::kNearCorner)) << v;
+                        const bool near = a.gradient_flags[v] & GridLevel::kNearCorner;
+                        ASSERT_EQ(near, bool(b.gradient_flags[v] & GridLevel::kNearCorner)) << v;
                         near_corners += near;
                         if (near)
                             for (int k = 0; k < 3; ++k)
                                 ASSERT_EQ(a.gradients[3 * v + k], b.gradients[3 * v + k]) << v;
-                        if (b.has_gradient[v] & GridLevel::kGradientKnown) {
+                        if (b.gradient_flags[v] & GridLevel::kGradientKnown) {
                             known.push_back(v);
                             points.insert(points.end(), {b.coord(x), b.coord(y), b.coord(z)});
                         }
