@@ -717,8 +717,9 @@ typedef struct nfd_extraction_level {
      * host memory, and device memory on a Vulkan context (0 on the CPU). 0 when done. Worst-case
      * bounds, not estimates: the next level's vertices are bounded by its kept parents' child
      * grids and its mesh as if every grid edge crossed the surface, so they exceed the real peak
-     * several times (golden bunny and T-shirt at 256: host on the CPU 3x-6x up to 128 and
-     * 12x-15x at 256; device on lavapipe 16x-21x). */
+     * several times (a job meshing every level of the golden bunny and T-shirt at 256,
+     * tests/cpp/test_memory_bound.cpp: host on the CPU 4x-7x and 5x-10x up to 128, 14x and 17x
+     * at 256; device on lavapipe 16x-21x). */
     uint64_t next_host_bytes;
     uint64_t next_device_bytes;
 } nfd_extraction_level;
