@@ -149,8 +149,9 @@ public:
     bool corner_words(size_t index, uint64_t out[8]) const {
         std::memset(out, 0, 8 * sizeof(uint64_t));
         if (table_[index] == kNoBlock) return false;
-        const uint32_t bx = uint32_t(index % per_axis_), by = uint32_t(index / per_axis_ % per_axis_),
-                       bz = uint32_t(index / (size_t(per_axis_) * per_axis_));
+        uint32_t block[3];
+        block_coords(index, block);
+        const uint32_t bx = block[0], by = block[1], bz = block[2];
         // The visited words of block (bx - dx, by - dy, bz - dz), or null.
         auto cells = [&](uint32_t dx, uint32_t dy, uint32_t dz) -> const uint64_t* {
             if (dx > bx || dy > by || dz > bz) return nullptr;
@@ -207,10 +208,8 @@ public:
     }
     // The vertex at slot `s` of a block that exists.
     void vertex(uint32_t s, uint32_t v[3]) const {
-        const size_t index = block_index_[s >> 9];
-        v[0] = 8 * uint32_t(index % per_axis_) + (s & 7);
-        v[1] = 8 * uint32_t(index / per_axis_ % per_axis_) + (s >> 3 & 7);
-        v[2] = 8 * uint32_t(index / (size_t(per_axis_) * per_axis_)) + (s >> 6 & 7);
+        block_coords(block_index_[s >> 9], v);
+        for (int a = 0; a < 3; ++a) v[a] = 8 * v[a] + (s >> 3 * a & 7);
     }
     // The visited cells, packed: blocks in raster order, inside a block by 2^3 groups in raster
     // order, and a group in mc::kCornerOffset order. So a parent's children are consecutive, a
@@ -232,8 +231,9 @@ public:
             uint32_t* out = cells->data() + first[g];
             for (size_t t = begin; t < end; ++t) {
                 if (table_[t] == kNoBlock) continue;
-                const uint32_t bx = uint32_t(t % per_axis_), by = uint32_t(t / per_axis_ % per_axis_),
-                               bz = uint32_t(t / (size_t(per_axis_) * per_axis_));
+                uint32_t block[3];
+                block_coords(t, block);
+                const uint32_t bx = block[0], by = block[1], bz = block[2];
                 const Bits& b = bits_[table_[t]];
                 for (uint32_t group = 0; group < 64; ++group) {
                     const uint32_t gx = 2 * (group & 3), gy = 2 * (group >> 2 & 3), gz = 2 * (group >> 4);
@@ -256,6 +256,12 @@ private:
     };
     size_t block_index(uint32_t x, uint32_t y, uint32_t z) const {
         return (size_t(z >> 3) * per_axis_ + (y >> 3)) * per_axis_ + (x >> 3);
+    }
+    // The block at `index` of the table, in blocks per axis (block_index's inverse).
+    void block_coords(size_t index, uint32_t b[3]) const {
+        b[0] = uint32_t(index % per_axis_);
+        b[1] = uint32_t(index / per_axis_ % per_axis_);
+        b[2] = uint32_t(index / (size_t(per_axis_) * per_axis_));
     }
     static uint32_t in_block(uint32_t block, uint32_t x, uint32_t y, uint32_t z) {
         return block << 9 | (z & 7) << 6 | (y & 7) << 3 | (x & 7);
