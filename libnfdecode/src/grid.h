@@ -245,6 +245,17 @@ inline uint32_t popcount64(uint64_t x) {
 #endif
 }
 
+// mc::kCornerOffset[k] as an index into a 3^3 block of vertices (x + 3y + 9z): a constant
+// table, so that the corners of a 2^3 group's cells are read at constant offsets.
+inline constexpr uint8_t kCornerIn27[8] = {0, 1, 3, 4, 9, 10, 12, 13};
+static_assert([] {
+    for (int k = 0; k < 8; ++k) {
+        const uint8_t* o = mc::kCornerOffset[k];
+        if (kCornerIn27[k] != o[0] + 3 * o[1] + 9 * o[2]) return false;
+    }
+    return true;
+}(), "kCornerIn27 follows mc::kCornerOffset");
+
 // A set of grid vertices with dense ranks, stored by blocks of 8^3 vertices: a block table over
 // the (side / 8)^3 blocks (4 bytes each: 8.6 MB at resolution 1024) and, per occupied block, a
 // 512-bit mask with the rank of its first vertex and a prefix count per 64-bit word. Memory
@@ -299,7 +310,8 @@ public:
         }
     }
     // The ranks of the 3^3 vertices (x + i, y + j, z + k), i, j, k < 3, at r[9k + 3j + i]: the
-    // corners of the eight cells of a 2^3 group at even (x, y, z); all 27 must be in the set.
+    // corners of the eight cells of a 2^3 group at even (x, y, z) (corner j of cell k at
+    // r[kCornerIn27[k] + kCornerIn27[j]]); all 27 must be in the set.
     // A row's three vertices are consecutive bits of one word unless x + 2 starts the next block.
     void sibling_ranks(uint32_t x, uint32_t y, uint32_t z, uint32_t r[27]) const {
         for (uint32_t k = 0; k < 3; ++k)
@@ -617,11 +629,11 @@ void GridLevel::for_each_cell(size_t begin, size_t end, const uint8_t* only, Fn&
                     if (only && !only[i + k]) continue;
                     const uint8_t* o = mc::kCornerOffset[k];
                     const uint32_t ck[3] = {c[0] + o[0], c[1] + o[1], c[2] + o[2]};
+                    const uint32_t* child = r27 + kCornerIn27[k];
                     uint32_t r[8];
                     float f[8];
                     for (int j = 0; j < 8; ++j) {
-                        const uint8_t* q = mc::kCornerOffset[j];
-                        r[j] = r27[9 * (o[2] + q[2]) + 3 * (o[1] + q[1]) + o[0] + q[0]];
+                        r[j] = child[kCornerIn27[j]];
                         f[j] = values[r[j]];
                     }
                     fn(i + k, ck, f, r);

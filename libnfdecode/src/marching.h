@@ -35,6 +35,7 @@ static_assert(mc::kMaxTrianglesPerCase <= 8, "a cell's emitted triangles are one
 constexpr size_t kOrderRun = 16384;       // visited cells per run of the passes after the first
 constexpr size_t kIndexGrain = 65536;     // indices per parallel slice at least
 constexpr uint32_t kPlaced = 1u << 31;    // edge_owner entry: the edge's vertex, not its owner
+constexpr uint32_t kOwnedKey = 1u << 31;  // a cell's key of an edge whose vertex the cell makes
 
 // fn(e) for the table edge of every corner of the triangles of case `index` whose bit is set in
 // `emitted`, in table order: the order in which the triangles' indices are written.
@@ -65,10 +66,11 @@ inline void atomic_min(uint32_t* slot, uint32_t value) {
     }
 }
 
-// Whether keys[p] is the first occurrence of its key in keys[0..p]: a cell writes at most 3 * 5 keys.
+// Whether keys[p] is the first occurrence of its key in keys[0..p] (those before p may carry
+// kOwnedKey): a cell writes at most 3 * 5 keys.
 inline bool first_occurrence(const uint32_t* keys, size_t p) {
     for (size_t q = 0; q < p; ++q)
-        if (keys[q] == keys[p]) return false;
+        if ((keys[q] & ~kOwnedKey) == keys[p]) return false;
     return true;
 }
 
@@ -114,7 +116,8 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
     // The visited cells go by runs of kOrderRun, in order: each pass below walks a run's emitting
     // cells in turn, and what a run starts at (its first triangle, then its first vertex) comes
     // from the counts of the runs before it, so no per-cell table is needed.
-    if (visited >= kPlaced) throw std::length_error("march_cells: too many cells");
+    if (visited >= kPlaced || uint64_t(level.vertices.size()) * 3 >= kOwnedKey)
+        throw std::length_error("march_cells: too many cells or vertices");
     const size_t runs = (visited + kOrderRun - 1) / kOrderRun;
     nfd::vector<uint64_t> run_cells(runs + 1), run_triangles(runs + 1), run_vertices(runs + 1);
     for_each_range(visited, kOrderRun, threads, [&](size_t run, size_t first, size_t last) {
@@ -162,13 +165,17 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
         });
     });
 
-    // Pass 3: the vertices each run makes (its cells' owned edges, once each); their prefix sums
-    // number them in first-use order.
+    // Pass 3: the vertices each run makes (its cells' owned edges, once each), each marked in its
+    // cell's keys (kOwnedKey); their prefix sums number them in first-use order. No branch
+    // waits on the owner table's scattered reads here, so they overlap.
     for_each_range(visited, kOrderRun, threads, [&](size_t run, size_t first, size_t last) {
         uint64_t made = 0;
-        for_each_emitting(run, first, last, [&](uint32_t i, const uint32_t* cell_keys) {
-            for (size_t p = 0, n = 3 * size_t(popcount64(emitted[i])); p < n; ++p)
-                made += edge_owner[cell_keys[p]] == i && first_occurrence(cell_keys, p);
+        for_each_emitting(run, first, last, [&](uint32_t i, uint32_t* cell_keys) {
+            for (size_t p = 0, n = 3 * size_t(popcount64(emitted[i])); p < n; ++p) {
+                const bool owned = edge_owner[cell_keys[p]] == i && first_occurrence(cell_keys, p);
+                cell_keys[p] |= owned ? kOwnedKey : 0u;
+                made += owned;
+            }
         });
         run_vertices[run + 1] = made;
     });
@@ -178,18 +185,18 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
     mesh->positions.resize(3 * vertex_count);
     mesh->normals.resize(3 * vertex_count);
 
-    // Pass 4: each cell places its vertices; the owner entry becomes the vertex (kPlaced set), so
-    // a repeated key in the cell is no longer its own. Other cells read entries meanwhile, hence
-    // the atomics.
+    // Pass 4: each cell places the vertices its keys mark, and their owner entries become the
+    // vertices (kPlaced set; each entry has one owner, so no other thread writes or reads it).
     for_each_range(visited, kOrderRun, threads, [&](size_t run, size_t first, size_t last) {
         uint32_t vertex = uint32_t(run_vertices[run]);
-        for_each_emitting(run, first, last, [&](uint32_t i, const uint32_t* key) {
+        for_each_emitting(run, first, last, [&](uint32_t i, uint32_t* key) {
             uint32_t c[3], r[8];
             float f[8];
             bool read = false;  // the corners, read at the cell's first vertex
             for_each_emitted_edge(cases[i], emitted[i], [&](int e) {
-                uint32_t* entry = &edge_owner[*key++];
-                if (__atomic_load_n(entry, __ATOMIC_RELAXED) != i) return;
+                const uint32_t k = *key;
+                *key++ = k & ~kOwnedKey;
+                if (!(k & kOwnedKey)) return;
                 if (!read) {
                     unpack_coords(level.cells[i], c);
                     level.corners(c, f, r);
@@ -197,7 +204,7 @@ uint64_t march_cells(const GridLevel& level, unsigned threads, const uint8_t* on
                 }
                 place(crossed_edge(c, e, f, r), &mesh->positions[3 * size_t(vertex)],
                       &mesh->normals[3 * size_t(vertex)]);
-                __atomic_store_n(entry, vertex++ | kPlaced, __ATOMIC_RELAXED);
+                edge_owner[k & ~kOwnedKey] = vertex++ | kPlaced;
             });
         });
     });
