@@ -10,6 +10,7 @@
 #include "parallel.h"
 
 #include <pthread.h>
+#include <sched.h>
 
 #include <condition_variable>
 #include <deque>
@@ -70,6 +71,7 @@ private:
         if (it != loops_.end()) loops_.erase(it);
     }
     void work() {
+        run_as_background_thread();
         std::unique_lock<std::mutex> lock(mutex_);
         for (;;) {
             wake_.wait(lock, [this] { return !loops_.empty(); });
@@ -108,4 +110,12 @@ Pool& pool() {
 void run_loop(Loop* loop, unsigned workers) { pool().run(loop, workers); }
 
 }  // namespace parallel_detail
+
+void run_as_background_thread() {
+#ifdef SCHED_BATCH
+    sched_param param{};
+    param.sched_priority = 0;  // the only priority of SCHED_BATCH; no privilege needed
+    pthread_setschedparam(pthread_self(), SCHED_BATCH, &param);  // refused: stays as it was
+#endif
+}
 }  // namespace nfd

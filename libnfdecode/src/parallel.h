@@ -10,6 +10,13 @@
 
 namespace nfd {
 
+// Called by each thread the library starts for compute work (the pool below, queue workers):
+// on Linux it runs under SCHED_BATCH, which keeps its share of the CPU but never preempts a
+// running thread when it wakes. A render loop that submits and polls is then not pushed off its
+// core by the decode it just started (bench/RESULTS.md, "Workers that do not preempt"); where the
+// policy is unavailable (other systems, a sandbox refusing it) the thread runs as it was.
+void run_as_background_thread();
+
 inline unsigned resolve_thread_count(unsigned requested) {
     if (requested) return requested;
     return std::max(1u, std::thread::hardware_concurrency());

@@ -12,6 +12,8 @@
 #include <new>
 #include <stdexcept>
 
+#include "parallel.h"
+
 namespace nfd {
 
 struct Job::Shared {
@@ -252,7 +254,10 @@ Queue::Queue(uint32_t workers, MemoryBytes budget)
     const uint32_t count = std::max(1u, workers);
     workers_.reserve(count);
     try {
-        for (uint32_t i = 0; i < count; ++i) workers_.emplace_back([this] { run_worker(); });
+        for (uint32_t i = 0; i < count; ++i) workers_.emplace_back([this] {
+                run_as_background_thread();
+                run_worker();
+            });
     } catch (...) {
         {
             std::lock_guard<std::mutex> lock(shared_->mutex);

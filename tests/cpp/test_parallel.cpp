@@ -3,6 +3,7 @@
 // complete, and a decode whose passes split across threads giving the one-thread mesh.
 #include <gtest/gtest.h>
 
+#include <sched.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -103,6 +104,33 @@ TEST(Parallel, LoopsCompleteInAForkedChild) {
     busy.join();
     for (int r : results) EXPECT_EQ(r, 0) << "-1: the child's decode did not finish; 1: its mesh differs";
 }
+
+#ifdef SCHED_BATCH
+// The pool's workers run under SCHED_BATCH (run_as_background_thread); the caller's thread keeps
+// its own policy. Slice 0 waits until another slice has started, which only another thread can
+// run while it waits: a worker.
+TEST(Parallel, WorkersRunAsBackgroundThreads) {
+    const int caller_policy = sched_getscheduler(0);
+    const std::thread::id caller = std::this_thread::get_id();
+    std::atomic<bool> other_started{false};
+    std::atomic<int> worker_policy{-1}, policy_in_caller{-1};
+    parallel_slices(2, 1, 2, [&](size_t slice, size_t, size_t) {
+        if (std::this_thread::get_id() == caller) {
+            policy_in_caller = sched_getscheduler(0);
+        } else {
+            worker_policy = sched_getscheduler(0);
+        }
+        if (slice == 0) {
+            while (!other_started.load()) std::this_thread::yield();
+        } else {
+            other_started = true;
+        }
+    });
+    EXPECT_EQ(worker_policy.load(), SCHED_BATCH);
+    EXPECT_EQ(policy_in_caller.load(), caller_policy);
+    EXPECT_EQ(sched_getscheduler(0), caller_policy);
+}
+#endif
 
 // At 256 the flood's waves, the region, the level collection and a UDF's gradient corners all
 // split across threads (their grains are a few thousand cells): the mesh and the evaluation

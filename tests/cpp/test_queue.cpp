@@ -5,6 +5,7 @@
 // and AddressSanitizer by scripts/sanitize.sh.
 #include <gtest/gtest.h>
 #include <nfdecode/nfdecode.h>
+#include <sched.h>
 
 #include <atomic>
 #include <cstring>
@@ -450,6 +451,31 @@ TEST(Queue, CallbackMayDestroyItsOwnJob) {
     nfd_asset_destroy(a);
     nfd_context_destroy(ctx);
 }
+
+#ifdef SCHED_BATCH
+// Workers run under SCHED_BATCH (parallel.h, run_as_background_thread): a started job's callback
+// runs on its worker.
+TEST(Queue, WorkersRunAsBackgroundThreads) {
+    nfd_context* ctx = make_context(NFD_DEVICE_CPU);
+    nfd_asset* a = make_asset(blob(1.0f));
+    nfd_queue* q = make_queue(ctx, 1);
+    const nfd_mesh_options mo = mesh_options(24);
+    std::atomic<int> policy{-1};
+    nfd_job_options jo = {};
+    jo.callback = [](nfd_job*, nfd_job_status, void* user) {
+        static_cast<std::atomic<int>*>(user)->store(sched_getscheduler(0));
+    };
+    jo.user_data = &policy;
+    nfd_job* job = nullptr;
+    ASSERT_EQ(nfd_queue_submit(q, a, &mo, &jo, &job), NFD_SUCCESS);
+    EXPECT_EQ(nfd_job_wait(job, UINT64_MAX), NFD_JOB_DONE);
+    nfd_queue_destroy(q);  // the callback has run once the workers are joined
+    EXPECT_EQ(policy.load(), SCHED_BATCH);
+    nfd_job_destroy(job);
+    nfd_asset_destroy(a);
+    nfd_context_destroy(ctx);
+}
+#endif
 
 // A wait that times out returns the status then, not final; 0 is a poll.
 TEST_F(QueueOnBlob, WaitWithTimeout) {

@@ -55,7 +55,7 @@ extern "C" {
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
 #define NFD_VERSION_MINOR 13
-#define NFD_VERSION_PATCH 11
+#define NFD_VERSION_PATCH 12
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
@@ -207,9 +207,10 @@ typedef struct nfd_context_options {
                                              (0.13.7) worker threads that every context in the
                                              process shares: started on first need, as many as
                                              the largest cpu_threads - 1 asked (255 at most),
-                                             idle between calls, kept until the process ends;
-                                             a child forked after them runs the CPU path on
-                                             its calling thread */
+                                             idle between calls, kept until the process ends,
+                                             scheduled as the queue's workers (see
+                                             "Scheduling"); a child forked after them runs the
+                                             CPU path on its calling thread */
     int enable_validation;                /* non-zero: enable VK_LAYER_KHRONOS_validation if present */
     /* (0.10) Bytes from nfd_context_get_pipeline_cache of an earlier context, e.g. read back from
      * a file in the user's cache directory: the pipelines they hold are not compiled again. Used
@@ -909,6 +910,14 @@ NFD_API nfd_result nfd_grid_write_vdb(const nfd_grid* grid, const char* path, co
  * except nfd_job_wait (by design), nfd_queue_destroy (joins the workers, so it waits for steps in
  * progress), and nfd_job_destroy while that job's callback is running on another thread (it
  * waits for the callback to return).
+ *
+ * Scheduling (0.13.12): on Linux the threads the library starts for compute work (queue workers,
+ * the CPU path's worker threads, the threads that compile pipelines ahead of a level) run under
+ * SCHED_BATCH. Their share of the CPU is unchanged, but a worker that wakes (a job submitted, a
+ * parallel pass starting) never preempts the thread running on its core: a render loop that
+ * submits and polls keeps its frame while the decodes it starts take the idle time
+ * (bench/RESULTS.md, "Workers that do not preempt"). Callbacks run on the workers, under that
+ * policy. Where it is unavailable (other systems, a sandbox that refuses it) they run as started.
  * ------------------------------------------------------------------------------------------- */
 typedef struct nfd_queue nfd_queue;
 typedef struct nfd_job nfd_job;

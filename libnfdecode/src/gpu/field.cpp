@@ -8,6 +8,7 @@
 #include <system_error>
 #include <thread>
 
+#include "../parallel.h"
 #include "device.h"
 #include "gpu_decode.h"
 
@@ -317,6 +318,7 @@ bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, boo
     Device::Warmer& w = d.warmers.emplace_back();
     try {
         w.thread = std::thread([&d, &w, layout, values, gradients] {
+            run_as_background_thread();
             try {  // a failure is the decode's to report
                 if (values) prepare_field(d, *layout, false);
                 if (gradients) prepare_field(d, *layout, true);
