@@ -397,8 +397,9 @@ void GridBuilder::step() {
             evaluate_coarsest(network_, grid_, threads_, &level, &grid_.stats.points_evaluated);
         }
     }
-    if (l > 0 && (follow_ || (follow_finest_ && l == 1)))
-        follow_region(grid_, level, &region_, &next_, !follow_, threads_);
+    if (followed_below(l))
+        follow_region(grid_, level, &region_, &next_, !follow_, threads_,
+                      region_near(l) ? &level.near : nullptr);
     else if (l > 0)
         kept_ = keep_cells(grid_, level, &next_);
     current_ = l;
@@ -419,16 +420,20 @@ void GridBuilder::evaluate_udf_gradients() {
     nfd::vector<uint8_t>& near = level.near;
     nfd::vector<uint8_t>& flags = level.gradient_flags;
     nfd::vector<float>& gradients = level.gradients;
-    near.assign(level.cells.size(), 0);
     if (flags.size() != level.vertices.size()) {  // not from the flood (follow_surface)
         flags.assign(level.vertices.size(), 0);
         gradients.assign(size_t(3) * level.vertices.size(), 0.0f);
     }
+    // The near verdicts, unless follow_region gave them; then the near cells mark their corners.
+    const bool judged = near.size() == level.cells.size() && region_near(current_);
+    if (!judged) near.assign(level.cells.size(), 0);
     parallel_for(level.cells.size(), 16384, threads_, [&](size_t begin, size_t end) {
-        level.for_each_cell(begin, end, nullptr,
+        level.for_each_cell(begin, end, judged ? near.data() : nullptr,
                             [&](size_t i, const uint32_t*, const float* f, const uint32_t* r) {
-                                if (!udf_cell_is_near(f, level.cell_size)) return;
-                                near[i] = 1;
+                                if (!judged) {
+                                    if (!udf_cell_is_near(f, level.cell_size)) return;
+                                    near[i] = 1;
+                                }
                                 // Neighbouring cells on other threads mark shared corners
                                 // too, all with the same value: no other bit changes here.
                                 for (int k = 0; k < 8; ++k) {
@@ -505,9 +510,10 @@ uint64_t GridBuilder::next_step_bytes_bound() const {
                                                 gradients, threads_)
                                           : 0;
     uint64_t refine = 0;
-    if (level > 0 && (follow_ || (follow_finest_ && level == 1))) {
+    if (followed_below(level)) {
         refine = follow_region_bytes_bound(next, cells_at_level(grid_.resolution, level - 1),
-                                           !follow_);
+                                           !follow_) +
+                 (region_near(level) ? next.cells : 0);  // the near verdicts
     } else if (level > 0) {
         refine = next.cells + ChildLevelSize::bytes(cells_at_level(grid_.resolution, level - 1));
     }

@@ -472,9 +472,12 @@ struct FollowRegion {
 // the level's cells that the keep rule keeps, the followed ones among them, instead of the
 // followed cells and their 26 neighbours: the band's parents, whose child grids the GPU path
 // stores. Its isolated cells are then the kept ones with no followed cell among their 26
-// neighbours, as without it.
+// neighbours, as without it. With `near` (a UDF level to be meshed): the level's near verdicts
+// (GridLevel::near), from the corners this pass reads anyway; a near cell has valid edges, so it
+// is a followed one.
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
-                   LevelSize* next, bool within_kept = false, unsigned threads = 1);
+                   LevelSize* next, bool within_kept = false, unsigned threads = 1,
+                   nfd::vector<uint8_t>* near = nullptr);
 // Visits and evaluates level `out` (level, cells_per_axis and cell_size set) below `parent`;
 // `blocks`: its LevelSize::blocks, from follow_region. `with_gradients` (a UDF level to be
 // meshed): each new vertex is evaluated with its gradient, and out->gradients and
@@ -516,7 +519,8 @@ public:
     uint32_t current() const { return current_; }  // the level the last step() evaluated
     // Gradients at the corners of the current level's near cells (GridLevel::gradients): known
     // from the level's flood, copied where the level above holds them at the same point (then
-    // freed), evaluated elsewhere. GridStats::gradients_evaluated counts the near cells' corners
+    // freed), evaluated elsewhere. The near verdicts come from the step's follow_region where it
+    // ran (a level above the finest), else from a pass of their own. GridStats::gradients_evaluated counts the near cells' corners
     // that were not near cells' corners of the level above: the corners whose gradients this
     // level needs for itself, however they were evaluated (the GPU path's count too).
     void evaluate_udf_gradients();
@@ -536,6 +540,10 @@ private:
     // evaluates gradients.
     bool follows(uint32_t l) const { return stepped_ && (follow_ || (follow_finest_ && l == 0)); }
     bool flood_gradients(uint32_t l) const { return follows(l) && (gradient_levels_ >> l & 1); }
+    // Whether level l's step ends with follow_region (else with the keep rule, or nothing at the
+    // finest), and whether that also gives the level's near verdicts (a meshed UDF level).
+    bool followed_below(uint32_t l) const { return l > 0 && (follow_ || (follow_finest_ && l == 1)); }
+    bool region_near(uint32_t l) const { return followed_below(l) && (gradient_levels_ >> l & 1); }
     const Network& network_;
     const unsigned threads_;
     const bool follow_;         // surface following: without `band`

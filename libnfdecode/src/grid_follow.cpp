@@ -419,7 +419,8 @@ private:
 }  // namespace
 
 void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion* region,
-                   LevelSize* next, bool within_kept, unsigned threads) {
+                   LevelSize* next, bool within_kept, unsigned threads,
+                   nfd::vector<uint8_t>* near) {
     const uint32_t n = level.cells_per_axis;
     const float threshold = isolated_threshold(grid.field, level.level, grid.step);
     // Each cell's verdict on threads: followed, or a candidate of step 3 (not followed, may hold
@@ -427,11 +428,13 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
     constexpr uint8_t kFollowed = 1, kCandidate = 2, kIsolated = 4;
     nfd::vector<uint8_t> verdict(level.cells.size());
     CellBits followed(level.vertices), kept(level.vertices, within_kept);
+    if (near) near->assign(level.cells.size(), 0);
     parallel_for(level.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
         level.for_each_cell(begin, end, nullptr, [&](size_t i, const uint32_t* c, const float* f, const uint32_t*) {
             if (is_followed(grid.field, f, level.cell_size)) {
                 verdict[i] = kFollowed;
                 followed.set(c);
+                if (near) (*near)[i] = udf_cell_is_near(f, level.cell_size);
             } else if (cell_may_contain_surface(f, threshold)) {
                 verdict[i] = kCandidate;
             } else {
