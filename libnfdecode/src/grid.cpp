@@ -411,8 +411,9 @@ void GridBuilder::step() {
 // A vertex with all-even coordinates where the level above has gradients (it was meshed, in a
 // progressive extraction) is the same f32 point as that level's vertex (x/2, y/2, z/2): its
 // gradient is copied, not evaluated again. Those gradients are freed then; this level's stay for
-// its mesh and the next level. The near test runs once, on threads, and marks the corners; the
-// mesher reads its verdicts, and finds the gradients by the ranks it has for the values.
+// its mesh and the next level. The near test runs once per level (in follow_region above the
+// finest, else here, on threads) and the near cells mark their corners; the mesher reads its
+// verdicts, and finds the gradients by the ranks it has for the values.
 void GridBuilder::evaluate_udf_gradients() {
     const auto t0 = std::chrono::steady_clock::now();
     GridLevel& level = grid_.levels[current_];

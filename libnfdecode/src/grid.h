@@ -520,9 +520,10 @@ public:
     // Gradients at the corners of the current level's near cells (GridLevel::gradients): known
     // from the level's flood, copied where the level above holds them at the same point (then
     // freed), evaluated elsewhere. The near verdicts come from the step's follow_region where it
-    // ran (a level above the finest), else from a pass of their own. GridStats::gradients_evaluated counts the near cells' corners
-    // that were not near cells' corners of the level above: the corners whose gradients this
-    // level needs for itself, however they were evaluated (the GPU path's count too).
+    // ran (a level above the finest), else from a pass of their own. GridStats::
+    // gradients_evaluated counts the near cells' corners that were not near cells' corners of
+    // the level above: the corners whose gradients this level needs for itself, however they
+    // were evaluated (the GPU path's count too).
     void evaluate_udf_gradients();
     // Upper bounds of the host bytes that the next step(), and evaluate_udf_gradients() after it,
     // allocate at their peak over what exists before them (counted: every vector they create at

@@ -118,4 +118,5 @@ void run_as_background_thread() {
     pthread_setschedparam(pthread_self(), SCHED_BATCH, &param);  // refused: stays as it was
 #endif
 }
+
 }  // namespace nfd

@@ -10,7 +10,8 @@
 
 namespace nfd {
 
-// Called by each thread the library starts for compute work (the pool below, queue workers):
+// Called by each thread the library starts for compute work (the pool below, queue workers, the
+// Vulkan path's pipeline warmers):
 // on Linux it runs under SCHED_BATCH, which keeps its share of the CPU but never preempts a
 // running thread when it wakes. A render loop that submits and polls is then not pushed off its
 // core by the decode it just started (bench/RESULTS.md, "Workers that do not preempt"); where the

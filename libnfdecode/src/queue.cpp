@@ -254,7 +254,8 @@ Queue::Queue(uint32_t workers, MemoryBytes budget)
     const uint32_t count = std::max(1u, workers);
     workers_.reserve(count);
     try {
-        for (uint32_t i = 0; i < count; ++i) workers_.emplace_back([this] {
+        for (uint32_t i = 0; i < count; ++i)
+            workers_.emplace_back([this] {
                 run_as_background_thread();
                 run_worker();
             });
