@@ -361,7 +361,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     if color is not None:
         print(
             f"colour      {color['color_space']}, width {color['width']}, {color['num_frequencies']} frequencies, "
-            f"network {_widths(color['layers'])} (sigmoid output), {color['parameters']} parameters at "
+            f"omega0 {color['omega0']:.6g}, network {_widths(color['layers'])} (sigmoid output), {color['parameters']} parameters at "
             f"{color['bits']} bits, colr chunk {color['bytes']} bytes"
         )
     if info["skipped_chunks"]:

@@ -2,9 +2,10 @@
 
 The geometry is decoded exactly as the decoder will (the numpy reference extractor at a resolution),
 points are drawn area-uniformly on that surface, fresh every epoch, and each is given the colour of
-the nearest ground-truth point (in the geometry's unit frame). The network (8 frequencies, two sine
-layers, 3 sigmoid outputs) learns 2·sigmoid(y) − 1 against the colours mapped to [-1, 1] with the
-geometry's λ·Σ|θ| term, then is quantized per layer with a short QAT, like the geometry's.
+the nearest ground-truth point (in the geometry's unit frame). The network (8 frequencies, three sine
+layers at ω₀ = 20, 3 sigmoid outputs: config.py says why) learns 2·sigmoid(y) − 1 against the colours
+mapped to [-1, 1] with the geometry's λ·Σ|θ| term, then is quantized per layer with a short QAT, like
+the geometry's.
 """
 
 from __future__ import annotations
@@ -114,8 +115,9 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
     epochs = schedule.epochs if options.epochs is None else options.epochs
     rng = np.random.default_rng(options.seed)
     generator = torch.Generator().manual_seed(options.seed)
-    model = Siren(options.width, "sigmoid", outputs=3, num_frequencies=options.frequencies,
-                  frequency_base=config.COLOR_FREQUENCY_BASE, generator=generator)
+    model = Siren(options.width, "sigmoid", outputs=3, hidden_layers=config.COLOR_HIDDEN_LAYERS,
+                  num_frequencies=options.frequencies, frequency_base=config.COLOR_FREQUENCY_BASE,
+                  omega0=config.COLOR_OMEGA0, generator=generator)
     model = model.to(device)
     surface = _SurfaceColors(mesh, shape, geometry, rng, device)
     validation = surface.draw(model, schedule.validation_points)
@@ -136,6 +138,6 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
         if qat_loss < best_loss:
             best_loss, best_layers = qat_loss, model.layers
     network = quantized_network(best_layers.cpu(), options.bits, num_frequencies=options.frequencies,
-                                frequency_base=config.COLOR_FREQUENCY_BASE, omega0=config.OMEGA0,
+                                frequency_base=config.COLOR_FREQUENCY_BASE, omega0=config.COLOR_OMEGA0,
                                 output=OUTPUT_SIGMOID)
     return ColorFit(ColorChunk(COLOR_SPACE_RGB, network), best_loss, len(mesh.vertices), time.perf_counter() - start)

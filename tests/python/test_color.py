@@ -55,7 +55,7 @@ def test_color_is_fitted_on_the_reused_geometry(encoded: bytes) -> None:
     assert (encoded[5], f.minor) == (1, 1) and f.color is not None
     assert encoded[16:16 + f.chunk_bytes[TAG_GEOM]] == GEOMETRY.read_bytes()[16:16 + golden.chunk_bytes[TAG_GEOM]]
     net = f.color.network
-    assert (net.num_frequencies, net.out_features, net.bits) == (8, [16, 16, 3], 8)
+    assert (net.num_frequencies, net.out_features, net.bits, net.omega0) == (8, [16, 16, 16, 3], 8, 20.0)
 
 
 def test_decoded_colour_beats_a_constant_colour(milk: Shape, encoded: bytes) -> None:
@@ -116,10 +116,11 @@ def test_cli_encode_info_decode_eval(tmp_path: Path) -> None:
     info = nfc("info", out, "--json", cwd=tmp_path)
     color = json.loads(info.stdout)["color"]
     assert color["width"] == 8 and color["bits"] == 8 and color["num_frequencies"] == 8
-    assert color["parameters"] == 51 * 8 + 8 + 8 * 8 + 8 + 8 * 3 + 3
+    assert color["parameters"] == 51 * 8 + 8 + 2 * (8 * 8 + 8) + 8 * 3 + 3  # three sine layers
+    assert color["omega0"] == 20.0
     assert color["bytes"] + json.loads(info.stdout)["geometry_bytes"] + 16 == out.stat().st_size
     text = nfc("info", out, cwd=tmp_path).stdout
-    assert "colour      rgb, width 8" in text and f"colr chunk {color['bytes']} bytes" in text
+    assert "colour      rgb, width 8, 8 frequencies, omega0 20," in text and f"colr chunk {color['bytes']} bytes" in text
 
     points = tmp_path / "points.ply"
     r = nfc("decode", out, "-o", points, "--points", "20000", "--resolution", "64", cwd=tmp_path)

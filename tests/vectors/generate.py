@@ -49,6 +49,8 @@ VECTORS = [  # name, shape, field, width, bits, frequencies L, β, epochs, colou
     ("v1_0_bunny_scans_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 16, 1.4, 30, None),
     # A coloured point cloud (13,704 points): colour network of width 16 at 8 bits.
     ("v1_1_milk_udf_w16_c16", "colored/pcl_milk_color.ply.gz", "udf", 16, 8, 16, 1.4, 30, 16),
+    # The colour network of the 0.13.12 encoder: three sine layers at ω₀ = 20 (four linear layers).
+    ("v1_1_milk_udf_w16_L8_c16_deep", "colored/pcl_milk_color.ply.gz", "udf", 16, 8, 8, 1.4, 30, 16),
     # The range-scan cloud placed as geo-referenced survey data (UTM-like metres, GEO_OFFSETS):
     # the encoder keeps its frame in 64 bits.
     ("v1_2_bunny_scans_geo_udf_w16", "stanford/bunny_scans/bun.conf", "udf", 16, 8, 16, 1.4, 30, None),
