@@ -2,8 +2,8 @@
 
 The geometry is decoded exactly as the decoder will (the numpy reference extractor at a resolution),
 points are drawn area-uniformly on that surface, fresh every epoch, and each is given the colour of
-the nearest ground-truth point (in the geometry's unit frame). The network (8 frequencies, three sine
-layers at ω₀ = 20, 3 sigmoid outputs: config.py says why) learns 2·sigmoid(y) − 1 against the colours
+the nearest ground-truth point (in the geometry's unit frame). The network (8 frequencies at β = 1.7,
+three sine layers at ω₀ = 20, 3 sigmoid outputs: config.py says why) learns 2·sigmoid(y) − 1 against the colours
 mapped to [-1, 1] with the geometry's λ·Σ|θ| term, then is quantized per layer with a short QAT, like
 the geometry's.
 """
