@@ -258,10 +258,7 @@ bool cell_may_contain_surface(const float corner_values[8], float threshold) {
     return (negative && positive) || min_abs <= threshold;
 }
 
-bool udf_cell_is_near(const float corner_values[8], float h) {
-    // A non-finite corner has no usable gradient or crossing: the cell is not meshed.
-    for (int k = 0; k < 8; ++k)
-        if (!std::isfinite(corner_values[k])) return false;
+uint32_t udf_valid_edges(const float corner_values[8], float h) {
     const float limit = udf_edge_limit(h);
     uint32_t valid = 0;
     for (int e = 0; e < 12; ++e) {
@@ -269,7 +266,18 @@ bool udf_cell_is_near(const float corner_values[8], float h) {
         const float sum = corner_values[ends[0]] + corner_values[ends[1]];
         valid |= uint32_t(sum <= limit) << e;
     }
-    return mc::tables().holds_triangle[valid / 32] >> (valid % 32) & 1;
+    return valid;
+}
+
+bool udf_cell_is_near(const float corner_values[8], uint32_t valid_edges) {
+    // A non-finite corner has no usable gradient or crossing: the cell is not meshed.
+    for (int k = 0; k < 8; ++k)
+        if (!std::isfinite(corner_values[k])) return false;
+    return mc::tables().holds_triangle[valid_edges / 32] >> (valid_edges % 32) & 1;
+}
+
+bool udf_cell_is_near(const float corner_values[8], float h) {
+    return udf_cell_is_near(corner_values, udf_valid_edges(corner_values, h));
 }
 
 uint64_t evaluate_coarsest_level(const Network& net, FieldType field, uint32_t resolution,
@@ -426,7 +434,7 @@ void GridBuilder::evaluate_udf_gradients() {
         gradients.assign(size_t(3) * level.vertices.size(), 0.0f);
     }
     // The near verdicts, unless follow_region gave them; then the near cells mark their corners.
-    const bool judged = near.size() == level.cells.size() && region_near(current_);
+    const bool judged = region_near(current_);
     if (!judged) near.assign(level.cells.size(), 0);
     parallel_for(level.cells.size(), 16384, threads_, [&](size_t begin, size_t end) {
         level.for_each_cell(begin, end, judged ? near.data() : nullptr,

@@ -443,6 +443,10 @@ constexpr float kUdfFloodEdge = 2.0f;
 // an emitted triangle needs three valid edges, so no other cell can emit one whatever its pseudo-
 // signs, and only near cells need gradients. Every such cell has a corner within 0.75 h.
 bool udf_cell_is_near(const float corner_values[8], float h);
+// The mesher's valid edges of a cell of edge h (bit e for edge e of mc::kEdgeCorners), and the near
+// test given them: the same verdict as above, for a caller that has the edges already.
+uint32_t udf_valid_edges(const float corner_values[8], float h);
+bool udf_cell_is_near(const float corner_values[8], uint32_t valid_edges);
 
 struct GridStats {
     uint64_t points_evaluated = 0;     // field evaluations over all levels (values)

@@ -48,12 +48,6 @@ uint32_t crossed_edges(const float f[8]) {
     }
     return crossed;
 }
-// The UDF mesher's valid edges of a cell of edge h (grid.h, udf_edge_limit).
-uint32_t udf_valid_edges(const float f[8], float h) { return edges_within(f, udf_edge_limit(h)); }
-// The cells a level grows from: a sign change (SDF), a valid edge (UDF).
-bool is_followed(FieldType field, const float f[8], float h) {
-    return field == FieldType::Udf ? udf_valid_edges(f, h) != 0 : has_sign_change(f);
-}
 
 // Cells of a pass per thread, at least: smaller passes stay on the caller's thread, where starting
 // a thread would cost more than the tests it takes over.
@@ -423,6 +417,7 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
                    nfd::vector<uint8_t>* near) {
     const uint32_t n = level.cells_per_axis;
     const float threshold = isolated_threshold(grid.field, level.level, grid.step);
+    const bool udf = grid.field == FieldType::Udf;
     // Each cell's verdict on threads: followed, or a candidate of step 3 (not followed, may hold
     // the surface); the followed cells (with `within_kept`, also the candidates: `kept`) as bits.
     constexpr uint8_t kFollowed = 1, kCandidate = 2, kIsolated = 4;
@@ -431,10 +426,12 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
     if (near) near->assign(level.cells.size(), 0);
     parallel_for(level.cells.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
         level.for_each_cell(begin, end, nullptr, [&](size_t i, const uint32_t* c, const float* f, const uint32_t*) {
-            if (is_followed(grid.field, f, level.cell_size)) {
+            // A level grows from a sign change (SDF) or a valid edge (UDF).
+            const uint32_t valid = udf ? udf_valid_edges(f, level.cell_size) : 0;
+            if (udf ? valid != 0 : has_sign_change(f)) {
                 verdict[i] = kFollowed;
                 followed.set(c);
-                if (near) (*near)[i] = udf_cell_is_near(f, level.cell_size);
+                if (near) (*near)[i] = udf_cell_is_near(f, valid);
             } else if (cell_may_contain_surface(f, threshold)) {
                 verdict[i] = kCandidate;
             } else {
