@@ -30,7 +30,7 @@ import numpy as np
 from nfencode.bitstream import read_nfc
 from nfencode.encoder import EncodeConfig, compress
 from nfencode.io import Shape, load_shape
-from nfencode.metrics import chamfer_distance, color_psnr
+from nfencode.metrics import chamfer_distance, color_psnr_directions
 from nfencode.normalize import to_unit, unit_ball_frame
 from nfencode.reference import color_bytes, decode_points, extract_unit_mesh
 
@@ -63,6 +63,8 @@ class Row:
     cd: float
     psnr: float
     seconds: float = float("nan")  # colour fit (nfc)
+    psnr_gt_rec: float = float("nan")  # the two terms of psnr (nfc): gt -> rec, rec -> gt
+    psnr_rec_gt: float = float("nan")
 
 
 def geometry_file(gt: Shape, shape: str, width: int, frequencies: int) -> Path:
@@ -98,9 +100,10 @@ def measure(gt: Shape, path: Path, setting: str, seconds: float, decoder: str) -
     assert gt.colors is not None
     points, colors = decode(path, len(gt.vertices), decoder)
     center, scale = unit_ball_frame(gt.vertices)
-    psnr = color_psnr(to_unit(gt.vertices, center, scale), gt.colors, to_unit(points, center, scale), colors)
+    forward, backward = color_psnr_directions(to_unit(gt.vertices, center, scale), gt.colors,
+                                              to_unit(points, center, scale), colors)
     cd = chamfer_distance(gt, Shape(points.astype(np.float64), None, None, "decoded"), seed=SEED)
-    return Row("nfc", setting, path.stat().st_size, cd, psnr, seconds)
+    return Row("nfc", setting, path.stat().st_size, cd, 0.5 * (forward + backward), seconds, forward, backward)
 
 
 def run_color(gt: Shape, shape: str, geometry: Path, width: int, bits: int, frequencies: int, decoder: str) -> Row:
@@ -162,7 +165,8 @@ def verdict(psnr: float, gpcc: float | None, gpcc_env: float | None) -> str:
 
 def load_rows(path: Path) -> list[Row]:
     with open(path, newline="") as f:
-        return [Row(r["codec"], r["setting"], int(r["bytes"]), float(r["cd"]), float(r["psnr"]), float(r["seconds"]))
+        return [Row(r["codec"], r["setting"], int(r["bytes"]), float(r["cd"]), float(r["psnr"]), float(r["seconds"]),
+                    float(r.get("psnr_gt_rec") or "nan"), float(r.get("psnr_rec_gt") or "nan"))
                 for r in csv.DictReader(f) if r["codec"] == "nfc"]
 
 
@@ -171,12 +175,13 @@ def report(shape: str, name: str, ours: list[Row], decoder: str) -> None:
     gpcc = [r for r in base if r.codec == "gpcc"]
     draco = [r for r in base if r.codec == "draco"]
     print(f"\n### {shape} ({SHAPES[shape][0]}; decoder {decoder}, points = ground truth's)\n")
-    print("| nfc setting | bytes | CD | PSNR dB | G-PCC env. ≤ bytes | G-PCC interp. | Draco env. ≤ bytes | "
-          "colour fit s | verdict |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("| nfc setting | bytes | CD | PSNR dB | gt→rec / rec→gt dB | G-PCC env. ≤ bytes | G-PCC interp. | "
+          "Draco env. ≤ bytes | colour fit s | verdict |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for r in sorted(ours, key=lambda r: r.bytes):
         g, ge = interpolated_at(gpcc, r.bytes), envelope_at(gpcc, r.bytes)
-        print(f"| {r.setting} | {r.bytes} | {r.cd:.4g} | {r.psnr:.2f} | {fmt(ge)} | {fmt(g)} | "
+        print(f"| {r.setting} | {r.bytes} | {r.cd:.4g} | {r.psnr:.2f} | {fmt(r.psnr_gt_rec)} / {fmt(r.psnr_rec_gt)} | "
+              f"{fmt(ge)} | {fmt(g)} | "
               f"{fmt(envelope_at(draco, r.bytes))} | {r.seconds:.0f} | {verdict(r.psnr, g, ge)} |")
     print("\nBaselines (baselines.csv): " + "; ".join(f"{r.codec} {r.setting}: {r.bytes} B, {r.psnr:.2f} dB"
                                                        for r in sorted(base, key=lambda r: r.bytes)
@@ -212,9 +217,10 @@ def main() -> None:
                      for w in args.color_widths]
             with open(csv_path, "w", newline="") as f:
                 out = csv.writer(f)
-                out.writerow(["codec", "setting", "bytes", "cd", "psnr", "seconds"])
+                out.writerow(["codec", "setting", "bytes", "cd", "psnr", "seconds", "psnr_gt_rec", "psnr_rec_gt"])
                 for r in ours:
-                    out.writerow([r.codec, r.setting, r.bytes, f"{r.cd:.6g}", f"{r.psnr:.4f}", f"{r.seconds:.1f}"])
+                    out.writerow([r.codec, r.setting, r.bytes, f"{r.cd:.6g}", f"{r.psnr:.4f}", f"{r.seconds:.1f}",
+                                  f"{r.psnr_gt_rec:.4f}", f"{r.psnr_rec_gt:.4f}"])
         report(shape, name, ours, args.decoder)
 
 

@@ -127,8 +127,8 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
         return list(zip(encoded.split(schedule.batch_size), targets.split(schedule.batch_size)))
 
     steps = -(-schedule.points // schedule.batch_size)
-    optimize(model, batches, color_loss, epochs=epochs, steps_per_epoch=steps, lr=schedule.lr, cosine=True,
-             quiet=options.quiet, desc="colour")
+    optimize(model, batches, color_loss, epochs=epochs, steps_per_epoch=steps, lr=schedule.lr_at(options.width),
+             cosine=True, quiet=options.quiet, desc="colour")
     best_loss = _validation_loss(model, validation, options.bits)
     best_layers = copy.deepcopy(model.layers)
     if schedule.qat_epochs > 0:

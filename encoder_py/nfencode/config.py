@@ -223,15 +223,23 @@ decoder's default, so the colour is learnt where `nfc decode` puts the surface."
 class ColorSchedule:
     """Adam on fresh points of the decoded surface every epoch (`points` of them, mini-batches of
     `batch_size`), lr cosine-decayed to 0, then QAT like the geometry's; the better of the pre- and
-    post-QAT quantized networks on `validation_points` fixed surface points is kept."""
+    post-QAT quantized networks on `validation_points` fixed surface points is kept. A network wider
+    than `lr_width` learns at lr · lr_width / W (see `lr_at`)."""
 
     epochs: int
     points: int
     batch_size: int
     lr: float
+    lr_width: int
     qat_epochs: int
     qat_lr: float
     validation_points: int
+
+    def lr_at(self, width: int) -> float:
+        """The learning rate of a colour network of `width`: a wider SIREN's function moves more per
+        Adam step, and at 3e-3 one of width 80 or more fits worse or diverges (bench/RESULTS.md,
+        "Colour: the learning rate by width")."""
+        return self.lr * min(1.0, self.lr_width / width)
 
 
 # Measured on pcl_milk_color (13.7k points, UDF w16 geometry, PSNR of 13.7k decoded points, metrics.md):
@@ -240,5 +248,9 @@ class ColorSchedule:
 # (2x slower). w32 at 100 epochs: 1e-3 25.66, 3e-3 25.89, 1e-2 19.57. A constant colour scores 13.96.
 # Loot with three layers of 26 at ω₀ 20: 300 epochs 30.52 dB against 100 epochs' 30.35 (two layers of 32 at
 # ω₀ 30: 30.01 against 29.98); the fit takes 52 s instead of 17 s on 2 cores, the geometry's encode 27 s.
-COLOR_SCHEDULE = ColorSchedule(epochs=300, points=50_000, batch_size=2_500, lr=3e-3, qat_epochs=5, qat_lr=1e-5,
-                               validation_points=20_000)
+# Loot, three layers, 6 bits (2026-12-06): at 3e-3 width 64 32.14 dB at 7,849 B, 80 32.18 dB at 10,016 B, 96
+# 30.09 dB at 12,382 B, 80 with 600 epochs 26.42 dB (diverged); at 1.5e-3 width 64 32.52 dB at 8,537 B; at 1e-3
+# width 80 33.02 dB at 11,433 B (6e-4: 32.95 at 11,879 B), 96 33.57 dB at 15,156 B; width 48 at 1.5e-3 31.85 dB
+# at 5,681 B against 3e-3's 31.76 at 5,514 B: lr · 32 / W above width 32.
+COLOR_SCHEDULE = ColorSchedule(epochs=300, points=50_000, batch_size=2_500, lr=3e-3, lr_width=32, qat_epochs=5,
+                               qat_lr=1e-5, validation_points=20_000)

@@ -66,11 +66,17 @@ def _one_way_psnr(points: np.ndarray, colors: np.ndarray, other_points: np.ndarr
     return math.inf if mse == 0.0 else 10.0 * math.log10(255.0**2 / mse)
 
 
+def color_psnr_directions(gt_points: np.ndarray, gt_colors: np.ndarray, rec_points: np.ndarray,
+                          rec_colors: np.ndarray) -> tuple[float, float]:
+    """(PSNR(gt -> rec), PSNR(rec -> gt)), each over the nearest point's 8-bit RGB: the two terms of
+    color_psnr, apart to tell a colour network's error (both) from a sampling's (gt -> rec only)."""
+    return (_one_way_psnr(gt_points, gt_colors, rec_points, rec_colors),
+            _one_way_psnr(rec_points, rec_colors, gt_points, gt_colors))
+
+
 def color_psnr(gt_points: np.ndarray, gt_colors: np.ndarray, rec_points: np.ndarray, rec_colors: np.ndarray) -> float:
     """Mean of PSNR(gt -> rec) and PSNR(rec -> gt), each over the nearest point's 8-bit RGB."""
-    forward = _one_way_psnr(gt_points, gt_colors, rec_points, rec_colors)
-    backward = _one_way_psnr(rec_points, rec_colors, gt_points, gt_colors)
-    return 0.5 * (forward + backward)
+    return 0.5 * sum(color_psnr_directions(gt_points, gt_colors, rec_points, rec_colors))
 
 
 def shape_color_psnr(gt: Shape, rec: Shape) -> float | None:

@@ -19,7 +19,7 @@ from nfencode.color import color_loss
 from nfencode.encoder import EncodeConfig, compress
 from nfencode.errors import InputError
 from nfencode.io import Shape, load_shape, save_points
-from nfencode.metrics import color_psnr, shape_color_psnr
+from nfencode.metrics import color_psnr, color_psnr_directions, shape_color_psnr
 from nfencode.normalize import to_unit, unit_ball_frame
 from nfencode.reference import color_bytes, decode_points, extract_unit_mesh
 
@@ -86,6 +86,12 @@ def test_color_modes(milk: Shape) -> None:
         compress(milk, EncodeConfig(color="on", **{**TINY, "color_width": 0}), geometry=geometry)  # type: ignore[arg-type]
 
 
+def test_colour_learning_rate_falls_with_the_width_above_lr_width() -> None:
+    schedule = config.COLOR_SCHEDULE
+    assert schedule.lr_at(16) == schedule.lr_at(schedule.lr_width) == schedule.lr
+    assert schedule.lr_at(2 * schedule.lr_width) == pytest.approx(schedule.lr / 2)
+
+
 def test_color_loss_is_the_error_of_2_sigmoid_minus_1() -> None:
     import torch
 
@@ -100,6 +106,7 @@ def test_shape_color_psnr_follows_metrics_md() -> None:
     forward = 10 * np.log10(255**2 / ((0 + 0 + 100 + 900 + 900 + 400) / 6))  # both gt points -> the one rec point
     backward = 10 * np.log10(255**2 / (100 / 3))  # the rec point -> gt point 0
     assert shape_color_psnr(gt, rec) == pytest.approx(0.5 * (forward + backward))
+    assert color_psnr_directions(gt.vertices, gt.colors, rec.vertices, rec.colors) == pytest.approx((forward, backward))
     assert shape_color_psnr(gt, Shape(rec.vertices, None, None, "plain")) is None
 
 
