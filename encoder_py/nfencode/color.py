@@ -1,11 +1,12 @@
 """Colour encoder (FORMAT.md 1.1, `colr`): a second small SIREN fitted on the decoded surface.
 
 The geometry is decoded exactly as the decoder will (the numpy reference extractor at a resolution),
-points are drawn area-uniformly on that surface, fresh every epoch, and each is given the colour of
-the nearest ground-truth point (in the geometry's unit frame). The network (8 frequencies at β = 1.7,
-three sine layers at ω₀ = 20, 3 sigmoid outputs: config.py says why) learns 2·sigmoid(y) − 1 against the colours
-mapped to [-1, 1] with the geometry's λ·Σ|θ| term, then is quantized per layer with a short QAT, like
-the geometry's.
+and the network is fitted to both terms of the colour PSNR (metrics.md), on pairs drawn fresh every
+epoch: points area-uniform on that surface with the colour of the nearest ground-truth point (in the
+geometry's unit frame), and the decoded points nearest ground-truth points with those points' colours.
+The network (8 frequencies at β = 1.7, three sine layers at ω₀ = 20, 3 sigmoid outputs: config.py says
+why) learns 2·sigmoid(y) − 1 against the colours mapped to [-1, 1] with the geometry's λ·Σ|θ| term,
+then is quantized per layer with a short QAT, like the geometry's.
 """
 
 from __future__ import annotations
@@ -78,20 +79,45 @@ def color_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
 
 
 class _SurfaceColors:
-    """Points on the decoded surface (unit frame) and the nearest ground-truth colour of each."""
+    """Training pairs for both directions of the colour PSNR (metrics.md): a point drawn on the
+    decoded surface with the colour of its nearest ground-truth point (rec -> gt), and the decoded
+    point nearest a ground-truth point with that point's colour (gt -> rec). The second kind is taken
+    from clouds drawn as the decoder draws them (area-uniform on the decoded surface, as many points
+    as the ground truth up to config.COLOR_MAX_TRUTH_POINTS), so that the pairs follow the metric's own
+    matching."""
 
     def __init__(self, mesh: ExtractedMesh, shape: Shape, geometry: NfcFile, rng: np.random.Generator,
                  device: torch.device) -> None:
         assert shape.colors is not None
         g = geometry.geometry
         self.mesh, self.rng, self.device = mesh, rng, device
-        self.tree = cKDTree(to_unit(shape.vertices, *frame_of(g)))
+        truth = to_unit(shape.vertices, *frame_of(g))
+        self.tree = cKDTree(truth)
         self.targets = torch.from_numpy(shape.colors.astype(np.float32) * np.float32(2.0 / 255.0) - np.float32(1.0))
+        self.seen_from = np.zeros(0, np.int64)  # the ground-truth points that have decoded neighbours
+        self.seen_at = np.zeros((0, 0, 3), np.float32)  # (cloud, point, xyz): those neighbours
+        if config.COLOR_GROUND_TRUTH_SIDE > 0.0:
+            self._find_decoded_neighbours(truth, config.COLOR_DECODED_CLOUDS)
+
+    def _find_decoded_neighbours(self, truth: np.ndarray, clouds: int) -> None:
+        count = min(len(truth), config.COLOR_MAX_TRUTH_POINTS)
+        self.seen_from = self.rng.choice(len(truth), count, replace=False) if count < len(truth) else np.arange(count)
+        self.seen_at = np.empty((clouds, count, 3), np.float32)
+        for k in range(clouds):
+            cloud = sample_points(self.mesh.vertices, self.mesh.faces, count, self.rng).astype(np.float32)
+            _, nearest = cKDTree(cloud).query(truth[self.seen_from], k=1, workers=-1)
+            self.seen_at[k] = cloud[nearest]
 
     def draw(self, model: Siren, n: int) -> Batch:
-        """n fresh points, encoded by `model` (on the training device), and their target colours."""
-        u = sample_points(self.mesh.vertices, self.mesh.faces, n, self.rng).astype(np.float32)
+        """n fresh pairs, the points encoded by `model` (on the training device), and their colours."""
+        from_truth = int(round(n * config.COLOR_GROUND_TRUTH_SIDE)) if len(self.seen_from) else 0
+        u = sample_points(self.mesh.vertices, self.mesh.faces, n - from_truth, self.rng).astype(np.float32)
         _, nearest = self.tree.query(u, k=1, workers=-1)
+        if from_truth:
+            cloud = self.rng.integers(len(self.seen_at), size=from_truth)
+            which = self.rng.integers(len(self.seen_from), size=from_truth)
+            u = np.concatenate([u, self.seen_at[cloud, which]])
+            nearest = np.concatenate([nearest, self.seen_from[which]])
         with torch.no_grad():
             encoded = model.encoding(torch.from_numpy(u).to(self.device))
         return encoded, self.targets[torch.from_numpy(nearest)].to(self.device)

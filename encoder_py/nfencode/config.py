@@ -206,6 +206,22 @@ COLOR_OMEGA0 = 20.0
 """ω₀ of the colour network (the file stores it). Loot, three layers of 26, 100 epochs: 15 30.36 dB,
 20 30.35 dB, 30 30.22 dB, 45 28.15 dB; two layers of 32: 60 27.81 dB, 15 29.99 dB, 30 29.98 dB."""
 
+COLOR_GROUND_TRUTH_SIDE = 0.5
+"""Share of the colour network's training pairs taken from the ground truth's side of the colour PSNR
+(a ground-truth point's colour at the decoded point nearest it); the rest are decoded-surface points
+with their nearest ground-truth colour (the other side). Loot, 6 bits, both sides against the second
+alone: width 64 32.73 dB at 8,372 B against 32.52 at 8,537 B, 80 33.41 at 11,620 B against 33.07 at
+11,865 B; against G-PCC at equal size width 32 -0.02 dB, the egyptian mask at 32 and 64 -0.02 / +0.04 dB
+(bench/RESULTS.md, "Colour: the learning rate by width, both directions")."""
+
+COLOR_DECODED_CLOUDS = 4
+"""Decoder-like point clouds on the decoded surface from which the ground-truth side's pairs are drawn."""
+
+COLOR_MAX_TRUTH_POINTS = 1_000_000
+"""At most this many ground-truth points (a random subset) get decoded neighbours, in clouds of as many
+points (the decoder's density when the ground truth is no larger): bounds that side's memory to
+COLOR_DECODED_CLOUDS × this × 12 bytes."""
+
 TARGET_CD_RESOLUTION = 256
 """Grid resolution at which `nfc encode --target-cd` decodes each candidate (the reference decoder)
 to estimate its Chamfer distance: the decoder's default, where `nfc decode` puts the surface."""

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import plyfile
 import pytest
+from scipy.spatial import cKDTree
 from conftest import SHARED_DATA
 from test_cli_errors import nfc
 
@@ -21,7 +22,7 @@ from nfencode.errors import InputError
 from nfencode.io import Shape, load_shape, save_points
 from nfencode.metrics import color_psnr, color_psnr_directions, shape_color_psnr
 from nfencode.normalize import to_unit, unit_ball_frame
-from nfencode.reference import color_bytes, decode_points, extract_unit_mesh
+from nfencode.reference import color_bytes, decode_points, extract_unit_mesh, sample_points
 
 MILK = SHARED_DATA / "colored" / "pcl_milk_color.ply.gz"
 VECTORS = Path(__file__).resolve().parents[1] / "vectors"
@@ -90,6 +91,41 @@ def test_colour_learning_rate_falls_with_the_width_above_lr_width() -> None:
     schedule = config.COLOR_SCHEDULE
     assert schedule.lr_at(16) == schedule.lr_at(schedule.lr_width) == schedule.lr
     assert schedule.lr_at(2 * schedule.lr_width) == pytest.approx(schedule.lr / 2)
+
+
+def test_training_pairs_come_from_both_sides_of_the_metric(milk: Shape) -> None:
+    """Pairs for both terms of the colour PSNR: decoded-surface points with the colour of their
+    nearest ground-truth point (rec -> gt), then ground-truth points' colours at decoded points near
+    them (gt -> rec), in the share config.COLOR_GROUND_TRUTH_SIDE."""
+    import torch
+
+    from nfencode.color import _SurfaceColors
+    from nfencode.model import Siren
+    from nfencode.reference import frame_of
+
+    assert milk.colors is not None
+    f = read_nfc(GEOMETRY.read_bytes())
+    mesh = extract_unit_mesh(f, 64)
+    surface = _SurfaceColors(mesh, milk, f, np.random.default_rng(0), torch.device("cpu"))
+    assert surface.seen_at.shape == (config.COLOR_DECODED_CLOUDS, len(milk.vertices), 3)
+    encoded, targets = surface.draw(Siren(8, "sigmoid", outputs=3, num_frequencies=0), 1000)
+    points, colours = encoded.numpy(), (targets.numpy() + 1.0) * 127.5  # L = 0: the encoding is u itself
+    assert points.shape == (1000, 3)
+    truth = to_unit(milk.vertices, *frame_of(f.geometry))
+    truth_tree, surface_tree = cKDTree(truth), cKDTree(sample_points(mesh.vertices, mesh.faces, 200_000, 1))
+    assert surface_tree.query(points, k=1)[0].max() < 0.01  # every point lies on the decoded surface
+    rec_side = 1000 - round(1000 * config.COLOR_GROUND_TRUTH_SIDE)
+    _, nearest = truth_tree.query(points[:rec_side], k=1)
+    np.testing.assert_allclose(colours[:rec_side], milk.colors[nearest], atol=1e-3)
+    tri = mesh.vertices[mesh.faces]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    spacing = np.sqrt(area / len(truth))  # of the decoder-like clouds
+    for p, c in zip(points[rec_side:], colours[rec_side:]):
+        # a ground-truth point of this colour whose decoded neighbour p can be: no farther from p than
+        # from the surface plus a few of the clouds' spacings
+        same = np.flatnonzero(np.all(np.abs(milk.colors - c) < 1e-3, axis=1))
+        gap = np.linalg.norm(truth[same] - p, axis=1) - surface_tree.query(truth[same], k=1)[0]
+        assert gap.min() < 3 * spacing, (gap.min(), spacing)
 
 
 def test_color_loss_is_the_error_of_2_sigmoid_minus_1() -> None:
