@@ -6,8 +6,9 @@ For each shape the geometry (UDF, `--geometry-width`, fast preset, seed 0) is en
 `--color-widths` is then fitted on it (`compress(..., geometry=...)`, as `nfc encode --geometry`),
 the file decoded to as many points as the ground truth has (numpy reference, or `--decoder
 libnfdecode`: build/samples/nfc-decode --points N), and measured with ../shared/docs/metrics.md:
-CD of the points against the ground truth's, colour PSNR (nfencode.metrics.color_psnr, in the ground
-truth's unit-ball frame) and the whole file's bytes. Baselines: the rows of
+CD of the points against the ground truth's, colour PSNR (the mean of nfencode.metrics.
+color_psnr_directions' two terms, gt -> rec and rec -> gt, in the ground truth's unit-ball frame; both
+printed) and the whole file's bytes. Baselines: the rows of
 ../shared/baselines/baselines.csv with a PSNR, Draco point-cloud mode (`pc-cl10`) and G-PCC
 (`octree-pc`, `trisoup-pc`). Prints a markdown table per shape and writes bench/out/color_<shape>.csv.
 

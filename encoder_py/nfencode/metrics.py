@@ -69,7 +69,7 @@ def _one_way_psnr(points: np.ndarray, colors: np.ndarray, other_points: np.ndarr
 def color_psnr_directions(gt_points: np.ndarray, gt_colors: np.ndarray, rec_points: np.ndarray,
                           rec_colors: np.ndarray) -> tuple[float, float]:
     """(PSNR(gt -> rec), PSNR(rec -> gt)), each over the nearest point's 8-bit RGB: the two terms of
-    color_psnr, apart to tell a colour network's error (both) from a sampling's (gt -> rec only)."""
+    color_psnr, apart: which side of the matching a colouring loses (the encoder fits both)."""
     return (_one_way_psnr(gt_points, gt_colors, rec_points, rec_colors),
             _one_way_psnr(rec_points, rec_colors, gt_points, gt_colors))
 
