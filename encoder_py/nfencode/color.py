@@ -138,7 +138,7 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
     if len(mesh.faces) == 0:
         raise InputError(f"{shape.name}: the decoded geometry has no surface to colour")
     schedule = config.COLOR_SCHEDULE
-    epochs = schedule.epochs if options.epochs is None else options.epochs
+    epochs = schedule.epochs_at(options.width) if options.epochs is None else options.epochs
     rng = np.random.default_rng(options.seed)
     generator = torch.Generator().manual_seed(options.seed)
     model = Siren(options.width, "sigmoid", outputs=3, hidden_layers=config.COLOR_HIDDEN_LAYERS,

@@ -87,10 +87,12 @@ def test_color_modes(milk: Shape) -> None:
         compress(milk, EncodeConfig(color="on", **{**TINY, "color_width": 0}), geometry=geometry)  # type: ignore[arg-type]
 
 
-def test_colour_learning_rate_falls_with_the_width_above_lr_width() -> None:
+def test_wide_colour_networks_learn_slower_and_longer() -> None:
     schedule = config.COLOR_SCHEDULE
     assert schedule.lr_at(16) == schedule.lr_at(schedule.lr_width) == schedule.lr
     assert schedule.lr_at(2 * schedule.lr_width) == pytest.approx(schedule.lr / 2)
+    assert schedule.epochs_at(16) == schedule.epochs_at(schedule.epochs_width) == schedule.epochs
+    assert schedule.epochs_at(2 * schedule.epochs_width) == 2 * schedule.epochs
 
 
 def test_training_pairs_come_from_both_sides_of_the_metric(milk: Shape) -> None:
