@@ -97,13 +97,13 @@ class _SurfaceColors:
         self.seen_from = np.zeros(0, np.int64)  # the ground-truth points that have decoded neighbours
         self.seen_at = np.zeros((0, 0, 3), np.float32)  # (cloud, point, xyz): those neighbours
         if config.COLOR_GROUND_TRUTH_SIDE > 0.0:
-            self._find_decoded_neighbours(truth, config.COLOR_DECODED_CLOUDS)
+            self._find_decoded_neighbours(truth)
 
-    def _find_decoded_neighbours(self, truth: np.ndarray, clouds: int) -> None:
+    def _find_decoded_neighbours(self, truth: np.ndarray) -> None:
         count = min(len(truth), config.COLOR_MAX_TRUTH_POINTS)
         self.seen_from = self.rng.choice(len(truth), count, replace=False) if count < len(truth) else np.arange(count)
-        self.seen_at = np.empty((clouds, count, 3), np.float32)
-        for k in range(clouds):
+        self.seen_at = np.empty((config.COLOR_DECODED_CLOUDS, count, 3), np.float32)
+        for k in range(config.COLOR_DECODED_CLOUDS):
             cloud = sample_points(self.mesh.vertices, self.mesh.faces, count, self.rng).astype(np.float32)
             _, nearest = cKDTree(cloud).query(truth[self.seen_from], k=1, workers=-1)
             self.seen_at[k] = cloud[nearest]
