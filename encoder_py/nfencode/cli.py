@@ -44,6 +44,7 @@ from .config import (
     FREQUENCY_BASE,
     MAX_TORCH_THREADS,
     NUM_FREQUENCIES,
+    TARGET_COLOR_BITS,
 )
 from .devices import DEVICE_CHOICES
 from .errors import InputError, NfcError
@@ -115,7 +116,7 @@ def cmd_encode(args: argparse.Namespace) -> int:
     if args.target_bytes is not None and args.target_cd is not None:
         raise InputError("--target-bytes and --target-cd: give one target, not both")
     if args.target_bytes is not None:
-        result, choice = _encode_to_target(shape, config, args, geometry is not None)
+        result, choice = _encode_to_target(shape, config, args, None if geometry is None else write_nfc(geometry))
     elif args.target_cd is not None:
         result, choice = _encode_to_distortion(shape, config, args, geometry is not None)
     else:
@@ -130,7 +131,7 @@ def cmd_encode(args: argparse.Namespace) -> int:
     print(f"field: {result.field}, {result.field_reason}")
     if result.color is not None:
         c = result.color
-        print(f"colour: width {args.color_width}, {args.color_bits} bits, {c.chunk.network.parameter_count} "
+        print(f"colour: width {c.chunk.network.out_features[0]}, {c.chunk.network.bits} bits, {c.chunk.network.parameter_count} "
               f"parameters, fitted on the surface decoded at {args.color_resolution} ({c.surface_vertices} vertices) "
               f"in {c.seconds:.1f} s, validation MSE {c.validation_loss:.3g} (colours in [-1, 1])")
     width, bits = (choice.width, choice.bits) if choice is not None else (config.width, config.bits)
@@ -141,8 +142,13 @@ def cmd_encode(args: argparse.Namespace) -> int:
         print(f"target CD {args.target_cd:g}: chose width {width}, {bits} bits, estimated CD {choice.cd:.5g} "
               f"(encodes: {tried})")
     elif choice is not None:
-        tried = ", ".join(f"w{a.width}/{a.bits}b {a.bytes} B" for a in choice.attempts)
-        print(f"target {args.target_bytes} bytes: chose width {width}, {bits} bits (encodes: {tried})")
+        if choice.attempts:
+            tried = ", ".join(f"w{a.width}/{a.bits}b {a.bytes} B" for a in choice.attempts)
+            print(f"target {args.target_bytes} bytes: chose width {width}, {bits} bits (encodes: {tried})")
+        if choice.color is not None:
+            tried = ", ".join(f"w{a.width}/{a.bits}b {a.bytes} B" for a in choice.color.attempts)
+            print(f"target {args.target_bytes} bytes: chose colour width {choice.color.width}, {choice.color.bits} bits "
+                  f"(whole-file encodes: {tried})")
     print(
         f"{output}: {len(result.data)} bytes ({result.field}, {geometry_what}, "
         f"{'with' if result.color is not None else 'no'} colour, {device.type}), encoded in {seconds:.1f} s "
@@ -152,29 +158,64 @@ def cmd_encode(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_target(option: str, shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool) -> None:  # type: ignore[no-untyped-def]
+def _check_target(option: str, shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool,  # type: ignore[no-untyped-def]
+                  sizes_color: bool = False) -> None:
     from . import encoder
 
     if args.width is not None:
         raise InputError(f"{option} chooses the width: give one or the other, not --width too")
-    if reuses_geometry or encoder.wants_color(shape, cfg):
-        raise InputError(f"{option} encodes geometry only: pass --no-color (and no --geometry)")
+    if not sizes_color:
+        if reuses_geometry or encoder.wants_color(shape, cfg):
+            raise InputError(f"{option} encodes geometry only: pass --no-color (and no --geometry)")
+    elif args.color_width is not None:
+        raise InputError(f"{option} chooses the colour width: give one or the other, not --color-width too")
 
 
-def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool):  # type: ignore[no-untyped-def]
-    """--target-bytes: the widest file of at most that many bytes (nfencode.rate), and the choice."""
-    from . import encoder, rate
+def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: bytes | None):  # type: ignore[no-untyped-def]
+    """--target-bytes: the widest file of at most that many bytes (nfencode.rate), and the choice.
+    With colour the bound is the whole file's: a geometry sized to its share of it (or the one
+    given with --geometry), then the widest colour network that fits on it."""
+    from . import config, encoder, rate
 
     _positive("--target-bytes", args.target_bytes)
-    _check_target("--target-bytes", shape, cfg, args, reuses_geometry)
-    results: dict[tuple[int, int], encoder.EncodeResult] = {}
+    color = encoder.wants_color(shape, cfg)
+    if geometry is not None and not color:
+        raise InputError("--target-bytes with --geometry sizes the colour network: the input needs colours "
+                         "(and no --no-color)")
+    _check_target("--target-bytes", shape, cfg, args, geometry is not None, sizes_color=color)
+    color_bits = args.color_bits if args.color_bits is not None else config.TARGET_COLOR_BITS
+    geometry_budget = args.target_bytes
+    if color:
+        geometry_budget = rate.geometry_budget(args.target_bytes, cfg.bits, color_bits, cfg.frequencies,
+                                               cfg.color_frequencies)
+        if geometry is None and geometry_budget < rate.FIXED_BYTES:
+            raise InputError(f"no file with colour fits in {args.target_bytes} bytes (pass --no-color for geometry only)")
+    geometry_choice = rate.RateChoice(0, 0, [])
+    if geometry is None:
+        geometry_only = dataclasses.replace(cfg, color="off")
+        results: dict[tuple[int, int], encoder.EncodeResult] = {}
 
-    def encode(width: int, bits: int) -> bytes:
-        results[(width, bits)] = encoder.compress(shape, dataclasses.replace(cfg, width=width, bits=bits))
-        return results[(width, bits)].data
+        def encode(width: int, bits: int) -> bytes:
+            results[(width, bits)] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits))
+            return results[(width, bits)].data
 
-    _, choice = rate.choose(args.target_bytes, cfg.bits, encode, cfg.frequencies)
-    return results[(choice.width, choice.bits)], choice
+        _, geometry_choice = rate.choose(geometry_budget, cfg.bits, encode, rate.NetworkSize(cfg.frequencies))
+        result = results[(geometry_choice.width, geometry_choice.bits)]
+        if not color:
+            return result, geometry_choice
+        geometry = result.data
+    colored: dict[tuple[int, int], encoder.EncodeResult] = {}
+
+    def encode_color(width: int, bits: int) -> bytes:
+        colored[(width, bits)] = encoder.compress(shape, dataclasses.replace(cfg, color_width=width, color_bits=bits),
+                                                   geometry)
+        return colored[(width, bits)].data
+
+    _, color_choice = rate.choose(args.target_bytes, color_bits, encode_color,
+                                  rate.color_size(len(geometry), cfg.color_frequencies))
+    chosen = colored[(color_choice.width, color_choice.bits)]
+    g = read_nfc(chosen.data).geometry.network
+    return chosen, dataclasses.replace(geometry_choice, width=g.out_features[0], bits=g.bits, color=color_choice)
 
 
 def _encode_to_distortion(shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool):  # type: ignore[no-untyped-def]
@@ -201,6 +242,8 @@ def _encode_to_distortion(shape: Shape, cfg, args: argparse.Namespace, reuses_ge
 
 def _encode_report(args: argparse.Namespace, output: Path, result, choice, seconds: float) -> dict:  # type: ignore[no-untyped-def]
     """encode --json: the file written and how."""
+    from . import rate
+
     f = read_nfc(result.data)
     net = f.geometry.network
     return {
@@ -219,15 +262,21 @@ def _encode_report(args: argparse.Namespace, output: Path, result, choice, secon
         "target_cd": args.target_cd,
         "estimated_cd": choice.cd if args.target_cd is not None else None,
         "attempts": None if choice is None else [dataclasses.asdict(a) for a in choice.attempts],
+        "color_width": None if f.color is None else f.color.network.out_features[0],
+        "color_bits": None if f.color is None else f.color.network.bits,
+        "color_attempts": (None if not isinstance(choice, rate.RateChoice) or choice.color is None
+                           else [dataclasses.asdict(a) for a in choice.color.attempts]),
     }
 
 
 def _encode_options(args: argparse.Namespace) -> dict:
     """The EncodeConfig fields that `encode` and `encode-batch` share (batch.ENCODE_OPTIONS)."""
     width = args.width if args.width is not None else DEFAULT_WIDTH
+    color_width = args.color_width if args.color_width is not None else COLOR_WIDTH
+    color_bits = args.color_bits if args.color_bits is not None else DEFAULT_BITS
     return {"field": args.field, "width": width, "bits": args.bits, "frequencies": args.frequencies,
             "frequency_base": args.frequency_base, "preset": args.preset, "epochs": args.epochs, "seed": args.seed,
-            "device": args.device, "color": args.color, "color_width": args.color_width, "color_bits": args.color_bits,
+            "device": args.device, "color": args.color, "color_width": color_width, "color_bits": color_bits,
             "color_frequencies": args.color_frequencies, "color_resolution": args.color_resolution,
             "color_epochs": args.color_epochs}
 
@@ -440,7 +489,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_encode_options(p)
     p.add_argument("--target-bytes", type=int, default=None, metavar="B",
                    help="write the widest network whose file is at most B bytes (chooses --width, and fewer "
-                        "bits below width 4; geometry only)")
+                        "bits below width 4); with colour B bounds the whole file: the geometry gets a share, "
+                        "the colour network (--color-width chosen) the rest")
     p.add_argument("--target-cd", type=float, default=None, metavar="C",
                    help="write the smallest file (choosing --width) whose Chamfer distance to the input, "
                         "estimated by decoding each candidate with the reference decoder at 256 (metrics.md, "
@@ -525,10 +575,11 @@ def _add_color_options(p: argparse.ArgumentParser) -> None:
                        help="encode the input's colours (an error if it has none or they are unusable); by "
                             "default colour is encoded when the input has usable colours")
     group.add_argument("--no-color", dest="color", action="store_const", const="off", help="geometry only")
-    p.add_argument("--color-width", type=int, default=COLOR_WIDTH,
+    p.add_argument("--color-width", type=int, default=None,
                    help=f"hidden layer width of the colour network (default {COLOR_WIDTH})")
-    p.add_argument("--color-bits", type=int, default=DEFAULT_BITS,
-                   help=f"quantization bit width of the colour network (default {DEFAULT_BITS})")
+    p.add_argument("--color-bits", type=int, default=None,
+                   help=f"quantization bit width of the colour network (default {DEFAULT_BITS}; "
+                        f"{TARGET_COLOR_BITS} when --target-bytes sizes it)")
     p.add_argument("--color-resolution", type=int, default=COLOR_RESOLUTION,
                    help=f"grid resolution of the decoded surface the colour is fitted on (default {COLOR_RESOLUTION})")
     p.add_argument("--color-frequencies", type=int, default=COLOR_NUM_FREQUENCIES, metavar="L",

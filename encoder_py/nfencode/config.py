@@ -197,6 +197,21 @@ against 28.53 at 2,928 B."""
 COLOR_WIDTH = 32
 """Default width W_c of the colour network's sine layers (`--color-width`)."""
 
+TARGET_COLOR_BITS = 6
+"""The colour network's bit width when `--target-bytes` sizes it (and `--color-bits` is not given): at
+6 bits loot's colour chunk is 27-30% smaller for 0.2-0.3 dB, the better rate point at every width
+measured (bench/RESULTS.md, "Colour"); 5 bits lose too much."""
+
+COLORED_GEOMETRY_SHARE = 0.35
+COLORED_GEOMETRY_WIDTHS = (12, 16)
+"""`--target-bytes` on a coloured shape: the geometry's budget is this share of the file, held between
+the predicted geometry files of these widths (nfencode.rate). Past a small geometry, colour width buys
+the PSNR: on loot width 24 under the wide colour networks was no better than 16, and a width-12
+geometry was 0.06 dB behind width 16 at equal colour width for 300 bytes less (bench/RESULTS.md,
+"Colour: the learning rate by width"); the egyptian mask's colour depends more on its geometry (at
+3 KB a width-11 geometry gave 27.96 dB where width 16 gave 28.41; "Rate control with colour"), hence
+a third of the budget rather than a quarter."""
+
 COLOR_HIDDEN_LAYERS = 3
 """Sine layers of the colour network. At equal bytes three beat two (loot, geometry w16, 6 bits,
 100 epochs: three of width 26 30.22 dB at 2,948 B, two of width 32 29.98 dB at 2,920 B; four of 22

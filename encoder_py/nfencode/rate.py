@@ -15,6 +15,11 @@ halving from a start width, then narrowed by bisection in log width until the br
 about 12% (a step of the bits a file saves there). Training noise makes the CD only nearly
 monotonic in the width; the file written is the smallest of those tried whose estimate is at most
 C, so the bound holds on the estimate by construction.
+
+With colour, `--target-bytes` bounds the whole file: the geometry first gets a share of the budget
+(COLORED_GEOMETRY_SHARE, held between the widths COLORED_GEOMETRY_WIDTHS, the range where its bytes
+bought the colour PSNR at least as much as more colour width did), found by the search above, then
+the same search sizes the colour network on that geometry with the rest of the bytes.
 """
 
 from __future__ import annotations
@@ -34,11 +39,52 @@ MAX_ENCODES = 5  # each is a full encode: the search stops there with the best t
 # Bytes per parameter of 8-bit files by frequency count L (interpolated between, held beyond):
 # L = 16 bunny and armadillo at widths 16-96 (RESULTS.md "Rate control"); L = 8 the median of the
 # five shapes at widths 16-48 (0.87-0.93; "Where the parameters go"): the weights of the top
-# octaves that L = 8 drops were the cheapest.
+# octaves that L = 8 drops were the cheapest. Colour networks cost about the same (loot, 6 bits:
+# 0.61 bytes per parameter, i.e. 0.82 at 8 bits).
 PRIOR_BYTES_PER_PARAMETER_8_BITS = {8: 0.90, 16: 0.72}
-FIXED_BYTES = HEADER_SIZE + CHUNK_OVERHEAD + 48  # header, GEOM framing, frame and network fields
+NETWORK_FIELDS = 48  # a network block's fields before its brotli stream, with room to spare
+FIXED_BYTES = HEADER_SIZE + CHUNK_OVERHEAD + NETWORK_FIELDS  # header, GEOM framing, frame and network fields
 LOWEST_BITS = 6  # the bit widths tried below MIN_WIDTH: the requested one down to this
 SAFETY = 1.03  # after a file too large: aim 3% under the measured rate's prediction
+
+
+@dataclass(frozen=True)
+class NetworkSize:
+    """How a file's size follows the width of the network the search sizes: `hidden_layers` sine
+    layers of that width after an encoding of `frequencies`, `outputs` outputs, and `fixed_bytes`
+    of everything else in the file (the geometry's: FIXED_BYTES)."""
+
+    frequencies: int = config.NUM_FREQUENCIES
+    hidden_layers: int = config.HIDDEN_LAYERS
+    outputs: int = 1
+    fixed_bytes: int = FIXED_BYTES
+
+    def parameters(self, width: int) -> int:
+        return parameter_count(self.frequencies, [width] * self.hidden_layers + [self.outputs])
+
+    def width_for(self, budget: int, bytes_per_parameter: float) -> int:
+        """The largest width whose predicted file fits in `budget` bytes (0 if none)."""
+        usable = (budget - self.fixed_bytes) / bytes_per_parameter
+        # P(W) = (h - 1) W^2 + (inputs + h + outputs) W + outputs, increasing in W
+        a = self.hidden_layers - 1
+        b = 3 + 6 * self.frequencies + self.hidden_layers + self.outputs
+        c = self.outputs - usable
+        if c > 0:
+            return 0
+        root = -c / b if a == 0 else (-b + math.sqrt(b * b - 4 * a * c)) / (2 * a)
+        width = max(0, int(root))
+        while width > 0 and self.parameters(width) > usable:  # float rounding at the boundary
+            width -= 1
+        return width
+
+
+GEOMETRY = NetworkSize()
+
+
+def color_size(geometry_bytes: int, frequencies: int = config.COLOR_NUM_FREQUENCIES) -> NetworkSize:
+    """The colour network's size model in a file whose geometry takes `geometry_bytes` (the file
+    without colour, header included)."""
+    return NetworkSize(frequencies, config.COLOR_HIDDEN_LAYERS, 3, geometry_bytes + CHUNK_OVERHEAD + 1 + NETWORK_FIELDS)
 
 
 @dataclass
@@ -50,11 +96,13 @@ class Attempt:
 
 @dataclass
 class RateChoice:
-    """What --target-bytes chose: the written file's width and bits, and every encode tried."""
+    """What --target-bytes chose: the written file's width and bits, and every encode tried; with
+    colour, the colour network's own choice (its attempts' bytes are whole files')."""
 
     width: int
     bits: int
     attempts: list[Attempt]
+    color: RateChoice | None = None
 
 
 def prior_bytes_per_parameter(frequencies: int) -> float:
@@ -63,29 +111,37 @@ def prior_bytes_per_parameter(frequencies: int) -> float:
 
 
 def parameters(width: int, frequencies: int = config.NUM_FREQUENCIES) -> int:
-    return parameter_count(frequencies, [width, width, 1])
+    """A geometry network's parameter count at `width`."""
+    return NetworkSize(frequencies).parameters(width)
 
 
-def width_for(budget: int, bytes_per_parameter: float, frequencies: int = config.NUM_FREQUENCIES) -> int:
-    """The largest width whose predicted file fits in `budget` bytes (0 if none)."""
-    usable = (budget - FIXED_BYTES) / bytes_per_parameter
-    inputs = 3 + 6 * frequencies
-    # W^2 + (inputs + 3) W + 1 <= usable
-    b = inputs + 3
-    disc = b * b - 4 * (1 - usable)
-    return max(0, int((-b + math.sqrt(disc)) / 2)) if disc >= 0 else 0
+def predicted_bytes(size: NetworkSize, width: int, bits: int) -> int:
+    """The file's bytes at `width` by the prior rate."""
+    return size.fixed_bytes + math.ceil(prior_bytes_per_parameter(size.frequencies) * bits / 8 * size.parameters(width))
+
+
+def geometry_budget(budget: int, bits: int, color_bits: int, frequencies: int = config.NUM_FREQUENCIES,
+                    color_frequencies: int = config.COLOR_NUM_FREQUENCIES) -> int:
+    """The bytes the geometry of a coloured file gets out of `budget` (module docstring): its
+    share, held between the predicted files of COLORED_GEOMETRY_WIDTHS, and never so much that the
+    narrowest colour network could not follow."""
+    size = NetworkSize(frequencies)
+    low, high = (predicted_bytes(size, w, bits) for w in config.COLORED_GEOMETRY_WIDTHS)
+    share = min(max(round(config.COLORED_GEOMETRY_SHARE * budget), low), high)
+    color_minimum = predicted_bytes(color_size(0, color_frequencies), MIN_WIDTH, min(color_bits, LOWEST_BITS))
+    return min(share, budget - color_minimum)
 
 
 def choose(budget: int, bits: int, encode: Callable[[int, int], bytes],
-           frequencies: int = config.NUM_FREQUENCIES) -> tuple[bytes, RateChoice]:
-    """The widest file of at most `budget` bytes that `encode(width, bits)` writes (networks of
-    `frequencies` encoding frequencies), with what was tried. InputError when none of the encodes
-    fits (even width MIN_WIDTH at LOWEST_BITS)."""
+           size: NetworkSize = GEOMETRY) -> tuple[bytes, RateChoice]:
+    """The widest file of at most `budget` bytes that `encode(width, bits)` writes (its size
+    following `size`), with what was tried. InputError when none of the encodes fits (even width
+    MIN_WIDTH at LOWEST_BITS)."""
     attempts: list[Attempt] = []
     best: tuple[bytes, Attempt] | None = None
     too_large = MAX_WIDTH + 1  # the smallest width found too large at the current bits
-    rate = prior_bytes_per_parameter(frequencies) * bits / 8
-    width = min(width_for(budget, rate, frequencies), MAX_WIDTH)
+    rate = prior_bytes_per_parameter(size.frequencies) * bits / 8
+    width = min(size.width_for(budget, rate), MAX_WIDTH)
     while len(attempts) < MAX_ENCODES:
         if width < MIN_WIDTH:
             if best is not None or bits <= max(LOWEST_BITS, MIN_BITS):
@@ -93,20 +149,20 @@ def choose(budget: int, bits: int, encode: Callable[[int, int], bytes],
             rate *= (bits - 1) / bits  # nothing fits at this bit width: one bit less
             bits -= 1
             too_large = MAX_WIDTH + 1
-            width = max(MIN_WIDTH, min(width_for(budget, rate, frequencies), MAX_WIDTH))
+            width = max(MIN_WIDTH, min(size.width_for(budget, rate), MAX_WIDTH))
         data = encode(width, bits)
         attempts.append(Attempt(width, bits, len(data)))
-        rate = max((len(data) - FIXED_BYTES) / parameters(width, frequencies), 1e-3)  # this shape's own
+        rate = max((len(data) - size.fixed_bytes) / size.parameters(width), 1e-3)  # this shape's own
         if len(data) <= budget:
             if best is None or width > best[1].width:
                 best = (data, attempts[-1])
-            wider = min(width_for(budget, rate, frequencies), too_large - 1, MAX_WIDTH)
+            wider = min(size.width_for(budget, rate), too_large - 1, MAX_WIDTH)
             if wider <= width:
                 break  # no room for a wider network at the measured rate
             width = wider
         else:
             too_large = min(too_large, width)
-            width = min(width_for(budget, rate * SAFETY, frequencies), width - 1)
+            width = min(size.width_for(budget, rate * SAFETY), width - 1)
             if best is not None and width <= best[1].width:
                 break  # the best fitting width is the widest below a too-large one
     if best is None:

@@ -3,6 +3,7 @@ network that fits, and what was chosen reported."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -63,6 +64,40 @@ def test_nfc_encode_target_bytes_on_a_real_scan(tmp_path: Path, budget: int, mon
     f = read_nfc(out.read_bytes())
     assert f.geometry.network.out_features[0] == report["width"] and f.geometry.network.bits == report["bits"]
     assert report["target_bytes"] == budget and 1 <= len(report["attempts"]) <= rate.MAX_ENCODES
+
+
+@pytest.mark.parametrize("size", [rate.GEOMETRY, rate.NetworkSize(16), rate.color_size(1100), rate.color_size(0, 4)])
+def test_size_models_give_the_widest_width_their_prediction_fits(size: rate.NetworkSize) -> None:
+    for budget in (50, 300, 800, 1500, 4000, 12000, 20000):
+        for bytes_per_parameter in (0.4, 0.9):
+            width = size.width_for(budget, bytes_per_parameter)
+            fits = [w for w in range(1, 400) if size.fixed_bytes + bytes_per_parameter * size.parameters(w) <= budget]
+            assert width == (max(fits) if fits else 0), (budget, bytes_per_parameter)
+
+
+def test_colour_networks_are_counted_as_the_file_holds_them() -> None:
+    # three sine layers of W after 8 frequencies, three outputs (test_color's `nfc info` check)
+    assert rate.color_size(0).parameters(8) == 51 * 8 + 8 + 2 * (8 * 8 + 8) + 8 * 3 + 3
+    assert rate.color_size(1234).fixed_bytes == 1234 + rate.color_size(0).fixed_bytes
+
+
+@pytest.mark.parametrize("budget", [1200, 1500, 2500, 4000, 8000, 12000, 20000])
+def test_a_coloured_file_splits_the_budget_and_never_exceeds_it(budget: int) -> None:
+    share = rate.geometry_budget(budget, 8, 6)
+    low, high = (rate.predicted_bytes(rate.GEOMETRY, w, 8) for w in config.COLORED_GEOMETRY_WIDTHS)
+    color_minimum = rate.predicted_bytes(rate.color_size(0), rate.MIN_WIDTH, 6)
+    assert share == min(max(round(config.COLORED_GEOMETRY_SHARE * budget), low), high, budget - color_minimum)
+    geometry, _ = rate.choose(share, 8, synthetic(0.72)[0])
+    calls: list[tuple[int, int]] = []
+
+    def encode_colour(width: int, bits: int) -> bytes:  # the colour's rate differs from the prior
+        calls.append((width, bits))
+        return bytes(len(geometry) + 61 + int(0.61 * bits / 6 * rate.color_size(0).parameters(width)))
+
+    data, choice = rate.choose(budget, 6, encode_colour, rate.color_size(len(geometry)))
+    assert len(data) <= budget and len(calls) <= rate.MAX_ENCODES
+    if choice.bits == 6:
+        assert len(encode_colour(choice.width + 1, 6)) > budget
 
 
 def test_target_bytes_refuses_width_and_colour(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -132,4 +167,43 @@ def test_nfc_encode_target_cd_on_a_real_scan(tmp_path: Path, monkeypatch: pytest
                           (["--target-cd", "0.01", "--width", "16"], "not --width too"),
                           (["--target-cd", "-1"], "positive number"), (["--target-cd", "nan"], "positive number")]:
         assert main(["encode", str(BUNNY), "-o", str(tmp_path / "x.nfc"), *argv, "--quiet"]) != 0
+        assert message in capsys.readouterr().err
+
+
+MILK = SHARED_DATA / "colored" / "pcl_milk_color.ply.gz"
+MILK_GEOMETRY = Path(__file__).resolve().parents[1] / "vectors" / "v1_1_milk_udf_w16_c16.nfc"
+
+
+@pytest.mark.skipif(not MILK.exists(), reason="shared data not available")
+def test_nfc_encode_target_bytes_bounds_a_coloured_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 10_000)
+    monkeypatch.setattr(config, "COLOR_SCHEDULE", dataclasses.replace(
+        config.COLOR_SCHEDULE, points=5_000, validation_points=2_000, qat_epochs=1))
+    fast = ["--epochs", "10", "--color-epochs", "2", "--color-resolution", "64", "--threads", "2", "--quiet", "--json"]
+    budget = 2600
+    out = tmp_path / "milk.nfc"
+    assert main(["encode", str(MILK), "-o", str(out), "--target-bytes", str(budget), *fast]) == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    f = read_nfc(out.read_bytes())
+    assert out.stat().st_size == report["bytes"] <= budget and f.color is not None
+    assert (report["color_width"], report["color_bits"]) == (f.color.network.out_features[0], config.TARGET_COLOR_BITS)
+    assert report["width"] == f.geometry.network.out_features[0]
+    geometry_bytes = out.stat().st_size - f.chunk_bytes["colr"]  # the file without its colour chunk
+    assert geometry_bytes <= rate.geometry_budget(budget, 8, 6)
+    assert any(a["width"] == report["width"] and a["bytes"] == geometry_bytes for a in report["attempts"])
+    assert any(a["width"] == report["color_width"] and a["bytes"] == report["bytes"] for a in report["color_attempts"])
+
+    # With --geometry only the colour is sized, on that geometry; --color-width is the search's.
+    out2 = tmp_path / "milk2.nfc"
+    assert main(["encode", str(MILK), "-o", str(out2), "--geometry", str(MILK_GEOMETRY), "--target-bytes", "3000",
+                 "--color-bits", "7", *fast]) == 0
+    report = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    f2 = read_nfc(out2.read_bytes())
+    assert out2.stat().st_size <= 3000 and report["attempts"] == [] and report["color_bits"] == 7
+    assert f2.geometry.network.levels[0][0].tolist() == read_nfc(MILK_GEOMETRY.read_bytes()).geometry.network.levels[0][0].tolist()
+    for argv, message in [(["--color-width", "16"], "not --color-width too"),
+                          (["--target-bytes", "250"], "no file with colour fits in 250 bytes"),
+                          (["--no-color", "--geometry", str(MILK_GEOMETRY)], "the input needs colours")]:
+        assert main(["encode", str(MILK), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "3000", *argv, "--quiet"]) == 1
         assert message in capsys.readouterr().err
