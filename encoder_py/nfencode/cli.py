@@ -185,10 +185,10 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
     _check_target("--target-bytes", shape, cfg, args, geometry is not None, sizes_color=color)
     color_bits = args.color_bits if args.color_bits is not None else config.TARGET_COLOR_BITS
     geometry_budget = args.target_bytes
-    if color:
+    if color and geometry is None:
         geometry_budget = rate.geometry_budget(args.target_bytes, cfg.bits, color_bits, cfg.frequencies,
                                                cfg.color_frequencies)
-        if geometry is None and geometry_budget < rate.FIXED_BYTES:
+        if geometry_budget < rate.FIXED_BYTES:
             raise InputError(f"no file with colour fits in {args.target_bytes} bytes (pass --no-color for geometry only)")
     geometry_choice = rate.RateChoice(0, 0, [])
     if geometry is None:

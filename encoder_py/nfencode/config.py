@@ -210,7 +210,7 @@ the PSNR: on loot width 24 under the wide colour networks was no better than 16,
 geometry was 0.06 dB behind width 16 at equal colour width for 300 bytes less (bench/RESULTS.md,
 "Colour: the learning rate by width"); the egyptian mask's colour depends more on its geometry (at
 3 KB a width-11 geometry gave 27.96 dB where width 16 gave 28.41; "Rate control with colour"), hence
-a third of the budget rather than a quarter."""
+35% of the budget rather than the quarter first tried."""
 
 COLOR_HIDDEN_LAYERS = 3
 """Sine layers of the colour network. At equal bytes three beat two (loot, geometry w16, 6 bits,

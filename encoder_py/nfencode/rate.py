@@ -17,9 +17,9 @@ monotonic in the width; the file written is the smallest of those tried whose es
 C, so the bound holds on the estimate by construction.
 
 With colour, `--target-bytes` bounds the whole file: the geometry first gets a share of the budget
-(COLORED_GEOMETRY_SHARE, held between the widths COLORED_GEOMETRY_WIDTHS, the range where its bytes
-bought the colour PSNR at least as much as more colour width did), found by the search above, then
-the same search sizes the colour network on that geometry with the rest of the bytes.
+(COLORED_GEOMETRY_SHARE, held between the predicted files of the widths COLORED_GEOMETRY_WIDTHS;
+config.py says why), found by the search above, then the same search sizes the colour network on
+that geometry to the whole budget.
 """
 
 from __future__ import annotations

@@ -100,7 +100,7 @@ def test_a_coloured_file_splits_the_budget_and_never_exceeds_it(budget: int) -> 
         assert len(encode_colour(choice.width + 1, 6)) > budget
 
 
-def test_target_bytes_refuses_width_and_colour(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_target_bytes_refuses_width_unreachable_and_non_positive_budgets(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     shape = tmp_path / "t.obj"
     shape.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n")
     assert main(["encode", str(shape), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "900",
