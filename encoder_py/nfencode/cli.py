@@ -158,16 +158,10 @@ def cmd_encode(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_target(option: str, shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool,  # type: ignore[no-untyped-def]
-                  sizes_color: bool = False) -> None:
-    from . import encoder
-
+def _check_target(option: str, args: argparse.Namespace, chooses_color: bool = False) -> None:
     if args.width is not None:
         raise InputError(f"{option} chooses the width: give one or the other, not --width too")
-    if not sizes_color:
-        if reuses_geometry or encoder.wants_color(shape, cfg):
-            raise InputError(f"{option} encodes geometry only: pass --no-color (and no --geometry)")
-    elif args.color_width is not None:
+    if chooses_color and args.color_width is not None:
         raise InputError(f"{option} chooses the colour width: give one or the other, not --color-width too")
 
 
@@ -182,7 +176,7 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
     if geometry is not None and not color:
         raise InputError("--target-bytes with --geometry sizes the colour network: the input needs colours "
                          "(and no --no-color)")
-    _check_target("--target-bytes", shape, cfg, args, geometry is not None, sizes_color=color)
+    _check_target("--target-bytes", args, chooses_color=color)
     color_bits = args.color_bits if args.color_bits is not None else config.TARGET_COLOR_BITS
     geometry_budget = args.target_bytes
     if color and geometry is None:
@@ -191,6 +185,7 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
         if geometry_budget < rate.FIXED_BYTES:
             raise InputError(f"no file with colour fits in {args.target_bytes} bytes (pass --no-color for geometry only)")
     geometry_choice = rate.RateChoice(0, 0, [])
+    searched = None
     if geometry is None:
         geometry_only = dataclasses.replace(cfg, color="off")
         results: dict[tuple[int, int], encoder.EncodeResult] = {}
@@ -203,7 +198,7 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
         result = results[(geometry_choice.width, geometry_choice.bits)]
         if not color:
             return result, geometry_choice
-        geometry = result.data
+        searched, geometry = result, result.data
     colored: dict[tuple[int, int], encoder.EncodeResult] = {}
 
     def encode_color(width: int, bits: int) -> bytes:
@@ -214,30 +209,47 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
     _, color_choice = rate.choose(args.target_bytes, color_bits, encode_color,
                                   rate.color_size(len(geometry), cfg.color_frequencies))
     chosen = colored[(color_choice.width, color_choice.bits)]
+    if searched is not None:
+        chosen = _reporting_own_geometry(chosen, searched)
     g = read_nfc(chosen.data).geometry.network
     return chosen, dataclasses.replace(geometry_choice, width=g.out_features[0], bits=g.bits, color=color_choice)
 
 
 def _encode_to_distortion(shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool):  # type: ignore[no-untyped-def]
-    """--target-cd: the smallest file whose CD, estimated on the reference decoder's mesh at
-    TARGET_CD_RESOLUTION (metrics.md, seed --seed), is at most the target (nfencode.rate)."""
+    """--target-cd: the smallest geometry whose CD, estimated on the reference decoder's mesh at
+    TARGET_CD_RESOLUTION (metrics.md, seed --seed), is at most the target (nfencode.rate). CD is
+    the geometry's measure, so the search encodes geometry only; a coloured input then gets its
+    colour network (--color-width, --color-bits) fitted on the geometry chosen, as `encode` would."""
     from . import config, encoder, rate
     from .metrics import file_chamfer_distance
 
     if not (args.target_cd > 0.0 and args.target_cd < float("inf")):
         raise InputError(f"--target-cd must be a positive number, not {args.target_cd}")
-    _check_target("--target-cd", shape, cfg, args, reuses_geometry)
+    _check_target("--target-cd", args)
+    if reuses_geometry:
+        raise InputError("--target-cd sizes the geometry: it cannot reuse the one --geometry gives")
+    geometry_only = dataclasses.replace(cfg, color="off")
     results: dict[int, encoder.EncodeResult] = {}
 
     def encode(width: int, bits: int) -> bytes:
-        results[width] = encoder.compress(shape, dataclasses.replace(cfg, width=width, bits=bits))
+        results[width] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits))
         return results[width].data
 
     def estimate(data: bytes) -> float:
         return file_chamfer_distance(shape, data, config.TARGET_CD_RESOLUTION, seed=cfg.seed)
 
     _, choice = rate.choose_for_distortion(args.target_cd, cfg.bits, encode, estimate)
-    return results[choice.width], choice
+    result = results[choice.width]
+    if encoder.wants_color(shape, cfg):
+        result = _reporting_own_geometry(encoder.compress(shape, cfg, result.data), result)
+    return result, choice
+
+
+def _reporting_own_geometry(colored, geometry):  # type: ignore[no-untyped-def]
+    """`colored` (a colour fitted on `geometry`'s bytes, which compress reports as reused) with what
+    this run's own geometry encode found: why its field, its loss, the time of both."""
+    return dataclasses.replace(colored, field_reason=geometry.field_reason, final_loss=geometry.final_loss,
+                               seconds=geometry.seconds + colored.seconds)
 
 
 def _encode_report(args: argparse.Namespace, output: Path, result, choice, seconds: float) -> dict:  # type: ignore[no-untyped-def]
@@ -494,7 +506,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--target-cd", type=float, default=None, metavar="C",
                    help="write the smallest file (choosing --width) whose Chamfer distance to the input, "
                         "estimated by decoding each candidate with the reference decoder at 256 (metrics.md, "
-                        "seed --seed), is at most C; geometry only")
+                        "seed --seed), is at most C; a coloured input's colour network (--color-width) "
+                        "is then fitted on that geometry")
     p.add_argument("--json", action="store_true", help="print what was written as one JSON object")
     _add_color_options(p)
     p.add_argument("--geometry", metavar="FILE.nfc", default=None,

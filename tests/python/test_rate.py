@@ -11,9 +11,11 @@ import pytest
 
 from conftest import SHARED_DATA
 from nfencode import config, rate
-from nfencode.bitstream import read_nfc
+from nfencode.bitstream import NfcFile, read_nfc, write_nfc
 from nfencode.cli import main
 from nfencode.errors import InputError
+from nfencode.io import load_shape
+from nfencode.metrics import file_chamfer_distance
 
 BUNNY = SHARED_DATA / "stanford" / "bun_zipper_res2.ply.gz"
 
@@ -207,3 +209,26 @@ def test_nfc_encode_target_bytes_bounds_a_coloured_file(tmp_path: Path, monkeypa
                           (["--no-color", "--geometry", str(MILK_GEOMETRY)], "the input needs colours")]:
         assert main(["encode", str(MILK), "-o", str(tmp_path / "x.nfc"), "--target-bytes", "3000", *argv, "--quiet"]) == 1
         assert message in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not MILK.exists(), reason="shared data not available")
+def test_nfc_encode_target_cd_sizes_the_geometry_of_a_coloured_input_and_fits_its_colour(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 10_000)
+    monkeypatch.setattr(config, "TARGET_CD_RESOLUTION", 64)
+    monkeypatch.setattr(config, "COLOR_SCHEDULE", dataclasses.replace(
+        config.COLOR_SCHEDULE, points=5_000, validation_points=2_000, qat_epochs=1))
+    fast = ["--epochs", "3", "--color-epochs", "2", "--color-resolution", "64", "--threads", "2"]
+    out = tmp_path / "milk.nfc"
+    assert main(["encode", str(MILK), "-o", str(out), "--target-cd", "0.5", "--color-width", "12", *fast]) == 0
+    printed = capsys.readouterr().out
+    f = read_nfc(out.read_bytes())
+    assert f.color is not None and f.color.network.out_features[0] == 12
+    # The search's own estimate: the geometry alone decodes to the same mesh with or without colour.
+    geometry = write_nfc(NfcFile(f.geometry))
+    assert file_chamfer_distance(load_shape(MILK), geometry, 64) <= 0.5
+    assert "target CD 0.5: chose width" in printed and "colour: width 12" in printed
+    assert "reused" not in printed  # the field line tells why this run's own geometry has its field
+    assert main(["encode", str(MILK), "-o", str(tmp_path / "x.nfc"), "--target-cd", "0.5",
+                 "--geometry", str(MILK_GEOMETRY), "--quiet"]) == 1
+    assert "cannot reuse the one --geometry gives" in capsys.readouterr().err
