@@ -200,10 +200,11 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
             return result, geometry_choice
         searched, geometry = result, result.data
     colored: dict[tuple[int, int], encoder.EncodeResult] = {}
+    surface = encoder.shared_color_surface(shape, cfg, geometry)  # decoded and matched once for every width
 
     def encode_color(width: int, bits: int) -> bytes:
         colored[(width, bits)] = encoder.compress(shape, dataclasses.replace(cfg, color_width=width, color_bits=bits),
-                                                   geometry)
+                                                   geometry, surface)
         return colored[(width, bits)].data
 
     _, color_choice = rate.choose(args.target_bytes, color_bits, encode_color,

@@ -128,28 +128,55 @@ def _validation_loss(model: Siren, batch: Batch, bits: int) -> float:
         return float(color_loss(model.forward_encoded(batch[0], quantizer(bits)), batch[1]))
 
 
-def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: torch.device) -> ColorFit:
-    """The colour chunk of `shape` (which must have colours) on the surface `geometry` decodes to."""
-    start = time.perf_counter()
-    check_color_options(options)
+@dataclass
+class ColorSurface:
+    """The decoded surface a colour network is fitted on, and the source of its training pairs: built
+    once per geometry, resolution and seed, and shared by every fit on them (a rate search's widths).
+    Building it draws from the numpy stream; each fit continues a copy of the stream as it stood
+    then, so a fit on a shared surface is byte for byte the fit on a fresh one."""
+
+    resolution: int
+    seed: int
+    mesh: ExtractedMesh
+    pairs: _SurfaceColors
+
+
+def color_surface(geometry: NfcFile, shape: Shape, resolution: int, seed: int, device: torch.device) -> ColorSurface:
+    """The surface `geometry` decodes to at `resolution`, with the colours of `shape` (InputError
+    when it has none, or when the geometry decodes to no surface)."""
     if shape.colors is None:
         raise InputError(f"{shape.name}: has no colours to encode")
-    mesh = extract_unit_mesh(geometry, options.resolution)
+    mesh = extract_unit_mesh(geometry, resolution)
     if len(mesh.faces) == 0:
         raise InputError(f"{shape.name}: the decoded geometry has no surface to colour")
+    return ColorSurface(resolution, seed, mesh, _SurfaceColors(mesh, shape, geometry, np.random.default_rng(seed), device))
+
+
+def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: torch.device,
+              surface: ColorSurface | None = None) -> ColorFit:
+    """The colour chunk of `shape` (which must have colours) on the surface `geometry` decodes to;
+    `surface`, when given, is that surface (`color_surface` of this geometry and shape, at the
+    options' resolution and seed), built once for several fits."""
+    start = time.perf_counter()
+    check_color_options(options)
+    if surface is None:
+        surface = color_surface(geometry, shape, options.resolution, options.seed, device)
+    elif (surface.resolution, surface.seed) != (options.resolution, options.seed):
+        raise ValueError(f"a colour surface of resolution {surface.resolution} and seed {surface.seed} given "
+                         f"to a fit at {options.resolution} and seed {options.seed}")
+    pairs = copy.copy(surface.pairs)
+    pairs.rng = copy.deepcopy(surface.pairs.rng)
     schedule = config.COLOR_SCHEDULE
     epochs = schedule.epochs_at(options.width) if options.epochs is None else options.epochs
-    rng = np.random.default_rng(options.seed)
     generator = torch.Generator().manual_seed(options.seed)
     model = Siren(options.width, "sigmoid", outputs=3, hidden_layers=config.COLOR_HIDDEN_LAYERS,
                   num_frequencies=options.frequencies, frequency_base=config.COLOR_FREQUENCY_BASE,
                   omega0=config.COLOR_OMEGA0, generator=generator)
     model = model.to(device)
-    surface = _SurfaceColors(mesh, shape, geometry, rng, device)
-    validation = surface.draw(model, schedule.validation_points)
+    validation = pairs.draw(model, schedule.validation_points)
 
     def batches() -> list[Batch]:
-        encoded, targets = surface.draw(model, schedule.points)
+        encoded, targets = pairs.draw(model, schedule.points)
         return list(zip(encoded.split(schedule.batch_size), targets.split(schedule.batch_size)))
 
     steps = -(-schedule.points // schedule.batch_size)
@@ -166,4 +193,5 @@ def fit_color(geometry: NfcFile, shape: Shape, options: ColorOptions, device: to
     network = quantized_network(best_layers.cpu(), options.bits, num_frequencies=options.frequencies,
                                 frequency_base=config.COLOR_FREQUENCY_BASE, omega0=config.COLOR_OMEGA0,
                                 output=OUTPUT_SIGMOID)
-    return ColorFit(ColorChunk(COLOR_SPACE_RGB, network), best_loss, len(mesh.vertices), time.perf_counter() - start)
+    return ColorFit(ColorChunk(COLOR_SPACE_RGB, network), best_loss, len(surface.mesh.vertices),
+                    time.perf_counter() - start)

@@ -36,7 +36,7 @@ from .bitstream import (
     read_nfc,
     write_nfc,
 )
-from .color import ColorFit, ColorOptions, check_color_options, fit_color
+from .color import ColorFit, ColorOptions, ColorSurface, check_color_options, color_surface, fit_color
 from .devices import cpu_threads, resolve_device
 from .errors import InputError
 from .io import COLOR_MODES, Shape
@@ -116,10 +116,12 @@ def wants_color(shape: Shape, cfg: EncodeConfig) -> bool:
     return cfg.color != "off" and shape.colors is not None
 
 
-def add_color(result: EncodeResult, shape: Shape, cfg: EncodeConfig, device: torch.device) -> EncodeResult:
-    """`result` with a colour chunk fitted on the surface its geometry decodes to (replacing any)."""
+def add_color(result: EncodeResult, shape: Shape, cfg: EncodeConfig, device: torch.device,
+              surface: ColorSurface | None = None) -> EncodeResult:
+    """`result` with a colour chunk fitted on the surface its geometry decodes to (replacing any);
+    `surface` is that surface when already built (`shared_color_surface`)."""
     file = read_nfc(result.data)
-    fitted = fit_color(file, shape, color_options(cfg), device)
+    fitted = fit_color(file, shape, color_options(cfg), device, surface)
     file.color = fitted.chunk
     return dataclasses.replace(result, data=write_nfc(file), color=fitted,
                                seconds=result.seconds + fitted.seconds)
@@ -198,10 +200,13 @@ def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_los
     return EncodeResult(data_bytes, prep.field, prep.field_reason, time.perf_counter() - start, best_loss)
 
 
-def compress(shape: Shape, cfg: EncodeConfig, geometry: bytes | None = None) -> EncodeResult:
+def compress(shape: Shape, cfg: EncodeConfig, geometry: bytes | None = None,
+             surface: ColorSurface | None = None) -> EncodeResult:
     """Encode `shape` into `.nfc` bytes: its geometry, and its colour (see `wants_color`). With
     `geometry` (an `.nfc` file of this shape) that geometry is reused as it is and only the colour is
-    fitted. Deterministic given cfg.seed on a given device (on the CPU: and thread count)."""
+    fitted, on `surface` when given (`shared_color_surface` of the same geometry and cfg: several
+    colour fits on one geometry then decode and match it once). Deterministic given cfg.seed on a
+    given device (on the CPU: and thread count), with or without `surface`."""
     start = time.perf_counter()
     check_config(cfg)
     device = resolve_device(cfg.device)
@@ -215,9 +220,15 @@ def compress(shape: Shape, cfg: EncodeConfig, geometry: bytes | None = None) -> 
             g = read_nfc(geometry).geometry
             result = EncodeResult(write_nfc(NfcFile(g)), FIELD_NAMES[g.field_type], "reused from the given .nfc",
                                   time.perf_counter() - start, float("nan"))
-        return add_color(result, shape, cfg, device) if color else result
+        return add_color(result, shape, cfg, device, surface) if color else result
     finally:
         torch.set_num_threads(previous_threads)
+
+
+def shared_color_surface(shape: Shape, cfg: EncodeConfig, geometry: bytes) -> ColorSurface:
+    """The decoded surface of `geometry` that every `compress(shape, cfg', geometry, surface)` whose
+    cfg' has cfg's colour resolution, seed and device can share."""
+    return color_surface(read_nfc(geometry), shape, cfg.color_resolution, cfg.seed, resolve_device(cfg.device))
 
 
 def _compress_geometry(shape: Shape, cfg: EncodeConfig, device: torch.device, start: float) -> EncodeResult:

@@ -59,6 +59,21 @@ def test_color_is_fitted_on_the_reused_geometry(encoded: bytes) -> None:
     assert (net.num_frequencies, net.out_features, net.bits, net.omega0) == (8, [16, 16, 16, 3], 8, 20.0)
 
 
+def test_fits_sharing_one_colour_surface_are_the_fits_on_fresh_ones(milk: Shape, encoded: bytes) -> None:
+    """A rate search fits several colour widths on one geometry: the surface it decodes and matches
+    once (shared_color_surface) gives each fit the bytes of a fit that built its own, in any order."""
+    from nfencode.encoder import shared_color_surface
+
+    cfg = EncodeConfig(color="on", **TINY)  # type: ignore[arg-type]
+    surface = shared_color_surface(milk, cfg, GEOMETRY.read_bytes())
+    narrow = dataclasses.replace(cfg, color_width=8)
+    for c, fresh in [(narrow, None), (cfg, encoded), (narrow, None)]:
+        shared = compress(milk, c, GEOMETRY.read_bytes(), surface).data
+        assert shared == (fresh or compress(milk, c, GEOMETRY.read_bytes()).data)
+    with pytest.raises(ValueError, match="resolution 64"):
+        compress(milk, dataclasses.replace(cfg, color_resolution=32), GEOMETRY.read_bytes(), surface)
+
+
 def test_decoded_colour_beats_a_constant_colour(milk: Shape, encoded: bytes) -> None:
     """PSNR (metrics.md) of the decoded points' colours against the best constant colour (the mean)
     on the same points: a network that learnt nothing scores about the same."""
