@@ -186,12 +186,14 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
             raise InputError(f"no file with colour fits in {args.target_bytes} bytes (pass --no-color for geometry only)")
     geometry_choice = rate.RateChoice(0, 0, [])
     searched = None
+    work = encoder.ShapeWork()  # every try's pool, and the chosen geometry's surface for every colour try
     if geometry is None:
         geometry_only = dataclasses.replace(cfg, color="off")
         results: dict[tuple[int, int], encoder.EncodeResult] = {}
 
         def encode(width: int, bits: int) -> bytes:
-            results[(width, bits)] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits))
+            results[(width, bits)] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits),
+                                                      work=work)
             return results[(width, bits)].data
 
         _, geometry_choice = rate.choose(geometry_budget, cfg.bits, encode, rate.NetworkSize(cfg.frequencies))
@@ -200,11 +202,10 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
             return result, geometry_choice
         searched, geometry = result, result.data
     colored: dict[tuple[int, int], encoder.EncodeResult] = {}
-    surface = encoder.shared_color_surface(shape, cfg, geometry)  # decoded and matched once for every width
 
     def encode_color(width: int, bits: int) -> bytes:
         colored[(width, bits)] = encoder.compress(shape, dataclasses.replace(cfg, color_width=width, color_bits=bits),
-                                                   geometry, surface)
+                                                   geometry, work)
         return colored[(width, bits)].data
 
     _, color_choice = rate.choose(args.target_bytes, color_bits, encode_color,
@@ -231,9 +232,10 @@ def _encode_to_distortion(shape: Shape, cfg, args: argparse.Namespace, reuses_ge
         raise InputError("--target-cd sizes the geometry: it cannot reuse the one --geometry gives")
     geometry_only = dataclasses.replace(cfg, color="off")
     results: dict[int, encoder.EncodeResult] = {}
+    work = encoder.ShapeWork()  # the pool, built by the first try for all
 
     def encode(width: int, bits: int) -> bytes:
-        results[width] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits))
+        results[width] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits), work=work)
         return results[width].data
 
     def estimate(data: bytes) -> float:

@@ -117,11 +117,13 @@ def wants_color(shape: Shape, cfg: EncodeConfig) -> bool:
 
 
 def add_color(result: EncodeResult, shape: Shape, cfg: EncodeConfig, device: torch.device,
-              surface: ColorSurface | None = None) -> EncodeResult:
-    """`result` with a colour chunk fitted on the surface its geometry decodes to (replacing any);
-    `surface` is that surface when already built (`shared_color_surface`)."""
+              work: ShapeWork | None = None) -> EncodeResult:
+    """`result` with a colour chunk fitted on the surface its geometry decodes to (replacing any),
+    that surface taken from `work` when given."""
     file = read_nfc(result.data)
-    fitted = fit_color(file, shape, color_options(cfg), device, surface)
+    options = color_options(cfg)
+    surface = None if work is None else work.color_surface(file, shape, options, device)
+    fitted = fit_color(file, shape, options, device, surface)
     file.color = fitted.chunk
     return dataclasses.replace(result, data=write_nfc(file), color=fitted,
                                seconds=result.seconds + fitted.seconds)
@@ -143,8 +145,9 @@ class Prepared:
     rng: np.random.Generator  # the shape's numpy stream, continued by training
 
 
-def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
-    """Frame, field choice, pool and initial weights of `shape`; the random draws of one seed."""
+def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device, work: ShapeWork | None = None) -> Prepared:
+    """Frame, field choice, pool and initial weights of `shape`; the random draws of one seed. The
+    pool comes from `work` when an earlier encode of the shape built it."""
     rng = np.random.default_rng(cfg.seed)
     generator = torch.Generator().manual_seed(cfg.seed)
     # Train in exactly the frame a decoder will apply: GEOM's f32 frame, or for a shape far from
@@ -168,7 +171,7 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device) -> Prepared:
         train_center, train_scale = center, scale
     sampler = SurfaceSampler(to_unit(shape.vertices, train_center, train_scale), shape.faces)
     field, field_reason = resolve_field(sampler, cfg.field, rng, cfg.width)
-    pool = build_pool(sampler, field, rng)
+    pool = build_pool(sampler, field, rng) if work is None else work.pool(sampler, field, rng)
     if pool.sides_note:
         field_reason = f"{field_reason}; {pool.sides_note}"
     model = Siren(cfg.width, "identity" if field == "sdf" else "abs", num_frequencies=cfg.frequencies,
@@ -201,12 +204,12 @@ def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_los
 
 
 def compress(shape: Shape, cfg: EncodeConfig, geometry: bytes | None = None,
-             surface: ColorSurface | None = None) -> EncodeResult:
+             work: ShapeWork | None = None) -> EncodeResult:
     """Encode `shape` into `.nfc` bytes: its geometry, and its colour (see `wants_color`). With
     `geometry` (an `.nfc` file of this shape) that geometry is reused as it is and only the colour is
-    fitted, on `surface` when given (`shared_color_surface` of the same geometry and cfg: several
-    colour fits on one geometry then decode and match it once). Deterministic given cfg.seed on a
-    given device (on the CPU: and thread count), with or without `surface`."""
+    fitted. `work` (one per shape) lends what an earlier encode of the shape built that this one
+    needs too (`ShapeWork`). Deterministic given cfg.seed on a given device (on the CPU: and thread
+    count), with or without `work`."""
     start = time.perf_counter()
     check_config(cfg)
     device = resolve_device(cfg.device)
@@ -215,27 +218,52 @@ def compress(shape: Shape, cfg: EncodeConfig, geometry: bytes | None = None,
     torch.set_num_threads(cpu_threads(cfg.threads))
     try:
         if geometry is None:
-            result = _compress_geometry(shape, cfg, device, start)
+            result = _compress_geometry(shape, cfg, device, start, work)
         else:
             g = read_nfc(geometry).geometry
             result = EncodeResult(write_nfc(NfcFile(g)), FIELD_NAMES[g.field_type], "reused from the given .nfc",
                                   time.perf_counter() - start, float("nan"))
-        return add_color(result, shape, cfg, device, surface) if color else result
+        return add_color(result, shape, cfg, device, work) if color else result
     finally:
         torch.set_num_threads(previous_threads)
 
 
-def shared_color_surface(shape: Shape, cfg: EncodeConfig, geometry: bytes) -> ColorSurface:
-    """The decoded surface of `geometry` that every `compress(shape, cfg', geometry, surface)` whose
-    cfg' has cfg's colour resolution, seed and device can share."""
-    return color_surface(read_nfc(geometry), shape, cfg.color_resolution, cfg.seed, resolve_device(cfg.device))
+class ShapeWork:
+    """What several encodes of one shape share, whatever their widths (a rate search's tries): the
+    training pool of each field, and the surface a geometry decodes to with the training pairs of
+    its colour. Each is found by everything it depends on (the field and the numpy stream before
+    the pool; the geometry's bytes, resolution, seed and device for the surface), and an encode that
+    finds one continues from a copy of the random stream as it stood after it was built: it writes
+    the bytes it would write alone. One object per shape: the shape itself is not part of the keys."""
+
+    def __init__(self) -> None:
+        self._pools: dict[tuple[str, str], tuple[DistancePool, dict]] = {}
+        self._surfaces: dict[tuple[bytes, int, int, str], ColorSurface] = {}
+
+    def pool(self, sampler: SurfaceSampler, field: str, rng: np.random.Generator) -> DistancePool:
+        """`build_pool(sampler, field, rng)`, built once per field and stream."""
+        key = (field, repr(rng.bit_generator.state))
+        if key not in self._pools:
+            pool = build_pool(sampler, field, rng)
+            self._pools[key] = (pool, copy.deepcopy(rng.bit_generator.state))
+        pool, after = self._pools[key]
+        rng.bit_generator.state = copy.deepcopy(after)
+        return pool
+
+    def color_surface(self, geometry: NfcFile, shape: Shape, options: ColorOptions, device: torch.device) -> ColorSurface:
+        """`color.color_surface` of `geometry`, built once per geometry, resolution, seed and device."""
+        key = (write_nfc(NfcFile(geometry.geometry)), options.resolution, options.seed, str(device))
+        if key not in self._surfaces:
+            self._surfaces[key] = color_surface(geometry, shape, options.resolution, options.seed, device)
+        return self._surfaces[key]
 
 
-def _compress_geometry(shape: Shape, cfg: EncodeConfig, device: torch.device, start: float) -> EncodeResult:
+def _compress_geometry(shape: Shape, cfg: EncodeConfig, device: torch.device, start: float,
+                       work: ShapeWork | None) -> EncodeResult:
     """Fit, QAT and write the geometry (a 1.0 file)."""
     preset = config.PRESETS[cfg.preset]
     epochs = preset.epochs if cfg.epochs is None else cfg.epochs
-    prep = prepare(shape, cfg, device)
+    prep = prepare(shape, cfg, device, work)
     model, data, pool, rng = prep.model.to(device), prep.data, prep.pool, prep.rng
     fit(model, data, pool, epochs=epochs, lr=preset.lr, cosine=preset.cosine,
         batch_size=preset.batch_size, rng=rng,

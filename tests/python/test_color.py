@@ -61,17 +61,26 @@ def test_color_is_fitted_on_the_reused_geometry(encoded: bytes) -> None:
 
 def test_fits_sharing_one_colour_surface_are_the_fits_on_fresh_ones(milk: Shape, encoded: bytes) -> None:
     """A rate search fits several colour widths on one geometry: the surface it decodes and matches
-    once (shared_color_surface) gives each fit the bytes of a fit that built its own, in any order."""
-    from nfencode.encoder import shared_color_surface
+    once (ShapeWork) gives each fit the bytes of a fit that built its own, in any order; another
+    resolution builds its own."""
+    from nfencode.encoder import ShapeWork
 
     cfg = EncodeConfig(color="on", **TINY)  # type: ignore[arg-type]
-    surface = shared_color_surface(milk, cfg, GEOMETRY.read_bytes())
+    work = ShapeWork()
     narrow = dataclasses.replace(cfg, color_width=8)
-    for c, fresh in [(narrow, None), (cfg, encoded), (narrow, None)]:
-        shared = compress(milk, c, GEOMETRY.read_bytes(), surface).data
+    coarse = dataclasses.replace(narrow, color_resolution=32)
+    for c, fresh in [(narrow, None), (cfg, encoded), (coarse, None), (narrow, None)]:
+        shared = compress(milk, c, GEOMETRY.read_bytes(), work).data
         assert shared == (fresh or compress(milk, c, GEOMETRY.read_bytes()).data)
-    with pytest.raises(ValueError, match="resolution 64"):
-        compress(milk, dataclasses.replace(cfg, color_resolution=32), GEOMETRY.read_bytes(), surface)
+    assert len(work._surfaces) == 2
+    # fit_color refuses a surface built for another resolution or seed.
+    import torch
+
+    from nfencode.color import ColorOptions, fit_color
+
+    surface = next(iter(work._surfaces.values()))
+    with pytest.raises(ValueError, match="resolution 64 and seed 0 given to a fit at 32"):
+        fit_color(read_nfc(GEOMETRY.read_bytes()), milk, ColorOptions(resolution=32), torch.device("cpu"), surface)
 
 
 def test_decoded_colour_beats_a_constant_colour(milk: Shape, encoded: bytes) -> None:

@@ -167,3 +167,22 @@ def test_hostile_but_valid_meshes_encode_in_place(small_epochs: None, case: str)
     assert read_nfc(data).geometry.frame64 is None  # centred shapes stay 1.0 files at any scale
     cd = _decoded_cd(shape, data)
     assert cd < 1.5 * reference + 0.01, (case, cd, reference)
+
+
+def test_encodes_sharing_their_shape_work_write_the_bytes_they_write_alone(small_epochs: None,
+                                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """A rate search's tries share one ShapeWork: the pool is built once per field (here `auto`
+    makes the holed bunny an SDF below width 12 and a UDF from it), and every try writes the bytes
+    of an encode without it, whatever came before."""
+    from nfencode.encoder import ShapeWork
+
+    monkeypatch.setattr(config, "AUTO_UDF_WIDTH_WITH_HOLES", 12)
+    shape = load_shape(BUNNY_RES2)
+    work = ShapeWork()
+    alone: dict[int, bytes] = {}
+    for width in (8, 12, 10, 12):
+        cfg = EncodeConfig(width=width, epochs=2, quiet=True, threads=2)
+        alone.setdefault(width, compress(shape, cfg).data)
+        assert compress(shape, cfg, work=work).data == alone[width]
+    assert {read_nfc(alone[w]).geometry.field_type for w in (8, 12)} == {FIELD_SDF, FIELD_UDF}
+    assert sorted(field for field, _ in work._pools) == ["sdf", "udf"]
