@@ -99,6 +99,12 @@ def _warn(message: str) -> None:
     sys.stderr.write(f"nfc: warning: {message}\n")
 
 
+def _tried(args: argparse.Namespace, message: str) -> None:
+    """One line per encode of a rate search, as it ends (a search takes minutes); not with --quiet."""
+    if not args.quiet:
+        sys.stderr.write(f"nfc: {message}\n")
+
+
 def cmd_encode(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     output = _output_path(args.output, (".nfc",))
@@ -194,6 +200,7 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
         def encode(width: int, bits: int) -> bytes:
             results[(width, bits)] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits),
                                                       work=work)
+            _tried(args, f"tried geometry width {width}, {bits} bits: {len(results[(width, bits)].data)} bytes")
             return results[(width, bits)].data
 
         _, geometry_choice = rate.choose(geometry_budget, cfg.bits, encode, rate.NetworkSize(cfg.frequencies))
@@ -206,6 +213,7 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
     def encode_color(width: int, bits: int) -> bytes:
         colored[(width, bits)] = encoder.compress(shape, dataclasses.replace(cfg, color_width=width, color_bits=bits),
                                                    geometry, work)
+        _tried(args, f"tried colour width {width}, {bits} bits: {len(colored[(width, bits)].data)} bytes with the geometry")
         return colored[(width, bits)].data
 
     _, color_choice = rate.choose(args.target_bytes, color_bits, encode_color,
@@ -239,7 +247,10 @@ def _encode_to_distortion(shape: Shape, cfg, args: argparse.Namespace, reuses_ge
         return results[width].data
 
     def estimate(data: bytes) -> float:
-        return file_chamfer_distance(shape, data, config.TARGET_CD_RESOLUTION, seed=cfg.seed)
+        cd = file_chamfer_distance(shape, data, config.TARGET_CD_RESOLUTION, seed=cfg.seed)
+        width = read_nfc(data).geometry.network.out_features[0]
+        _tried(args, f"tried geometry width {width}: {len(data)} bytes, estimated CD {cd:.5g}")
+        return cd
 
     _, choice = rate.choose_for_distortion(args.target_cd, cfg.bits, encode, estimate)
     result = results[choice.width]

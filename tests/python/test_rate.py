@@ -221,9 +221,10 @@ def test_nfc_encode_target_cd_sizes_the_geometry_of_a_coloured_input_and_fits_it
     fast = ["--epochs", "3", "--color-epochs", "2", "--color-resolution", "64", "--threads", "2"]
     out = tmp_path / "milk.nfc"
     assert main(["encode", str(MILK), "-o", str(out), "--target-cd", "0.5", "--color-width", "12", *fast]) == 0
-    printed = capsys.readouterr().out
+    printed, progress = capsys.readouterr()
     f = read_nfc(out.read_bytes())
     assert f.color is not None and f.color.network.out_features[0] == 12
+    assert f"tried geometry width {f.geometry.network.out_features[0]}: " in progress  # a line per try
     # The search's own estimate: the geometry alone decodes to the same mesh with or without colour.
     geometry = write_nfc(NfcFile(f.geometry))
     assert file_chamfer_distance(load_shape(MILK), geometry, 64) <= 0.5
