@@ -15,6 +15,7 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import NoReturn, Sequence
 
@@ -99,10 +100,14 @@ def _warn(message: str) -> None:
     sys.stderr.write(f"nfc: warning: {message}\n")
 
 
-def _tried(args: argparse.Namespace, message: str) -> None:
-    """One line per encode of a rate search, as it ends (a search takes minutes); not with --quiet."""
-    if not args.quiet:
-        sys.stderr.write(f"nfc: {message}\n")
+def _progress(args: argparse.Namespace) -> Callable[[str], None]:
+    """Where a rate search's line per finished try goes: stderr, unless --quiet."""
+
+    def say(message: str) -> None:
+        if not args.quiet:
+            sys.stderr.write(f"nfc: {message}\n")
+
+    return say
 
 
 def cmd_encode(args: argparse.Namespace) -> int:
@@ -172,98 +177,24 @@ def _check_target(option: str, args: argparse.Namespace, chooses_color: bool = F
 
 
 def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: bytes | None):  # type: ignore[no-untyped-def]
-    """--target-bytes: the widest file of at most that many bytes (nfencode.rate), and the choice.
-    With colour the bound is the whole file's: a geometry sized to its share of it (or the one
-    given with --geometry), then the widest colour network that fits on it."""
-    from . import config, encoder, rate
+    """--target-bytes (nfencode.targets.compress_to_bytes): with colour the bound is the whole
+    file's, the colour width chosen too; with --geometry only the colour is sized."""
+    from . import encoder, targets
 
     _positive("--target-bytes", args.target_bytes)
-    color = encoder.wants_color(shape, cfg)
-    if geometry is not None and not color:
-        raise InputError("--target-bytes with --geometry sizes the colour network: the input needs colours "
-                         "(and no --no-color)")
-    _check_target("--target-bytes", args, chooses_color=color)
-    color_bits = args.color_bits if args.color_bits is not None else config.TARGET_COLOR_BITS
-    geometry_budget = args.target_bytes
-    if color and geometry is None:
-        geometry_budget = rate.geometry_budget(args.target_bytes, cfg.bits, color_bits, cfg.frequencies,
-                                               cfg.color_frequencies)
-        if geometry_budget < rate.FIXED_BYTES:
-            raise InputError(f"no file with colour fits in {args.target_bytes} bytes (pass --no-color for geometry only)")
-    geometry_choice = rate.RateChoice(0, 0, [])
-    searched = None
-    work = encoder.ShapeWork()  # every try's pool, and the chosen geometry's surface for every colour try
-    if geometry is None:
-        geometry_only = dataclasses.replace(cfg, color="off")
-        results: dict[tuple[int, int], encoder.EncodeResult] = {}
-
-        def encode(width: int, bits: int) -> bytes:
-            results[(width, bits)] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits),
-                                                      work=work)
-            _tried(args, f"tried geometry width {width}, {bits} bits: {len(results[(width, bits)].data)} bytes")
-            return results[(width, bits)].data
-
-        _, geometry_choice = rate.choose(geometry_budget, cfg.bits, encode, rate.NetworkSize(cfg.frequencies))
-        result = results[(geometry_choice.width, geometry_choice.bits)]
-        if not color:
-            return result, geometry_choice
-        searched, geometry = result, result.data
-    colored: dict[tuple[int, int], encoder.EncodeResult] = {}
-
-    def encode_color(width: int, bits: int) -> bytes:
-        colored[(width, bits)] = encoder.compress(shape, dataclasses.replace(cfg, color_width=width, color_bits=bits),
-                                                   geometry, work)
-        _tried(args, f"tried colour width {width}, {bits} bits: {len(colored[(width, bits)].data)} bytes with the geometry")
-        return colored[(width, bits)].data
-
-    _, color_choice = rate.choose(args.target_bytes, color_bits, encode_color,
-                                  rate.color_size(len(geometry), cfg.color_frequencies))
-    chosen = colored[(color_choice.width, color_choice.bits)]
-    if searched is not None:
-        chosen = _reporting_own_geometry(chosen, searched)
-    g = read_nfc(chosen.data).geometry.network
-    return chosen, dataclasses.replace(geometry_choice, width=g.out_features[0], bits=g.bits, color=color_choice)
+    _check_target("--target-bytes", args, chooses_color=encoder.wants_color(shape, cfg))
+    return targets.compress_to_bytes(shape, cfg, args.target_bytes, geometry, args.color_bits, _progress(args))
 
 
 def _encode_to_distortion(shape: Shape, cfg, args: argparse.Namespace, reuses_geometry: bool):  # type: ignore[no-untyped-def]
-    """--target-cd: the smallest geometry whose CD, estimated on the reference decoder's mesh at
-    TARGET_CD_RESOLUTION (metrics.md, seed --seed), is at most the target (nfencode.rate). CD is
-    the geometry's measure, so the search encodes geometry only; a coloured input then gets its
-    colour network (--color-width, --color-bits) fitted on the geometry chosen, as `encode` would."""
-    from . import config, encoder, rate
-    from .metrics import file_chamfer_distance
+    """--target-cd (nfencode.targets.compress_to_distortion): the geometry is searched, so none is
+    reused; a coloured input's colour is fitted on the geometry chosen."""
+    from . import targets
 
-    if not (args.target_cd > 0.0 and args.target_cd < float("inf")):
-        raise InputError(f"--target-cd must be a positive number, not {args.target_cd}")
     _check_target("--target-cd", args)
     if reuses_geometry:
         raise InputError("--target-cd sizes the geometry: it cannot reuse the one --geometry gives")
-    geometry_only = dataclasses.replace(cfg, color="off")
-    results: dict[int, encoder.EncodeResult] = {}
-    work = encoder.ShapeWork()  # the pool, built by the first try for all
-
-    def encode(width: int, bits: int) -> bytes:
-        results[width] = encoder.compress(shape, dataclasses.replace(geometry_only, width=width, bits=bits), work=work)
-        return results[width].data
-
-    def estimate(data: bytes) -> float:
-        cd = file_chamfer_distance(shape, data, config.TARGET_CD_RESOLUTION, seed=cfg.seed)
-        width = read_nfc(data).geometry.network.out_features[0]
-        _tried(args, f"tried geometry width {width}: {len(data)} bytes, estimated CD {cd:.5g}")
-        return cd
-
-    _, choice = rate.choose_for_distortion(args.target_cd, cfg.bits, encode, estimate)
-    result = results[choice.width]
-    if encoder.wants_color(shape, cfg):
-        result = _reporting_own_geometry(encoder.compress(shape, cfg, result.data), result)
-    return result, choice
-
-
-def _reporting_own_geometry(colored, geometry):  # type: ignore[no-untyped-def]
-    """`colored` (a colour fitted on `geometry`'s bytes, which compress reports as reused) with what
-    this run's own geometry encode found: why its field, its loss, the time of both."""
-    return dataclasses.replace(colored, field_reason=geometry.field_reason, final_loss=geometry.final_loss,
-                               seconds=geometry.seconds + colored.seconds)
+    return targets.compress_to_distortion(shape, cfg, args.target_cd, _progress(args))
 
 
 def _encode_report(args: argparse.Namespace, output: Path, result, choice, seconds: float) -> dict:  # type: ignore[no-untyped-def]

@@ -233,3 +233,21 @@ def test_nfc_encode_target_cd_sizes_the_geometry_of_a_coloured_input_and_fits_it
     assert main(["encode", str(MILK), "-o", str(tmp_path / "x.nfc"), "--target-cd", "0.5",
                  "--geometry", str(MILK_GEOMETRY), "--quiet"]) == 1
     assert "cannot reuse the one --geometry gives" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not BUNNY.exists(), reason="shared data not available")
+def test_the_python_api_encodes_to_a_byte_budget_and_reports_each_try(monkeypatch: pytest.MonkeyPatch) -> None:
+    """nfencode.targets, what the CLI's targets run, called directly: the bound, the choice it
+    reports, a line per try."""
+    from nfencode import targets
+    from nfencode.encoder import EncodeConfig
+
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 10_000)
+    lines: list[str] = []
+    result, choice = targets.compress_to_bytes(load_shape(BUNNY), EncodeConfig(epochs=2, quiet=True, threads=2), 900,
+                                               report=lines.append)
+    assert len(result.data) <= 900 and any(a.width == choice.width and a.bytes == len(result.data) for a in choice.attempts)
+    assert read_nfc(result.data).geometry.network.out_features[0] == choice.width
+    assert lines == [f"tried geometry width {a.width}, {a.bits} bits: {a.bytes} bytes" for a in choice.attempts]
+    with pytest.raises(InputError, match="positive number"):
+        targets.compress_to_distortion(load_shape(BUNNY), EncodeConfig(), 0.0)
