@@ -17,7 +17,8 @@ not `device`, which only changes float rounding), the input file's contents and 
 A `.conf` of range scans is hashed as the `.conf` itself, not the scans it lists.
 
 Grouping (`group` > 1, for GPUs): assets with identical options are trained several per task as one
-batched model (`batch_train.compress_many`); each still gets its own file and row.
+batched model (`batch_train.compress_many`); each still gets its own file and row. Assets with a
+`target_bytes` are encoded one by one (their searches choose their own widths).
 
 Isolation: every failure of one asset (unreadable or broken file, bad manifest row, bad option, a
 crashed worker) becomes an `error` row; the others continue. A failure that the same input bytes and
@@ -42,6 +43,7 @@ from typing import Any
 from tqdm import tqdm
 
 from . import __version__
+from .bitstream import read_nfc
 from .devices import available_cpus
 from .errors import DeviceError, InputError, NfcError
 from .io import MESH_EXTENSIONS, SCAN_ALIGNMENT_EXTENSION, split_extension
@@ -66,11 +68,15 @@ ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
     "color_frequencies": (int,),
     "color_resolution": (int,),
     "color_epochs": (int, type(None)),
+    "target_bytes": (int, type(None)),
 }
-"""Per-asset options a manifest row may set (with their JSON types), defaulting to the command line's."""
+"""Per-asset options a manifest row may set (with their JSON types), defaulting to the command line's.
+`target_bytes`, when set, writes the best file of at most that many bytes (`targets.compress_to_bytes`:
+it chooses the width, and on a coloured input the colour width, so `width` and `color_width` are
+not used); every other key is an EncodeConfig field."""
 
 HASHED_OPTIONS = ("field", "width", "bits", "frequencies", "frequency_base", "preset", "epochs", "seed", "color",
-                  "color_width", "color_bits", "color_frequencies", "color_resolution", "color_epochs")
+                  "color_width", "color_bits", "color_frequencies", "color_resolution", "color_epochs", "target_bytes")
 """The options that determine a file's contents (device and threads change only float rounding)."""
 
 
@@ -238,6 +244,16 @@ def write_atomic(path: Path, data: bytes) -> None:
 
 # --- One asset -------------------------------------------------------------------------------------
 
+def _asked_width(options: dict[str, Any]) -> int | None:
+    """The width a row reports before a file says otherwise: none where a target chooses it."""
+    return None if options.get("target_bytes") is not None else options.get("width")
+
+
+def _config_options(options: dict[str, Any]) -> dict[str, Any]:
+    """The EncodeConfig fields among an asset's options (all but `target_bytes`)."""
+    return {k: options[k] for k in ENCODE_OPTIONS if k in options and k != "target_bytes"}
+
+
 def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> dict[str, Any]:
     """Load and encode one shape; never raises. Returns {status, data, field, seconds, error, final}:
     `final` marks a failure the same input bytes and options will always give (the input or an
@@ -250,8 +266,13 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
         from .io import load_shape
 
         shape = load_shape(input, colors=options.get("color", "auto"))
-        cfg = EncodeConfig(**{k: options[k] for k in ENCODE_OPTIONS if k in options}, quiet=True, threads=threads)
-        result = compress(shape, cfg)
+        cfg = EncodeConfig(**_config_options(options), quiet=True, threads=threads)
+        if options.get("target_bytes") is None:
+            result = compress(shape, cfg)
+        else:
+            from .targets import compress_to_bytes
+
+            result, _ = compress_to_bytes(shape, cfg, options["target_bytes"])
         return {"status": "ok", "data": result.data, "field": result.field,
                 "seconds": time.perf_counter() - start, "error": None}
     except NfcError as e:
@@ -272,8 +293,8 @@ def encode_group(inputs: list[str], options: dict[str, Any], threads: int | None
     """Several shapes with the same options trained as one batched model (`batch_train`); never
     raises. A shape that fails to load gets its error; if the group's training fails (one shape
     the encoder rejects), each remaining shape is encoded on its own, so only that one fails."""
-    if len(inputs) == 1:
-        return [encode_asset(inputs[0], options, threads)]
+    if len(inputs) == 1 or options.get("target_bytes") is not None:
+        return [encode_asset(path, options, threads) for path in inputs]
     start = time.perf_counter()
     results: list[dict[str, Any] | None] = [None] * len(inputs)
     try:
@@ -289,7 +310,7 @@ def encode_group(inputs: list[str], options: dict[str, Any], threads: int | None
                 results[i] = {"status": "error", "data": None, "field": None, "seconds": 0.0,
                               "error": e.message if e.message.startswith(path) else f"{path}: {e.message}",
                               "final": True}
-        cfg = EncodeConfig(**{k: options[k] for k in ENCODE_OPTIONS if k in options}, quiet=True, threads=threads)
+        cfg = EncodeConfig(**_config_options(options), quiet=True, threads=threads)
         encoded = compress_many([shape for _, shape in shapes], cfg)
         seconds = (time.perf_counter() - start) / max(1, len(shapes))  # the group's time, shared
         for (i, _), result in zip(shapes, encoded):
@@ -460,12 +481,15 @@ def encode_batch(
     def finished(job: Job, result: dict[str, Any]) -> None:
         asset, digest = job
         target = out / f"{asset.name}.nfc"
-        r = row(asset.input, result["status"], seconds=result["seconds"], width=asset.options.get("width"),
+        r = row(asset.input, result["status"], seconds=result["seconds"], width=_asked_width(asset.options),
                 error=result["error"])
         if result["status"] == "ok":
             try:
                 write_atomic(target, result["data"])
-                r.update(output=str(target), bytes=len(result["data"]), field=result["field"], options_hash=digest)
+                # The file's own width: a target_bytes search chose it.
+                width = read_nfc(result["data"]).geometry.network.out_features[0]
+                r.update(output=str(target), bytes=len(result["data"]), field=result["field"], width=width,
+                         options_hash=digest)
             except OSError as e:
                 r.update(status="error", error=f"{target}: cannot write ({e.strerror or e})")
         elif result.get("final"):
@@ -482,7 +506,7 @@ def encode_batch(
                 digest = options_hash(asset.options, file_digest(asset.input))
             except OSError as e:
                 why = "no such file" if isinstance(e, FileNotFoundError) else f"cannot read ({e.strerror or e})"
-                record(order[asset.name], row(asset.input, "error", width=asset.options.get("width"),
+                record(order[asset.name], row(asset.input, "error", width=_asked_width(asset.options),
                                               error=f"{asset.input}: {why}", seconds=time.perf_counter() - t0))
                 continue
             target = out / f"{asset.name}.nfc"
@@ -491,10 +515,10 @@ def encode_batch(
                     and target.stat().st_size == before.get("bytes")):
                 record(order[asset.name], row(asset.input, "skipped", output=str(target), bytes=before["bytes"],
                                               seconds=time.perf_counter() - t0, field=before.get("field"),
-                                              width=asset.options.get("width"), options_hash=digest))
+                                              width=before.get("width"), options_hash=digest))
             elif (failed := previous.get("error:" + asset.input)) is not None and failed["options_hash"] == digest:
                 record(order[asset.name], row(asset.input, "error", seconds=time.perf_counter() - t0,
-                                              width=asset.options.get("width"), error=failed.get("error"),
+                                              width=_asked_width(asset.options), error=failed.get("error"),
                                               options_hash=digest))
             else:
                 jobs.append((asset, digest))

@@ -271,8 +271,11 @@ def cmd_encode_batch(args: argparse.Namespace) -> int:
 
         resolve_device("cuda")  # fail once here, not once per asset
     workers = args.workers if args.workers is not None else (None if joined else batch.available_cpus())
+    if args.target_bytes is not None:
+        _positive("--target-bytes", args.target_bytes)
     summary = batch.encode_batch(
-        args.input, args.output, _encode_options(args), workers=workers, address=args.address,
+        args.input, args.output, {**_encode_options(args), "target_bytes": args.target_bytes}, workers=workers,
+        address=args.address,
         cpus_per_task=args.cpus_per_task, gpus_per_task=gpus_per_task, threads=args.threads, group=args.group,
         quiet=args.quiet,
         report=lambda message: sys.stderr.write(f"nfc: error: {message}\n"),
@@ -474,6 +477,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--group", type=int, default=1,
                    help="train up to K assets with the same options per task as one batched model "
                         "(many tiny networks per kernel launch; for GPUs, e.g. 16; default 1)")
+    p.add_argument("--target-bytes", type=int, default=None, metavar="B",
+                   help="write each asset's best file of at most B bytes, as `encode --target-bytes` does (its "
+                        "width, and with colour its colour width, chosen; assets then train one by one); a "
+                        "manifest line's \"target_bytes\" overrides it")
     _add_encode_options(p)
     _add_color_options(p)
     p.set_defaults(run=cmd_encode_batch)

@@ -32,8 +32,10 @@ def compress_to_bytes(shape: Shape, cfg: EncodeConfig, budget: int, geometry: by
     are the geometry's, lowered below rate.MIN_WIDTH). On a coloured input (`wants_color`) the
     budget bounds the whole file: a geometry sized to its share of it (rate.geometry_budget), or
     `geometry` (an `.nfc` of this shape) as it is, then the widest colour network at `color_bits`
-    (config.TARGET_COLOR_BITS when None) that fits on it. InputError when no file fits, or when
-    `geometry` is given for an input without colours."""
+    (config.TARGET_COLOR_BITS when None) that fits on it. InputError when the budget is no positive
+    integer or no file fits in it, or when `geometry` is given for an input without colours."""
+    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
+        raise InputError(f"the target must be a positive number of bytes, not {budget}")
     color = wants_color(shape, cfg)
     if geometry is not None and not color:
         raise InputError("--target-bytes with --geometry sizes the colour network: the input needs colours "

@@ -292,3 +292,37 @@ def test_manifest_rows_with_bad_frequency_and_colour_options(tmp_path: Path) -> 
     for expected in ("99 frequencies outside", "color_width must be int", "colour mode 'maybe'",
                      "frequency base 3 outside"):
         assert expected in stderr, (expected, stderr)
+
+
+def test_target_bytes_per_asset_bounds_each_file_and_chooses_its_width(tmp_path: Path) -> None:
+    """`target_bytes` (command line or manifest line) runs each asset's rate search: every file at
+    most its budget, the row's width the file's, a budget nothing fits and a bad type one error row
+    each; with --group the targeted assets train one by one; a rerun skips them (the target is in
+    the options hash)."""
+    lib = write_library(tmp_path)
+    manifest = tmp_path / "assets.jsonl"
+    manifest.write_text("\n".join([
+        json.dumps({"path": "lib/sphere.obj", "target_bytes": 900, "name": "ball"}),
+        json.dumps({"path": "lib/box.ply"}),  # the command line's 700
+        json.dumps({"path": "lib/sphere.obj", "target_bytes": 40, "name": "nothing"}),
+        json.dumps({"path": "lib/sphere.obj", "target_bytes": "big", "name": "typo"}),
+    ]) + "\n")
+    out = tmp_path / "out"
+    args = ("encode-batch", manifest, "-o", out, "--workers", "1", "--group", "2", "--target-bytes", "700",
+            "--epochs", "1", "--quiet")
+    code, stdout, _ = run(*args)
+    assert code == 1 and "2 encoded, 0 skipped (up to date), 2 failed of 4" in stdout
+    table = {r["output"] and Path(r["output"]).name or r["input"]: r
+             for r in map(json.loads, (out / "results.jsonl").read_text().splitlines())}
+    for name, budget in (("ball.nfc", 900), ("box.nfc", 700)):
+        data = (out / name).read_bytes()
+        assert len(data) <= budget and table[name]["bytes"] == len(data)
+        assert table[name]["width"] == read_nfc(data).geometry.network.out_features[0]
+    assert table["ball.nfc"]["width"] > table["box.nfc"]["width"]
+    errors = " | ".join(r["error"] for r in table.values() if r["status"] == "error")
+    assert "sphere.obj: no file fits in 40 bytes" in errors and "target_bytes must be int or null" in errors
+    assert [r["width"] for r in table.values() if r["status"] == "error"] == [None, None]
+    code, stdout, _ = run(*args)
+    assert "0 encoded, 2 skipped (up to date), 2 failed of 4" in stdout
+    assert {Path(r["output"]).name: r["width"] for r in map(json.loads, (out / "results.jsonl").read_text().splitlines())
+            if r["status"] == "skipped"} == {name: table[name]["width"] for name in ("ball.nfc", "box.nfc")}
