@@ -190,7 +190,9 @@ def discover(input_path: str | os.PathLike[str], defaults: dict[str, Any]) -> Pl
 # --- Resume ----------------------------------------------------------------------------------------
 
 def options_hash(options: dict[str, Any], input_digest: str) -> str:
-    key = {"nfencode": __version__, "input_sha256": input_digest, **{k: options.get(k) for k in HASHED_OPTIONS}}
+    # A target enters the key only when set, so the files of earlier runs (no such option) resume.
+    hashed = [k for k in HASHED_OPTIONS if k != "target_bytes" or options.get(k) is not None]
+    key = {"nfencode": __version__, "input_sha256": input_digest, **{k: options.get(k) for k in hashed}}
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import io
 import json
 import os
@@ -15,8 +16,8 @@ import numpy as np
 import pytest
 import torch
 import trimesh
-from nfencode import batch, config
-from nfencode.batch import ROW_KEYS, encode_batch, write_atomic
+from nfencode import __version__, batch, config
+from nfencode.batch import HASHED_OPTIONS, ROW_KEYS, encode_batch, options_hash, write_atomic
 from nfencode.bitstream import read_nfc
 from nfencode.cli import main
 from nfencode.devices import resolve_device
@@ -324,5 +325,10 @@ def test_target_bytes_per_asset_bounds_each_file_and_chooses_its_width(tmp_path:
     assert [r["width"] for r in table.values() if r["status"] == "error"] == [None, None]
     code, stdout, _ = run(*args)
     assert "0 encoded, 2 skipped (up to date), 2 failed of 4" in stdout
+    # Without a target the key is what it was before the option existed: earlier runs resume.
+    options = {k: 1 for k in HASHED_OPTIONS if k != "target_bytes"}
+    before = hashlib.sha256(json.dumps({"nfencode": __version__, "input_sha256": "d", **options},
+                                       sort_keys=True).encode()).hexdigest()[:16]
+    assert options_hash({**options, "target_bytes": None}, "d") == before != options_hash({**options, "target_bytes": 9}, "d")
     assert {Path(r["output"]).name: r["width"] for r in map(json.loads, (out / "results.jsonl").read_text().splitlines())
             if r["status"] == "skipped"} == {name: table[name]["width"] for name in ("ball.nfc", "box.nfc")}
