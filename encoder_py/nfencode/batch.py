@@ -18,7 +18,7 @@ A `.conf` of range scans is hashed as the `.conf` itself, not the scans it lists
 
 Grouping (`group` > 1, for GPUs): assets with identical options are trained several per task as one
 batched model (`batch_train.compress_many`); each still gets its own file and row. Assets with a
-`target_bytes` are encoded one by one (their searches choose their own widths).
+target are encoded one by one (their searches choose their own widths).
 
 Isolation: every failure of one asset (unreadable or broken file, bad manifest row, bad option, a
 crashed worker) becomes an `error` row; the others continue. A failure that the same input bytes and
@@ -69,14 +69,18 @@ ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
     "color_resolution": (int,),
     "color_epochs": (int, type(None)),
     "target_bytes": (int, type(None)),
+    "target_cd": (float, int, type(None)),
 }
 """Per-asset options a manifest row may set (with their JSON types), defaulting to the command line's.
-`target_bytes`, when set, writes the best file of at most that many bytes (`targets.compress_to_bytes`:
-it chooses the width, and on a coloured input the colour width, so `width` and `color_width` are
-not used); every other key is an EncodeConfig field."""
+A target (TARGETS), when set, runs that asset's rate search (`nfencode.targets`): `target_bytes` the
+best file of at most that many bytes (the width chosen, and on a coloured input the colour width),
+`target_cd` the smallest whose estimated Chamfer distance is at most that (the width chosen), so
+`width` is not used; at most one target per asset. Every other key is an EncodeConfig field."""
+
+TARGETS = ("target_bytes", "target_cd")
 
 HASHED_OPTIONS = ("field", "width", "bits", "frequencies", "frequency_base", "preset", "epochs", "seed", "color",
-                  "color_width", "color_bits", "color_frequencies", "color_resolution", "color_epochs", "target_bytes")
+                  "color_width", "color_bits", "color_frequencies", "color_resolution", "color_epochs", *TARGETS)
 """The options that determine a file's contents (device and threads change only float rounding)."""
 
 
@@ -183,7 +187,10 @@ def discover(input_path: str | os.PathLike[str], defaults: dict[str, Any]) -> Pl
                                    error=f"{path}: output name {name}.nfc already used by {used[name]}"))
             continue
         used[name] = path
-        plan.assets.append(Asset(path, name, {**defaults, **options}))
+        merged = {**defaults, **options}
+        if any(k in options for k in TARGETS):  # a line's target replaces the command line's
+            merged.update({k: options.get(k) for k in TARGETS})
+        plan.assets.append(Asset(path, name, merged))
     return plan
 
 
@@ -191,7 +198,7 @@ def discover(input_path: str | os.PathLike[str], defaults: dict[str, Any]) -> Pl
 
 def options_hash(options: dict[str, Any], input_digest: str) -> str:
     # A target enters the key only when set, so the files of earlier runs (no such option) resume.
-    hashed = [k for k in HASHED_OPTIONS if k != "target_bytes" or options.get(k) is not None]
+    hashed = [k for k in HASHED_OPTIONS if k not in TARGETS or options.get(k) is not None]
     key = {"nfencode": __version__, "input_sha256": input_digest, **{k: options.get(k) for k in hashed}}
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -246,14 +253,18 @@ def write_atomic(path: Path, data: bytes) -> None:
 
 # --- One asset -------------------------------------------------------------------------------------
 
+def _targeted(options: dict[str, Any]) -> bool:
+    return any(options.get(k) is not None for k in TARGETS)
+
+
 def _asked_width(options: dict[str, Any]) -> int | None:
     """The width a row reports before a file says otherwise: none where a target chooses it."""
-    return None if options.get("target_bytes") is not None else options.get("width")
+    return None if _targeted(options) else options.get("width")
 
 
 def _config_options(options: dict[str, Any]) -> dict[str, Any]:
-    """The EncodeConfig fields among an asset's options (all but `target_bytes`)."""
-    return {k: options[k] for k in ENCODE_OPTIONS if k in options and k != "target_bytes"}
+    """The EncodeConfig fields among an asset's options (all but the targets)."""
+    return {k: options[k] for k in ENCODE_OPTIONS if k in options and k not in TARGETS}
 
 
 def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> dict[str, Any]:
@@ -269,12 +280,18 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
 
         shape = load_shape(input, colors=options.get("color", "auto"))
         cfg = EncodeConfig(**_config_options(options), quiet=True, threads=threads)
-        if options.get("target_bytes") is None:
-            result = compress(shape, cfg)
-        else:
+        if options.get("target_bytes") is not None and options.get("target_cd") is not None:
+            raise InputError("target_bytes and target_cd: give one target, not both")
+        if options.get("target_bytes") is not None:
             from .targets import compress_to_bytes
 
             result, _ = compress_to_bytes(shape, cfg, options["target_bytes"])
+        elif options.get("target_cd") is not None:
+            from .targets import compress_to_distortion
+
+            result, _ = compress_to_distortion(shape, cfg, float(options["target_cd"]))
+        else:
+            result = compress(shape, cfg)
         return {"status": "ok", "data": result.data, "field": result.field,
                 "seconds": time.perf_counter() - start, "error": None}
     except NfcError as e:
@@ -295,7 +312,7 @@ def encode_group(inputs: list[str], options: dict[str, Any], threads: int | None
     """Several shapes with the same options trained as one batched model (`batch_train`); never
     raises. A shape that fails to load gets its error; if the group's training fails (one shape
     the encoder rejects), each remaining shape is encoded on its own, so only that one fails."""
-    if len(inputs) == 1 or options.get("target_bytes") is not None:
+    if len(inputs) == 1 or _targeted(options):
         return [encode_asset(path, options, threads) for path in inputs]
     start = time.perf_counter()
     results: list[dict[str, Any] | None] = [None] * len(inputs)

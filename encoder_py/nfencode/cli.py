@@ -273,8 +273,13 @@ def cmd_encode_batch(args: argparse.Namespace) -> int:
     workers = args.workers if args.workers is not None else (None if joined else batch.available_cpus())
     if args.target_bytes is not None:
         _positive("--target-bytes", args.target_bytes)
+    if args.target_bytes is not None and args.target_cd is not None:
+        raise InputError("--target-bytes and --target-cd: give one target, not both")
+    if args.target_cd is not None and not 0.0 < args.target_cd < float("inf"):
+        raise InputError(f"--target-cd must be a positive number, not {args.target_cd}")
+    targets = {"target_bytes": args.target_bytes, "target_cd": args.target_cd}
     summary = batch.encode_batch(
-        args.input, args.output, {**_encode_options(args), "target_bytes": args.target_bytes}, workers=workers,
+        args.input, args.output, {**_encode_options(args), **targets}, workers=workers,
         address=args.address,
         cpus_per_task=args.cpus_per_task, gpus_per_task=gpus_per_task, threads=args.threads, group=args.group,
         quiet=args.quiet,
@@ -481,6 +486,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write each asset's best file of at most B bytes, as `encode --target-bytes` does (its "
                         "width, and with colour its colour width, chosen; assets then train one by one); a "
                         "manifest line's \"target_bytes\" overrides it")
+    p.add_argument("--target-cd", type=float, default=None, metavar="C",
+                   help="write each asset's smallest file whose estimated Chamfer distance is at most C, as "
+                        "`encode --target-cd` does; a manifest line's \"target_cd\" overrides it")
     _add_encode_options(p)
     _add_color_options(p)
     p.set_defaults(run=cmd_encode_batch)

@@ -326,9 +326,34 @@ def test_target_bytes_per_asset_bounds_each_file_and_chooses_its_width(tmp_path:
     code, stdout, _ = run(*args)
     assert "0 encoded, 2 skipped (up to date), 2 failed of 4" in stdout
     # Without a target the key is what it was before the option existed: earlier runs resume.
-    options = {k: 1 for k in HASHED_OPTIONS if k != "target_bytes"}
+    options = {k: 1 for k in HASHED_OPTIONS if k not in batch.TARGETS}
     before = hashlib.sha256(json.dumps({"nfencode": __version__, "input_sha256": "d", **options},
                                        sort_keys=True).encode()).hexdigest()[:16]
     assert options_hash({**options, "target_bytes": None}, "d") == before != options_hash({**options, "target_bytes": 9}, "d")
     assert {Path(r["output"]).name: r["width"] for r in map(json.loads, (out / "results.jsonl").read_text().splitlines())
             if r["status"] == "skipped"} == {name: table[name]["width"] for name in ("ball.nfc", "box.nfc")}
+
+
+def test_target_cd_per_asset_and_a_lines_target_replacing_the_command_lines(tmp_path: Path,
+                                                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    """`target_cd` runs each asset's distortion search; a manifest line's target replaces the command
+    line's (here --target-bytes), two targets on one line are one error row."""
+    from nfencode.io import load_shape
+    from nfencode.metrics import file_chamfer_distance
+
+    monkeypatch.setattr(config, "TARGET_CD_RESOLUTION", 64)
+    lib = write_library(tmp_path)
+    manifest = tmp_path / "assets.jsonl"
+    manifest.write_text("\n".join([
+        json.dumps({"path": "lib/sphere.obj", "target_cd": 0.3}),
+        json.dumps({"path": "lib/box.ply", "target_cd": 0.2, "target_bytes": 900}),
+    ]) + "\n")
+    out = tmp_path / "out"
+    code, stdout, _ = run("encode-batch", manifest, "-o", out, "--workers", "1", "--target-bytes", "600",
+                          "--epochs", "1", "--quiet")
+    assert code == 1 and "1 encoded, 0 skipped (up to date), 1 failed of 2" in stdout
+    table = {Path(r["input"]).name: r for r in map(json.loads, (out / "results.jsonl").read_text().splitlines())}
+    data = (out / "sphere.nfc").read_bytes()
+    assert file_chamfer_distance(load_shape(lib / "sphere.obj"), data, 64) <= 0.3
+    assert table["sphere.obj"]["width"] == read_nfc(data).geometry.network.out_features[0]
+    assert "give one target, not both" in table["box.ply"]["error"] and table["box.ply"]["width"] is None
