@@ -443,6 +443,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_target_options(p: argparse.ArgumentParser, bytes_help: str, cd_help: str) -> None:
+    p.add_argument("--target-bytes", type=int, default=None, metavar="B", help=bytes_help)
+    p.add_argument("--target-cd", type=float, default=None, metavar="C", help=cd_help)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="nfc", description="3D compression with neural fields (.nfc files).")
     parser.add_argument("--version", action="version", version=f"nfc {__version__}")
@@ -452,15 +457,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("input", help="PLY, OBJ, OFF, glTF or GLB file (optionally .gz), or a scanalyze .conf of scans")
     p.add_argument("-o", "--output", required=True, help="output .nfc file")
     _add_encode_options(p)
-    p.add_argument("--target-bytes", type=int, default=None, metavar="B",
-                   help="write the widest network whose file is at most B bytes (chooses --width, and fewer "
-                        "bits below width 4); with colour B bounds the whole file: the geometry gets a share, "
-                        "the colour network (--color-width chosen) the rest")
-    p.add_argument("--target-cd", type=float, default=None, metavar="C",
-                   help="write the smallest file (choosing --width) whose Chamfer distance to the input, "
-                        "estimated by decoding each candidate with the reference decoder at 256 (metrics.md, "
-                        "seed --seed), is at most C; a coloured input's colour network (--color-width) "
-                        "is then fitted on that geometry")
+    _add_target_options(
+        p, "write the widest network whose file is at most B bytes (chooses --width, and fewer bits below width "
+           "4); with colour B bounds the whole file: the geometry gets a share, the colour network (--color-width "
+           "chosen) the rest",
+        "write the smallest file (choosing --width) whose Chamfer distance to the input, estimated by decoding "
+        "each candidate with the reference decoder at 256 (metrics.md, seed --seed), is at most C; a coloured "
+        "input's colour network (--color-width) is then fitted on that geometry")
     p.add_argument("--json", action="store_true", help="print what was written as one JSON object")
     _add_color_options(p)
     p.add_argument("--geometry", metavar="FILE.nfc", default=None,
@@ -482,13 +485,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--group", type=int, default=1,
                    help="train up to K assets with the same options per task as one batched model "
                         "(many tiny networks per kernel launch; for GPUs, e.g. 16; default 1)")
-    p.add_argument("--target-bytes", type=int, default=None, metavar="B",
-                   help="write each asset's best file of at most B bytes, as `encode --target-bytes` does (its "
-                        "width, and with colour its colour width, chosen; assets then train one by one); a "
-                        "manifest line's \"target_bytes\" overrides it")
-    p.add_argument("--target-cd", type=float, default=None, metavar="C",
-                   help="write each asset's smallest file whose estimated Chamfer distance is at most C, as "
-                        "`encode --target-cd` does; a manifest line's \"target_cd\" overrides it")
+    _add_target_options(
+        p, "write each asset's best file of at most B bytes, as `encode --target-bytes` does (its width, and with "
+           "colour its colour width, chosen; assets then train one by one); a manifest line's target replaces it",
+        "write each asset's smallest file whose estimated Chamfer distance is at most C, as `encode --target-cd` "
+        "does; a manifest line's target replaces it")
     _add_encode_options(p)
     _add_color_options(p)
     p.set_defaults(run=cmd_encode_batch)
