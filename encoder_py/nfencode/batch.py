@@ -47,6 +47,7 @@ from .bitstream import read_nfc
 from .devices import available_cpus
 from .errors import DeviceError, InputError, NfcError
 from .io import MESH_EXTENSIONS, SCAN_ALIGNMENT_EXTENSION, split_extension
+from .rate import check_targets
 
 RESULTS_NAME = "results.jsonl"
 ROW_KEYS = ("input", "output", "status", "bytes", "seconds", "field", "width", "error")
@@ -280,8 +281,7 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
 
         shape = load_shape(input, colors=options.get("color", "auto"))
         cfg = EncodeConfig(**_config_options(options), quiet=True, threads=threads)
-        if options.get("target_bytes") is not None and options.get("target_cd") is not None:
-            raise InputError("target_bytes and target_cd: give one target, not both")
+        check_targets(*(options.get(k) for k in TARGETS))
         if options.get("target_bytes") is not None:
             from .targets import compress_to_bytes
 

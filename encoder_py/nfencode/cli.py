@@ -19,7 +19,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import NoReturn, Sequence
 
-from . import __version__
+from . import __version__, rate
 from .bitstream import (
     COLOR_SPACE_NAMES,
     FIELD_NAMES,
@@ -124,8 +124,7 @@ def cmd_encode(args: argparse.Namespace) -> int:
     device = resolve_device(args.device)
     config = encoder.EncodeConfig(**_encode_options(args), quiet=args.quiet, threads=args.threads)
     choice = None
-    if args.target_bytes is not None and args.target_cd is not None:
-        raise InputError("--target-bytes and --target-cd: give one target, not both")
+    rate.check_targets(args.target_bytes, args.target_cd, TARGET_FLAGS)
     if args.target_bytes is not None:
         result, choice = _encode_to_target(shape, config, args, None if geometry is None else write_nfc(geometry))
     elif args.target_cd is not None:
@@ -181,7 +180,6 @@ def _encode_to_target(shape: Shape, cfg, args: argparse.Namespace, geometry: byt
     file's, the colour width chosen too; with --geometry only the colour is sized."""
     from . import encoder, targets
 
-    _positive("--target-bytes", args.target_bytes)
     _check_target("--target-bytes", args, chooses_color=encoder.wants_color(shape, cfg))
     return targets.compress_to_bytes(shape, cfg, args.target_bytes, geometry, args.color_bits, _progress(args))
 
@@ -199,8 +197,6 @@ def _encode_to_distortion(shape: Shape, cfg, args: argparse.Namespace, reuses_ge
 
 def _encode_report(args: argparse.Namespace, output: Path, result, choice, seconds: float) -> dict:  # type: ignore[no-untyped-def]
     """encode --json: the file written and how."""
-    from . import rate
-
     f = read_nfc(result.data)
     net = f.geometry.network
     return {
@@ -271,12 +267,7 @@ def cmd_encode_batch(args: argparse.Namespace) -> int:
 
         resolve_device("cuda")  # fail once here, not once per asset
     workers = args.workers if args.workers is not None else (None if joined else batch.available_cpus())
-    if args.target_bytes is not None:
-        _positive("--target-bytes", args.target_bytes)
-    if args.target_bytes is not None and args.target_cd is not None:
-        raise InputError("--target-bytes and --target-cd: give one target, not both")
-    if args.target_cd is not None and not 0.0 < args.target_cd < float("inf"):
-        raise InputError(f"--target-cd must be a positive number, not {args.target_cd}")
+    rate.check_targets(args.target_bytes, args.target_cd, TARGET_FLAGS)  # once here, not per asset
     targets = {"target_bytes": args.target_bytes, "target_cd": args.target_cd}
     summary = batch.encode_batch(
         args.input, args.output, {**_encode_options(args), **targets}, workers=workers,
@@ -443,9 +434,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+TARGET_FLAGS = ("--target-bytes", "--target-cd")
+
+
 def _add_target_options(p: argparse.ArgumentParser, bytes_help: str, cd_help: str) -> None:
-    p.add_argument("--target-bytes", type=int, default=None, metavar="B", help=bytes_help)
-    p.add_argument("--target-cd", type=float, default=None, metavar="C", help=cd_help)
+    p.add_argument(TARGET_FLAGS[0], type=int, default=None, metavar="B", help=bytes_help)
+    p.add_argument(TARGET_FLAGS[1], type=float, default=None, metavar="C", help=cd_help)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -132,6 +132,20 @@ def geometry_budget(budget: int, bits: int, color_bits: int, frequencies: int = 
     return min(share, budget - color_minimum)
 
 
+def check_targets(target_bytes: object, target_cd: object,
+                  names: tuple[str, str] = ("target_bytes", "target_cd")) -> None:
+    """At most one target; a byte budget a positive integer, a CD target a positive finite number.
+    InputError otherwise, naming them as `names` says (command-line flags or manifest keys)."""
+    if target_bytes is not None and target_cd is not None:
+        raise InputError(f"{names[0]} and {names[1]}: give one target, not both")
+    if target_bytes is not None and (isinstance(target_bytes, bool) or not isinstance(target_bytes, int)
+                                     or target_bytes < 1):
+        raise InputError(f"{names[0]} must be >= 1, got {target_bytes}")
+    if target_cd is not None and (isinstance(target_cd, bool) or not isinstance(target_cd, (int, float))
+                                  or not 0.0 < target_cd < math.inf):
+        raise InputError(f"{names[1]} must be a positive number, not {target_cd}")
+
+
 def choose(budget: int, bits: int, encode: Callable[[int, int], bytes],
            size: NetworkSize = GEOMETRY) -> tuple[bytes, RateChoice]:
     """The widest file of at most `budget` bytes that `encode(width, bits)` writes (its size

@@ -34,8 +34,7 @@ def compress_to_bytes(shape: Shape, cfg: EncodeConfig, budget: int, geometry: by
     `geometry` (an `.nfc` of this shape) as it is, then the widest colour network at `color_bits`
     (config.TARGET_COLOR_BITS when None) that fits on it. InputError when the budget is no positive
     integer or no file fits in it, or when `geometry` is given for an input without colours."""
-    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
-        raise InputError(f"the target must be a positive number of bytes, not {budget}")
+    rate.check_targets(budget, None)
     color = wants_color(shape, cfg)
     if geometry is not None and not color:
         raise InputError("--target-bytes with --geometry sizes the colour network: the input needs colours "
@@ -87,8 +86,7 @@ def compress_to_distortion(shape: Shape, cfg: EncodeConfig, target_cd: float,
     the geometry's measure, so the search encodes geometry only; a coloured input then gets its
     colour network (cfg's colour width and bits) fitted on the geometry chosen, as `compress` would.
     InputError when the target is not a positive number or no width up to the search's reaches it."""
-    if not (target_cd > 0.0 and target_cd < float("inf")):
-        raise InputError(f"the target CD must be a positive number, not {target_cd}")
+    rate.check_targets(None, target_cd)
     geometry_only = dataclasses.replace(cfg, color="off")
     results: dict[int, EncodeResult] = {}
     work = ShapeWork()  # the pool, built by the first try for all
