@@ -178,6 +178,10 @@ def test_write_atomic_keeps_the_old_file_when_the_write_fails(tmp_path: Path, mo
     (["empty.jsonl"], "lists no shapes"),
     (["empty", "--workers", "0"], "--workers must be >= 1"),
     (["empty", "--cpus-per-task", "0"], "--cpus-per-task must be > 0"),
+    (["empty", "--target-bytes", "0"], "--target-bytes must be >= 1"),
+    (["empty", "--target-cd", "-1"], "--target-cd must be a positive number"),
+    (["empty", "--target-cd", "nan"], "--target-cd must be a positive number"),
+    (["empty", "--target-bytes", "900", "--target-cd", "0.01"], "give one target, not both"),
 ])
 def test_bad_batch_input_is_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, args: list[str],
                                      message: str) -> None:
@@ -357,3 +361,31 @@ def test_target_cd_per_asset_and_a_lines_target_replacing_the_command_lines(tmp_
     assert file_chamfer_distance(load_shape(lib / "sphere.obj"), data, 64) <= 0.3
     assert table["sphere.obj"]["width"] == read_nfc(data).geometry.network.out_features[0]
     assert "give one target, not both" in table["box.ply"]["error"] and table["box.ply"]["width"] is None
+
+
+def test_hostile_manifest_targets_are_error_rows_without_an_encode(tmp_path: Path) -> None:
+    """Targets a manifest line may hold that no search can serve: each one error row naming the
+    value, on a rerun too, and no file."""
+    write_library(tmp_path)
+    manifest = tmp_path / "assets.jsonl"
+    lines = [json.dumps({"path": "lib/sphere.obj", "target_bytes": 0}),
+             json.dumps({"path": "lib/sphere.obj", "target_bytes": True, "name": "yes"}),
+             json.dumps({"path": "lib/sphere.obj", "target_bytes": -7, "name": "negative_bytes"}),
+             json.dumps({"path": "lib/sphere.obj", "target_cd": -1, "name": "negative"}),
+             json.dumps({"path": "lib/sphere.obj", "target_cd": 0, "name": "zero"}),
+             '{"path": "lib/sphere.obj", "target_cd": NaN, "name": "nan"}',  # Python's json reads NaN
+             '{"path": "lib/sphere.obj", "target_cd": Infinity, "name": "inf"}',
+             json.dumps({"path": "lib/sphere.obj", "target_cd": "small", "name": "text"})]
+    manifest.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    for _ in range(2):
+        code, stdout, stderr = run("encode-batch", manifest, "-o", out, "--workers", "1", "--epochs", "1")
+        assert code == 1 and "0 encoded, 0 skipped (up to date), 8 failed of 8" in stdout
+        assert len(stderr.splitlines()) == 8
+    errors = " | ".join(json.loads(line)["error"] for line in (out / "results.jsonl").read_text().splitlines())
+    for expected in ("target_bytes must be >= 1, got 0", "target_bytes must be int or null, got true",
+                     "target_bytes must be >= 1, got -7", "target_cd must be a positive number, not -1",
+                     "target_cd must be a positive number, not 0", "target_cd must be a positive number, not nan",
+                     "target_cd must be a positive number, not inf", 'target_cd must be float or int or null, got "small"'):
+        assert expected in errors, (expected, errors)
+    assert not list(out.glob("*.nfc"))

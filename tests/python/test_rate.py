@@ -251,3 +251,29 @@ def test_the_python_api_encodes_to_a_byte_budget_and_reports_each_try(monkeypatc
     assert lines == [f"tried geometry width {a.width}, {a.bits} bits: {a.bytes} bytes" for a in choice.attempts]
     with pytest.raises(InputError, match="positive number"):
         targets.compress_to_distortion(load_shape(BUNNY), EncodeConfig(), 0.0)
+
+
+@pytest.mark.parametrize("target_bytes, target_cd, message", [
+    (0, None, "target_bytes must be >= 1, got 0"), (-5, None, "must be >= 1"), (True, None, "must be >= 1"),
+    (2.5, None, "must be >= 1"), ("900", None, "must be >= 1"),
+    (None, 0.0, "target_cd must be a positive number"), (None, -1.0, "positive number"),
+    (None, float("nan"), "positive number"), (None, float("inf"), "positive number"), (None, True, "positive number"),
+    (None, "0.01", "positive number"), (900, 0.01, "give one target, not both"),
+])
+def test_hostile_targets_are_input_errors_before_any_encode(target_bytes: object, target_cd: object,
+                                                            message: str) -> None:
+    """nfencode.targets checks its target before it loads anything (the shape is not even looked at)."""
+    from nfencode import targets
+    from nfencode.encoder import EncodeConfig
+
+    with pytest.raises(InputError, match=message):
+        rate.check_targets(target_bytes, target_cd)
+    if target_cd is None:
+        with pytest.raises(InputError, match=message):
+            targets.compress_to_bytes(None, EncodeConfig(), target_bytes)  # type: ignore[arg-type]
+    elif target_bytes is None:
+        with pytest.raises(InputError, match=message):
+            targets.compress_to_distortion(None, EncodeConfig(), target_cd)  # type: ignore[arg-type]
+    rate.check_targets(900, None)
+    rate.check_targets(None, 0.01)
+    rate.check_targets(None, 1)
