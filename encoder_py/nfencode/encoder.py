@@ -122,7 +122,7 @@ def add_color(result: EncodeResult, shape: Shape, cfg: EncodeConfig, device: tor
     that surface taken from `work` when given."""
     file = read_nfc(result.data)
     options = color_options(cfg)
-    surface = None if work is None else work.color_surface(file, shape, options, device)
+    surface = None if work is None else work.color_surface(result.data, shape, options, device)
     fitted = fit_color(file, shape, options, device, surface)
     file.color = fitted.chunk
     return dataclasses.replace(result, data=write_nfc(file), color=fitted,
@@ -232,13 +232,13 @@ class ShapeWork:
     """What several encodes of one shape share, whatever their widths (a rate search's tries): the
     training pool of each field, and the surface a geometry decodes to with the training pairs of
     its colour. Each is found by everything it depends on (the field and the numpy stream before
-    the pool; the geometry's bytes, resolution, seed and device for the surface), and an encode that
+    the pool; the geometry file's bytes, resolution, seed and device for the surface), and an encode that
     finds one continues from a copy of the random stream as it stood after it was built: it writes
     the bytes it would write alone. One object per shape: the shape itself is not part of the keys."""
 
     def __init__(self) -> None:
         self._pools: dict[tuple[str, str], tuple[DistancePool, dict]] = {}
-        self._surfaces: dict[tuple[bytes, int, int, str], ColorSurface] = {}
+        self._surfaces: dict[tuple[bytes, int, int, str], ColorSurface] = {}  # by file bytes
 
     def pool(self, sampler: SurfaceSampler, field: str, rng: np.random.Generator) -> DistancePool:
         """`build_pool(sampler, field, rng)`, built once per field and stream."""
@@ -250,11 +250,12 @@ class ShapeWork:
         rng.bit_generator.state = copy.deepcopy(after)
         return pool
 
-    def color_surface(self, geometry: NfcFile, shape: Shape, options: ColorOptions, device: torch.device) -> ColorSurface:
-        """`color.color_surface` of `geometry`, built once per geometry, resolution, seed and device."""
-        key = (write_nfc(NfcFile(geometry.geometry)), options.resolution, options.seed, str(device))
+    def color_surface(self, data: bytes, shape: Shape, options: ColorOptions, device: torch.device) -> ColorSurface:
+        """`color.color_surface` of the geometry of the `.nfc` bytes `data`, built once per file,
+        resolution, seed and device (equal bytes, equal geometry: the file is its own key)."""
+        key = (data, options.resolution, options.seed, str(device))
         if key not in self._surfaces:
-            self._surfaces[key] = color_surface(geometry, shape, options.resolution, options.seed, device)
+            self._surfaces[key] = color_surface(read_nfc(data), shape, options.resolution, options.seed, device)
         return self._surfaces[key]
 
 
