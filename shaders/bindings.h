@@ -15,6 +15,7 @@
 #define NFD_GPU_MAX_WIDTH 512      // >= NFD_MAX_WIDTH: activations are sized for it
 #define NFD_GPU_UNIFORM_VEC4S 4096 // a uniform weight block: 64 KiB
 #define NFD_FIELD_LOCAL_SIZE 32
+#define NFD_FIELD_LANES 8         // field_eval_lanes.comp's subgroup, its local size
 #define NFD_FIELD_LOCAL_SIZE_ID 15 // constant_id of local_size_x (after the network and POINTS)
 #define NFD_B_FIELD_COUNTERS 11    // the job's counters (counters.glsl)
 #define NFD_FIELD_PUSH_BYTES 12    // capacity, the first result's index, the count's slot

@@ -16,6 +16,7 @@ extern const Spirv field_gradient;      // MLP value + gradient (reverse mode), 
 extern const Spirv field_gradient_storage;  // the same, weights in storage buffers
 extern const Spirv field_eval_shared;      // MLP for GPUs: a point per invocation, weights in shared memory
 extern const Spirv field_gradient_shared;  // value + gradient, the same shape
+extern const Spirv field_eval_lanes;   // MLP for CPU implementations: a subgroup a point
 extern const Spirv refine_count;        // which child-grid vertices each kept cell owns
 extern const Spirv refine_points;       // writes the owned vertices' unit positions
 extern const Spirv refine_cells;        // tests the children of kept cells, sets kept bits

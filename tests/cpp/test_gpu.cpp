@@ -438,6 +438,55 @@ TEST_F(Gpu, SharedWeightKernelsGiveTheSameResults) {
     EXPECT_GE(shared_pipelines, 2u) << "the shared-memory kernels did not run";
 }
 
+// On a CPU implementation with 8-wide compute subgroups (lavapipe) the values of networks up to
+// 64 wide come from field_eval_lanes.comp, bit for bit field_eval.comp's (so also the gradient
+// kernel's values, and every mesh): random networks of the shapes the encoders write (geometry
+// and colour, 1-4 sine layers, L = 0-16, widths 4-64), against a device without the lanes kernel.
+TEST_F(Gpu, LaneKernelGivesTheValueKernelsBits) {
+    if (!device().lane_kernels) GTEST_SKIP() << "not a CPU implementation with 8-wide subgroups";
+    std::unique_ptr<gpu::Device> plain;
+    ASSERT_EQ(gpu::create_device(nullptr, false, &plain), NFD_SUCCESS);
+    plain->lane_kernels = false;
+    const std::vector<float> points = random_points(3001, 11);
+    const size_t n = points.size() / 3;
+    struct Shape { uint32_t width, frequencies, outputs, hidden; };
+    for (const Shape& shape : {Shape{4, 0, 1, 1}, Shape{16, 8, 1, 2}, Shape{24, 5, 1, 2}, Shape{32, 8, 1, 2},
+                               Shape{36, 16, 1, 2}, Shape{64, 8, 1, 2}, Shape{26, 8, 3, 3}, Shape{40, 8, 3, 4}}) {
+        SCOPED_TRACE(testing::Message() << "width " << shape.width << " L " << shape.frequencies
+                                        << " outputs " << shape.outputs << " hidden " << shape.hidden);
+        // random_siren's first layer, then `hidden` - 1 layers at its second layer's steps.
+        GeomSpec spec = random_siren(shape.width, 8, 1000 + shape.width, 0, shape.outputs,
+                                     uint8_t(shape.frequencies));
+        spec.widths.assign(shape.hidden, uint16_t(shape.width));
+        spec.widths.push_back(uint16_t(shape.outputs));
+        spec.steps.resize(2 * spec.widths.size(), spec.steps[2]);
+        std::mt19937 rng(shape.width);
+        std::uniform_int_distribution<int32_t> level(-127, 127);
+        spec.levels.resize(shape.width * (spec.input_width() + 1));
+        for (uint32_t l = 1; l < spec.widths.size(); ++l)
+            for (uint32_t k = 0; k < (spec.widths[l - 1] + 1u) * spec.widths[l]; ++k)
+                spec.levels.push_back(level(rng));
+        ParsedFile file;
+        const Bytes bytes = shape.outputs == 1
+                                ? geom_file(spec)
+                                : coloured_file(random_siren(16, 8, 1), (spec.output = 2, spec));
+        ASSERT_EQ(parse_file(bytes.data(), bytes.size(), &file), NFD_SUCCESS);
+        const Network& net = shape.outputs == 1 ? file.geometry.network : *file.colour;
+        std::vector<float> lanes(n * shape.outputs), usual(n * shape.outputs), cpu(n * shape.outputs);
+        ASSERT_EQ(gpu::evaluate(device(), net, points.data(), n, lanes.data()), NFD_SUCCESS);
+        ASSERT_EQ(gpu::evaluate(*plain, net, points.data(), n, usual.data()), NFD_SUCCESS);
+        EXPECT_EQ(lanes, usual);
+        evaluate_cpu(net, points.data(), n, cpu.data());
+        for (size_t i = 0; i < cpu.size(); ++i) ASSERT_NEAR(lanes[i], cpu[i], 1e-4f) << i;
+    }
+    size_t lane_pipelines = 0;
+    for (const gpu::Device::FieldPipeline& f : device().field_pipelines)
+        lane_pipelines += f.kernel == gpu::Kernel::FieldEvalLanes;
+    EXPECT_GE(lane_pipelines, 8u) << "the lanes kernel did not run";
+    for (const gpu::Device::FieldPipeline& f : plain->field_pipelines)
+        EXPECT_NE(f.kernel, gpu::Kernel::FieldEvalLanes);
+}
+
 // A network is uploaded once per device: decodes and evaluations of the same content share it
 // (another asset object with equal bytes included), a new network is uploaded, and one evicted
 // from the cache (past 8 others) is uploaded again.

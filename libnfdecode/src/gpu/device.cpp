@@ -75,7 +75,7 @@ constexpr BindingMask kArgs = B(NFD_B_SCAN_COUNTERS) | B(NFD_B_ARGS);
 static_assert(NFD_B_FIELD_COUNTERS >= NFD_B_FIELD_LAYER0 + NFD_GPU_MAX_LAYERS, "after the layers");
 constexpr uint32_t kNoSpecialization = UINT32_MAX;
 
-constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientShared; }
+constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldEvalLanes; }
 
 // Where each kernel family binds the job's counters (counters.glsl): the field kernels after
 // their layers, the small list kernels after the scan's bindings, the level kernels (extract.glsl)
@@ -122,6 +122,8 @@ constexpr KernelDesc kKernels[] = {
      B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
     {Kernel::FieldGradientShared, shaders::field_gradient_shared, kField,
      B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
+    {Kernel::FieldEvalLanes, shaders::field_eval_lanes, kField,
+     B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LANES},
     // Prefix scans and compaction.
     {Kernel::Scan, shaders::scan, B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_SUMS), 0,
      NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE, 0},
@@ -414,6 +416,8 @@ nfd_result create_device(const nfd_vulkan_device* adopt, bool enable_validation,
     if (!d) return NFD_ERROR_OUT_OF_MEMORY;
     NFD_TRY(Context::create(adopt, enable_validation, pipeline_cache, pipeline_cache_size, &d->vk));
     d->shared_weight_kernels = !d->vk->cpu_implementation() || std::getenv("NFD_FORCE_SHARED_WEIGHTS");
+    d->lane_kernels = d->vk->cpu_implementation() &&
+                      d->vk->compute_shuffle_subgroup_size() == NFD_FIELD_LANES;
     if (hardware_only && d->vk->cpu_implementation()) {
         if (declined)
             *declined = "the only Vulkan device, " + d->vk->name() +

@@ -16,6 +16,10 @@ namespace nfd::gpu {
 namespace {
 
 constexpr uint32_t kPointsPerInvocation = 8;          // field_eval.comp's POINTS (rows: below)
+// field_eval_lanes.comp: a workgroup of NFD_FIELD_LANES invocations evaluates NFD_FIELD_LANES x 32
+// points per load of its weights; for networks whose layers are at most 16 vec4s (64 units) wide.
+constexpr uint32_t kLanePointsPerInvocation = 32;
+constexpr uint32_t kLaneKernelWidest4 = 16;
 constexpr uint32_t kMaxVec4PerLayer = NFD_GPU_MAX_WIDTH / 4;
 constexpr VkDeviceSize kUniformBlockBytes = NFD_GPU_UNIFORM_VEC4S * 16;
 constexpr VkDeviceSize kFrequencyBytes = NFD_GPU_MAX_FREQUENCIES * 4;
@@ -174,7 +178,10 @@ nfd_result network_layout(const VkPhysicalDeviceLimits& limits, const Network& n
     uint32_t omega0_bits;
     std::memcpy(&omega0_bits, &omega0, 4);
     out->max4 = v->in4[0];
-    for (uint32_t l = 0; l < layers; ++l) out->max4 = std::max(out->max4, v->out4[l]);
+    for (uint32_t l = 0; l < layers; ++l) {
+        out->max4 = std::max(out->max4, v->out4[l]);
+        out->widest4 = std::max(out->widest4, v->out4[l]);
+    }
     std::vector<uint32_t>& spec = out->specialization;
     spec = {freq4, layers};
     spec.insert(spec.end(), std::begin(v->out4), std::end(v->out4));
@@ -227,14 +234,21 @@ FieldKernel field_kernel(const Device& d, const DeviceNetwork& net, bool gradien
     // On a GPU, the shared-memory shape wherever every layer's block fits the workgroup's memory.
     const bool shared = d.shared_weight_kernels && !net.storage &&
                         VkDeviceSize(net.weight_vec4s) * 16 <= d.vk->limits().maxComputeSharedMemorySize;
+    // On CPU implementations the values of networks up to 64 wide take the lanes kernel (the
+    // same bits). Wider ones keep field_eval.comp: the lanes kernel's unrolled rows took width
+    // 96's first compile to ~15 s on 2-core lavapipe, width 64's to 2-3 s more than
+    // field_eval.comp's, widths 16-32 less (bench/RESULTS.md, "0.13.13").
+    const bool lanes =
+        d.lane_kernels && !shared && !gradient && !net.storage && net.widest4 <= kLaneKernelWidest4;
     FieldKernel f;
-    f.points = shared ? 1 : net.max4 <= 32 ? kPointsPerInvocation : 2;
+    f.points = lanes ? kLanePointsPerInvocation : shared ? 1 : net.max4 <= 32 ? kPointsPerInvocation : 2;
     f.specialization = net.specialization;
     f.specialization.push_back(f.points);
     if (shared)
         f.specialization.insert(f.specialization.end(),
                                 {0u /* local size: set by the pipeline */, net.weight_vec4s});
-    f.kernel = shared ? (gradient ? Kernel::FieldGradientShared : Kernel::FieldEvalShared)
+    f.kernel = lanes    ? Kernel::FieldEvalLanes
+               : shared ? (gradient ? Kernel::FieldGradientShared : Kernel::FieldEvalShared)
                : gradient ? (net.storage ? Kernel::FieldGradientStorage : Kernel::FieldGradient)
                           : (net.storage ? Kernel::FieldEvalStorage : Kernel::FieldEval);
     return f;
@@ -300,6 +314,7 @@ std::shared_ptr<DeviceNetwork> layout_copy(const DeviceNetwork& net) {
     std::copy(std::begin(net.range), std::end(net.range), std::begin(layout->range));
     layout->storage = net.storage;
     layout->max4 = net.max4;
+    layout->widest4 = net.widest4;
     layout->weight_vec4s = net.weight_vec4s;
     layout->bytes = net.bytes;
     layout->specialization = net.specialization;

@@ -267,6 +267,20 @@ nfd_result Context::create_command_objects(const void* cache_blob, size_t cache_
     vkGetPhysicalDeviceProperties(physical_, &properties_);
     vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
     name_ = properties_.deviceName;
+    // Optional: an adopted device's instance may be Vulkan 1.0, without the entry point.
+    const auto properties2 = reinterpret_cast<PFN_vkGetPhysicalDeviceProperties2>(
+        get_instance_proc_addr_(instance_, "vkGetPhysicalDeviceProperties2"));
+    if (properties2 && properties_.apiVersion >= VK_API_VERSION_1_1) {
+        VkPhysicalDeviceSubgroupProperties subgroup{};
+        subgroup.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
+        VkPhysicalDeviceProperties2 all{};
+        all.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+        all.pNext = &subgroup;
+        properties2(physical_, &all);
+        if ((subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) &&
+            (subgroup.supportedOperations & VK_SUBGROUP_FEATURE_SHUFFLE_BIT))
+            compute_shuffle_subgroup_size_ = subgroup.subgroupSize;
+    }
     NFD_TRY_RESULT(pick_memory_types());
 
     VkPipelineCacheCreateInfo cache{};

@@ -196,6 +196,9 @@ public:
     bool cpu_implementation() const {
         return properties_.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
     }
+    // Invocations of a compute subgroup where the device has subgroup shuffles in compute
+    // shaders (Vulkan 1.1's subgroup properties), else 0.
+    uint32_t compute_shuffle_subgroup_size() const { return compute_shuffle_subgroup_size_; }
     // Host <-> buffer copies: memcpy where the buffer is mapped, else through a staging buffer
     // and a copy the context submits and waits for (in a command buffer of its own, under a
     // lock; the copy must not race with a batch in flight that writes the same buffer).
@@ -287,6 +290,7 @@ private:
     VkQueue queue_ = VK_NULL_HANDLE;
     uint32_t queue_family_ = 0;
     VkPhysicalDeviceProperties properties_{};
+    uint32_t compute_shuffle_subgroup_size_ = 0;
     VkPhysicalDeviceMemoryProperties memory_{};
     MemoryTypes memory_types_;  // pick_memory_types()
     std::atomic<VkDeviceSize> live_bytes_{0}, peak_bytes_{0};
