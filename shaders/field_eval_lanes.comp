@@ -14,11 +14,14 @@
 // subgroupBroadcast gives the same values but Mesa 22.3 builds it as a loop over the lanes:
 // 3.6x slower. Measured on 2-core lavapipe: bench/RESULTS.md, "0.13.13".
 //
-// Every layer's inputs are in field_eval.comp's column order (layer 0: the encoding as field.cpp
-// uploads it), input c in slot c / LANES of lane c % LANES, and each output is summed as there:
-// the bias, then per input vec4 the dot product of four weights with four inputs. So the values
-// are field_eval.comp's bit for bit, as nfd_asset_evaluate_gradient's (the WITH_GRADIENT
-// variant's forward pass) must equal nfd_asset_evaluate's.
+// Each output is summed as field_eval.comp sums it: the bias, then per input vec4, in its column
+// order (layer 0: the encoding as field.cpp uploads it), the dot product of four weights with four
+// inputs. So the values are field_eval.comp's bit for bit, as nfd_asset_evaluate_gradient's (the
+// WITH_GRADIENT variant's forward pass) must equal nfd_asset_evaluate's. A hidden layer's input c
+// is the previous layer's row c (slot c / LANES of lane c % LANES); the encoding's sines come from
+// the lane that computed their (frequency, axis) pair, both sine and cosine of one sincos: three a
+// lane at L = 8 rather than the seven that one column per lane and slot would take (6-16% faster
+// at widths 16-48).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
@@ -47,7 +50,11 @@ layout(local_size_x_id = NFD_FIELD_LOCAL_SIZE_ID) in;  // LANES: one subgroup
 
 #define LANES NFD_FIELD_LANES
 const uint ENC4 = 1 + 6 * FREQ4;
-const uint SLOTS_0 = (ENC4 + 1) / 2;  // layer 0's inputs per lane: 4 * ENC4 columns, 8 a slot
+const uint SLOTS_0 = (4 * ENC4 + LANES - 1) / LANES;  // layer 0's weights: 4 * ENC4 columns
+// The encoding's sines and cosines come in (frequency k, axis j) pairs q = 3k + j, each lane
+// computing sin and cos of pairs q = s * LANES + lane.
+const uint PAIRS = 3 * 4 * FREQ4;
+const uint PAIR_SLOTS = (PAIRS + LANES - 1) / LANES;
 
 // Rows per lane of each layer, and inputs per lane (the previous layer's rows per lane).
 const uint ROWS_0 = (4 * OUT4_0 + LANES - 1) / LANES;
@@ -103,13 +110,23 @@ float activate_output(float y) {
         }                                                                                   \
     }
 
-// acc[r] += the dot products of row r's weight vec4s with the input vec4s, in input order; input
-// c = s * LANES + l is shuffled from lane l's slot s of SRC.
-#define ACCUMULATE(K, SRC, ROWS, SLOTS, IN4)                                                \
+// Input c of a hidden layer: the previous layer's row c, from lane c % LANES's slot c / LANES.
+#define HIDDEN_INPUT(SRC, c) subgroupShuffle(SRC[(c) / LANES], (c) % LANES)
+// Input c of layer 0, in field_eval.comp's column order: (u, 0), then per block of 4 frequencies
+// sin(f u_x), sin(f u_y), sin(f u_z), cos(f u_x), cos(f u_y), cos(f u_z), a frequency per lane
+// of each vec4; the sines from the lane of their pair.
+#define PAIR_OF(c) (3 * (4 * (((c) - 4) / 24) + ((c) - 4) % 4) + (((c) - 4) % 24 / 4) % 3)
+#define ENCODED_INPUT(SRC, c)                                                               \
+    ((c) < 3 ? u[c] : (c) == 3 ? 0.0                                                        \
+     : subgroupShuffle(((c) - 4) % 24 < 12 ? sines[PAIR_OF(c) / LANES] : cosines[PAIR_OF(c) / LANES], \
+                       PAIR_OF(c) % LANES))
+
+// acc[r] += the dot products of row r's weight vec4s with the input vec4s, in input order (as
+// field_eval.comp sums them); INPUT(SRC, c) gives input c.
+#define ACCUMULATE(K, INPUT, SRC, ROWS, SLOTS, IN4)                                         \
     [[unroll]] for (uint i4 = 0; i4 < IN4; ++i4) {                                          \
-        uint s = i4 / 2, l = 4 * (i4 % 2);                                                  \
-        vec4 x = vec4(subgroupShuffle(SRC[s], l), subgroupShuffle(SRC[s], l + 1),           \
-                      subgroupShuffle(SRC[s], l + 2), subgroupShuffle(SRC[s], l + 3));      \
+        vec4 x = vec4(INPUT(SRC, 4 * i4), INPUT(SRC, 4 * i4 + 1), INPUT(SRC, 4 * i4 + 2),   \
+                      INPUT(SRC, 4 * i4 + 3));                                              \
         [[unroll]] for (uint r = 0; r < ROWS; ++r) {                                        \
             uint c = r * SLOTS * LANES + 4 * i4;                                            \
             acc[r] += dot(vec4(w##K[c], w##K[c + 1], w##K[c + 2], w##K[c + 3]), x);         \
@@ -118,12 +135,12 @@ float activate_output(float y) {
 
 // Layer K from SRC (IN4 input vec4s, SLOTS inputs a lane) into DST (ROWS outputs a lane):
 // hidden layers apply sin(omega0 *), the last none.
-#define LAYER(K, SRC, DST, ROWS, SLOTS, IN4)                                                \
+#define LAYER(K, INPUT, SRC, DST, ROWS, SLOTS, IN4)                                         \
     float DST[K < NUM_LAYERS ? ROWS : 1];                                                   \
     if (K < NUM_LAYERS) {                                                                   \
         float acc[ROWS];                                                                    \
         [[unroll]] for (uint r = 0; r < ROWS; ++r) acc[r] = b##K[r];                        \
-        ACCUMULATE(K, SRC, ROWS, SLOTS, IN4)                                                \
+        ACCUMULATE(K, INPUT, SRC, ROWS, SLOTS, IN4)                                         \
         [[unroll]] for (uint r = 0; r < ROWS; ++r)                                          \
             DST[r] = K + 1 < NUM_LAYERS ? sin_reduced(OMEGA0 * acc[r]) : acc[r];           \
         if (K + 1 == NUM_LAYERS) y = DST[0];                                                \
@@ -146,17 +163,13 @@ void main() {
     LOAD_LAYER(6, layer6, OUT4_5, OUT4_6, ROWS_6, ROWS_5)
     LOAD_LAYER(7, layer7, OUT4_6, OUT4_7, ROWS_7, ROWS_6)
 
-    // The encoding's columns this lane computes (field_eval.comp's order): 0 u_axis, 1 sin and
-    // 2 cos of frequency * u_axis, 3 zero (padding).
-    float column_frequency[SLOTS_0];
-    uint column_axis[SLOTS_0], column_kind[SLOTS_0];
-    [[unroll]] for (uint s = 0; s < SLOTS_0; ++s) {
-        uint c = s * LANES + lane;
-        uint e = max(c, 4u) - 4;  // past (u, 0): per block of 4 frequencies, 6 vec4s
-        uint g = (e % 24) / 4;    // sin x, y, z, cos x, y, z
-        column_frequency[s] = c < 4 ? 0.0 : frequencies[min(e / 24, FREQ4 - 1)][e % 4];
-        column_axis[s] = c < 3 ? c : g % 3;
-        column_kind[s] = c < 3 ? 0 : c < 4 || c >= 4 * ENC4 ? 3 : g < 3 ? 1 : 2;
+    // This lane's sin/cos pairs: frequency and axis (past the last pair: never read).
+    float pair_frequency[PAIR_SLOTS];
+    uint pair_axis[PAIR_SLOTS];
+    [[unroll]] for (uint s = 0; s < PAIR_SLOTS; ++s) {
+        uint q = min(s * LANES + lane, PAIRS - 1);
+        pair_frequency[s] = frequencies[q / 3 / 4][(q / 3) % 4];
+        pair_axis[s] = q % 3;
     }
 
     vec3 own = vec3(0.0);
@@ -167,24 +180,24 @@ void main() {
             own = vec3(points[3 * mine], points[3 * mine + 1], points[3 * mine + 2]);
         }
         vec3 u = subgroupShuffle(own, j);
-        float h[SLOTS_0];
-        [[unroll]] for (uint s = 0; s < SLOTS_0; ++s) {
-            float coordinate = column_axis[s] == 0 ? u.x : column_axis[s] == 1 ? u.y : u.z;
-            precise float a = column_frequency[s] * coordinate;  // f32 product, as encode()
+        float sines[PAIR_SLOTS], cosines[PAIR_SLOTS];
+        [[unroll]] for (uint s = 0; s < PAIR_SLOTS; ++s) {
+            float coordinate = pair_axis[s] == 0 ? u.x : pair_axis[s] == 1 ? u.y : u.z;
+            precise float a = pair_frequency[s] * coordinate;  // f32 product, as encode()
             vec2 sc = sincos_reduced(a);
-            uint kind = column_kind[s];
-            h[s] = kind == 0 ? coordinate : kind == 1 ? sc.x : kind == 2 ? sc.y : 0.0;
+            sines[s] = sc.x;
+            cosines[s] = sc.y;
         }
 
         float y = 0.0;
-        LAYER(0, h, a0, ROWS_0, SLOTS_0, ENC4)
-        LAYER(1, a0, a1, ROWS_1, ROWS_0, OUT4_0)
-        LAYER(2, a1, a2, ROWS_2, ROWS_1, OUT4_1)
-        LAYER(3, a2, a3, ROWS_3, ROWS_2, OUT4_2)
-        LAYER(4, a3, a4, ROWS_4, ROWS_3, OUT4_3)
-        LAYER(5, a4, a5, ROWS_5, ROWS_4, OUT4_4)
-        LAYER(6, a5, a6, ROWS_6, ROWS_5, OUT4_5)
-        LAYER(7, a6, a7, ROWS_7, ROWS_6, OUT4_6)
+        LAYER(0, ENCODED_INPUT, sines, a0, ROWS_0, SLOTS_0, ENC4)
+        LAYER(1, HIDDEN_INPUT, a0, a1, ROWS_1, ROWS_0, OUT4_0)
+        LAYER(2, HIDDEN_INPUT, a1, a2, ROWS_2, ROWS_1, OUT4_1)
+        LAYER(3, HIDDEN_INPUT, a2, a3, ROWS_3, ROWS_2, OUT4_2)
+        LAYER(4, HIDDEN_INPUT, a3, a4, ROWS_4, ROWS_3, OUT4_3)
+        LAYER(5, HIDDEN_INPUT, a4, a5, ROWS_5, ROWS_4, OUT4_4)
+        LAYER(6, HIDDEN_INPUT, a5, a6, ROWS_6, ROWS_5, OUT4_5)
+        LAYER(7, HIDDEN_INPUT, a6, a7, ROWS_7, ROWS_6, OUT4_6)
         // The output layer's row `lane` is output `lane` (row r = 0 of each lane).
         if (lane < OUTPUTS) values[(push.first + p) * OUTPUTS + lane] = activate_output(y);
     }
