@@ -91,7 +91,7 @@ public:
     // for CPU implementations, whose SIMD lanes want several points per invocation. Tests set
     // NFD_FORCE_SHARED_WEIGHTS to run it on lavapipe.
     bool shared_weight_kernels = false;
-    // field_eval_lanes.comp for the values of networks up to 64 wide: on CPU implementations
+    // field_eval_lanes.comp for the values of networks up to 48 wide: on CPU implementations
     // whose compute subgroups are NFD_FIELD_LANES invocations with shuffles (lavapipe), where it
     // runs ~5x faster than field_eval.comp (bench/RESULTS.md, "0.13.13").
     bool lane_kernels = false;

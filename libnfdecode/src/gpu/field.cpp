@@ -17,9 +17,9 @@ namespace {
 
 constexpr uint32_t kPointsPerInvocation = 8;          // field_eval.comp's POINTS (rows: below)
 // field_eval_lanes.comp: a workgroup of NFD_FIELD_LANES invocations evaluates NFD_FIELD_LANES x 32
-// points per load of its weights; for networks whose layers are at most 16 vec4s (64 units) wide.
+// points per load of its weights; for networks whose layers are at most 12 vec4s (48 units) wide.
 constexpr uint32_t kLanePointsPerInvocation = 32;
-constexpr uint32_t kLaneKernelWidest4 = 16;
+constexpr uint32_t kLaneKernelWidest4 = 12;
 constexpr uint32_t kMaxVec4PerLayer = NFD_GPU_MAX_WIDTH / 4;
 constexpr VkDeviceSize kUniformBlockBytes = NFD_GPU_UNIFORM_VEC4S * 16;
 constexpr VkDeviceSize kFrequencyBytes = NFD_GPU_MAX_FREQUENCIES * 4;
@@ -234,10 +234,11 @@ FieldKernel field_kernel(const Device& d, const DeviceNetwork& net, bool gradien
     // On a GPU, the shared-memory shape wherever every layer's block fits the workgroup's memory.
     const bool shared = d.shared_weight_kernels && !net.storage &&
                         VkDeviceSize(net.weight_vec4s) * 16 <= d.vk->limits().maxComputeSharedMemorySize;
-    // On CPU implementations the values of networks up to 64 wide take the lanes kernel (the
-    // same bits). Wider ones keep field_eval.comp: the lanes kernel's unrolled rows took width
-    // 96's first compile to ~15 s on 2-core lavapipe, width 64's to 2-3 s more than
-    // field_eval.comp's, widths 16-32 less (bench/RESULTS.md, "0.13.13").
+    // On CPU implementations the values of networks up to 48 wide take the lanes kernel (the
+    // same bits). Wider ones keep field_eval.comp: the lanes kernel's unrolled rows cost more to
+    // create with its width, even from Mesa's shader cache (2-core lavapipe: +0.1-0.2 s a process
+    // at width 32, +0.3 s at 48, +0.75 s at 64, where a decode at 256 then took longer than with
+    // field_eval.comp; bench/RESULTS.md, "0.13.13").
     const bool lanes =
         d.lane_kernels && !shared && !gradient && !net.storage && net.widest4 <= kLaneKernelWidest4;
     FieldKernel f;
