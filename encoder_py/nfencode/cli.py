@@ -277,8 +277,13 @@ def cmd_encode_batch(args: argparse.Namespace) -> int:
         report=lambda message: sys.stderr.write(f"nfc: error: {message}\n"),
     )
     ok, skipped, failed = summary.count("ok"), summary.count("skipped"), summary.count("error")
-    print(f"{args.output}: {ok} encoded, {skipped} skipped (up to date), {failed} failed of {len(summary.rows)} "
-          f"in {summary.seconds:.1f} s; rows in {Path(args.output) / batch.RESULTS_NAME}")
+    results = Path(args.output) / batch.RESULTS_NAME
+    if args.json:
+        print(json.dumps({"output": str(args.output), "results": str(results), "encoded": ok, "skipped": skipped,
+                          "failed": failed, "seconds": round(summary.seconds, 3), "rows": summary.rows}, indent=2))
+    else:
+        print(f"{args.output}: {ok} encoded, {skipped} skipped (up to date), {failed} failed of {len(summary.rows)} "
+              f"in {summary.seconds:.1f} s; rows in {results}")
     return EXIT_ERROR if summary.failed else 0
 
 
@@ -484,6 +489,9 @@ def build_parser() -> argparse.ArgumentParser:
            "colour its colour width, chosen; assets then train one by one); a manifest line's target replaces it",
         "write each asset's smallest file whose estimated Chamfer distance is at most C, as `encode --target-cd` "
         "does; a manifest line's target replaces it")
+    p.add_argument("--json", action="store_true",
+                   help="print the counts and this run's row of every asset (as results.jsonl has them) as one "
+                        "JSON object instead of the summary line")
     _add_encode_options(p)
     _add_color_options(p)
     p.set_defaults(run=cmd_encode_batch)

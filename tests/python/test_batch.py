@@ -105,6 +105,22 @@ def test_in_process_batch_rows_isolation_resume_and_no_ray(tmp_path: Path, monke
     assert code == 0 and "2 encoded, 0 skipped" in stdout
 
 
+def test_json_prints_the_counts_and_this_runs_rows(tmp_path: Path) -> None:
+    lib, out = write_library(tmp_path), tmp_path / "out"
+    code, stdout, stderr = run("encode-batch", lib, "-o", out, "--workers", "1", "--json", *ENCODE)
+    report = json.loads(stdout)  # the whole of stdout: one object, no summary line
+    assert code == 1 and "contains no vertices" in stderr  # errors still go to stderr, one line each
+    assert (report["encoded"], report["skipped"], report["failed"]) == (2, 0, 1)
+    assert report["output"] == str(out) and report["results"] == str(out / "results.jsonl")
+    assert report["seconds"] > 0
+    assert report["rows"] == [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    code, stdout, _ = run("encode-batch", lib, "-o", out, "--workers", "1", "--json", *ENCODE)
+    again = json.loads(stdout)
+    assert code == 1 and (again["encoded"], again["skipped"], again["failed"]) == (0, 2, 1)
+    assert {Path(r["input"]).name: r["status"] for r in again["rows"]} == {
+        "box.ply": "skipped", "broken.obj": "error", "sphere.obj": "skipped"}
+
+
 def test_manifest_per_asset_options_and_bad_lines(tmp_path: Path) -> None:
     lib = write_library(tmp_path)
     manifest = tmp_path / "assets.jsonl"

@@ -182,8 +182,9 @@ typedef enum nfd_device_kind {
 
 /* A Vulkan device owned by the host engine, to be used instead of creating one. Handles are passed
  * as pointers/integers so that this header does not need vulkan.h: cast VkInstance etc. to void*.
- * The device must have been created with a queue of `queue_family_index` supporting compute, and
- * must outlive the context. libnfdecode submits to `queue`; the host must not use that queue from
+ * The device must support Vulkan 1.1 (the kernels are SPIR-V 1.3; an older one gives
+ * NFD_ERROR_DEVICE_UNAVAILABLE), have been created with a queue of `queue_family_index` supporting
+ * compute, and outlive the context. libnfdecode submits to `queue`; the host must not use that queue from
  * another thread during a libnfdecode call (Vulkan's external synchronisation rule). */
 typedef struct nfd_vulkan_device {
     void* instance;            /* VkInstance */

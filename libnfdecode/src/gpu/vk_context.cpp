@@ -267,10 +267,11 @@ nfd_result Context::create_command_objects(const void* cache_blob, size_t cache_
     vkGetPhysicalDeviceProperties(physical_, &properties_);
     vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
     name_ = properties_.deviceName;
-    // Optional: an adopted device's instance may be Vulkan 1.0, without the entry point.
+    // The kernels are SPIR-V 1.3 (Vulkan 1.1); an adopted 1.0 device could not create them.
+    if (properties_.apiVersion < VK_API_VERSION_1_1) return NFD_ERROR_DEVICE_UNAVAILABLE;
     const auto properties2 = reinterpret_cast<PFN_vkGetPhysicalDeviceProperties2>(
         get_instance_proc_addr_(instance_, "vkGetPhysicalDeviceProperties2"));
-    if (properties2 && properties_.apiVersion >= VK_API_VERSION_1_1) {
+    if (properties2) {
         VkPhysicalDeviceSubgroupProperties subgroup{};
         subgroup.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
         VkPhysicalDeviceProperties2 all{};
