@@ -27,29 +27,11 @@
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_KHR_shader_subgroup_shuffle : require
 #include "common.glsl"
-#include "bindings.h"
 #define COUNTERS_BINDING NFD_B_FIELD_COUNTERS
 #include "counters.glsl"
+#include "field.glsl"
 
-layout(constant_id = 0) const uint FREQ4 = 4;        // frequency blocks of 4 (field_eval.comp)
-layout(constant_id = 1) const uint NUM_LAYERS = 3;
-layout(constant_id = 2) const uint OUT4_0 = 8;
-layout(constant_id = 3) const uint OUT4_1 = 8;
-layout(constant_id = 4) const uint OUT4_2 = 1;
-layout(constant_id = 5) const uint OUT4_3 = 1;
-layout(constant_id = 6) const uint OUT4_4 = 1;
-layout(constant_id = 7) const uint OUT4_5 = 1;
-layout(constant_id = 8) const uint OUT4_6 = 1;
-layout(constant_id = 9) const uint OUT4_7 = 1;
-layout(constant_id = 10) const float OMEGA0 = 30.0;
-layout(constant_id = 11) const uint OUTPUT_ACTIVATION = 0;  // 0 identity, 1 abs, 2 sigmoid
-layout(constant_id = 12) const uint MAX4 = 25;       // unused here (field_eval.comp's arrays)
-layout(constant_id = 13) const uint OUTPUTS = 1;
-layout(constant_id = 14) const uint POINTS = 32;     // points per invocation: LANES * POINTS a group
-layout(local_size_x_id = NFD_FIELD_LOCAL_SIZE_ID) in;  // LANES: one subgroup
-
-#define LANES NFD_FIELD_LANES
-const uint ENC4 = 1 + 6 * FREQ4;
+#define LANES NFD_FIELD_LANES  // the local size: one subgroup
 const uint SLOTS_0 = (4 * ENC4 + LANES - 1) / LANES;  // layer 0's weights: 4 * ENC4 columns
 // The encoding's sines and cosines come in (frequency k, axis j) pairs q = 3k + j, each lane
 // computing sin and cos of pairs q = s * LANES + lane.
@@ -66,29 +48,8 @@ const uint ROWS_5 = (4 * OUT4_5 + LANES - 1) / LANES;
 const uint ROWS_6 = (4 * OUT4_6 + LANES - 1) / LANES;
 const uint ROWS_7 = (4 * OUT4_7 + LANES - 1) / LANES;
 
-layout(std430, binding = NFD_B_FIELD_POINTS) readonly buffer Points { float points[]; };
+// OUTPUTS floats per point, point-major.
 layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { float values[]; };
-layout(std140, binding = NFD_B_FIELD_FREQUENCIES) uniform Frequencies {
-    vec4 frequencies[NFD_GPU_MAX_FREQUENCIES / 4];
-};
-#define WEIGHT_BLOCK(B, NAME) \
-    layout(std140, binding = B) uniform NAME##Block { vec4 w[NFD_GPU_UNIFORM_VEC4S]; } NAME;
-WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 0, layer0)
-WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 1, layer1)
-WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 2, layer2)
-WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 3, layer3)
-WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 4, layer4)
-WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 5, layer5)
-WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 6, layer6)
-WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 7, layer7)
-
-layout(push_constant) uniform Push { uint count; uint first; uint count_slot; } push;
-
-float activate_output(float y) {
-    if (OUTPUT_ACTIVATION == 1) return abs(y);
-    if (OUTPUT_ACTIVATION == 2) return 1.0 / (1.0 + exp(-y));
-    return y;
-}
 
 // Scalar weight (row o, input column c) of field_eval.comp's layout, IN4 vec4s a row; zero for
 // the padding rows and columns this kernel's lanes add.
