@@ -493,6 +493,32 @@ TEST_F(Gpu, LaneKernelGivesTheValueKernelsBits) {
         EXPECT_NE(f.kernel, gpu::Kernel::FieldEvalLanes);
 }
 
+// Hostile weights that pass the CRC (steps that overflow to inf against levels of +-127, subnormal
+// steps, NaN-producing inf - inf sums) through the lanes kernel: no fault, and the old kernel's
+// bits (NaN where it gives NaN).
+TEST_F(Gpu, LaneKernelOnHostileWeights) {
+    if (!device().lane_kernels) GTEST_SKIP() << "not a CPU implementation with 8-wide subgroups";
+    std::unique_ptr<gpu::Device> plain;
+    ASSERT_EQ(gpu::create_device(nullptr, false, &plain), NFD_SUCCESS);
+    plain->lane_kernels = false;
+    const std::vector<float> points = random_points(1000, 5);
+    const size_t n = points.size() / 3;
+    for (const float step : {3.0e38f, 1.0e-45f, 1.0e20f}) {
+        SCOPED_TRACE(step);
+        GeomSpec spec = random_siren(32, 8, 77);
+        for (size_t k = 0; k < spec.steps.size(); k += 2) spec.steps[k] = step;  // every weight step
+        ParsedFile file;
+        const Bytes bytes = geom_file(spec);
+        if (parse_file(bytes.data(), bytes.size(), &file) != NFD_SUCCESS) continue;  // refused: fine
+        std::vector<float> lanes(n), usual(n);
+        ASSERT_EQ(gpu::evaluate(device(), file.geometry.network, points.data(), n, lanes.data()), NFD_SUCCESS);
+        ASSERT_EQ(gpu::evaluate(*plain, file.geometry.network, points.data(), n, usual.data()), NFD_SUCCESS);
+        for (size_t i = 0; i < n; ++i)
+            ASSERT_TRUE(std::isnan(lanes[i]) ? std::isnan(usual[i]) : lanes[i] == usual[i])
+                << i << ": " << lanes[i] << " against " << usual[i];
+    }
+}
+
 // A network is uploaded once per device: decodes and evaluations of the same content share it
 // (another asset object with equal bytes included), a new network is uploaded, and one evicted
 // from the cache (past 8 others) is uploaded again.
