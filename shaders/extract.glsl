@@ -149,22 +149,29 @@ uint kept_around(uvec3 p, uint r) {
     }
     return around;
 }
+// The first kept cell (find_owner's order: z, then y, then x ascending) among p's neighbours at
+// offsets + 1 from lo to hi (components 0..2), as an offset + 1 from p; false where none is kept.
+bool first_kept_around(uint around, uvec3 lo, uvec3 hi, out uvec3 o) {
+    for (uint z = lo.z; z <= hi.z; ++z)
+        for (uint y = lo.y; y <= hi.y; ++y)
+            for (uint x = lo.x; x <= hi.x; ++x)
+                if ((around & (1u << (x + 3u * y + 9u * z))) != 0u) {
+                    o = uvec3(x, y, z);
+                    return true;
+                }
+    o = uvec3(1u);
+    return false;
+}
 // The owner of the point of p's child grid at local l (components 0..2), or with `axis` < 3 of the
 // edge from l along that axis, as an offset + 1 from p (components 0..2): find_owner's candidates
 // (the cells whose closed box holds it: p, and p's neighbour below where a component of l is 0,
 // above where it is 2; an edge lies inside p along its axis) in its order.
 uvec3 owner_around(uint around, uvec3 l, uint axis) {
-    uvec3 lo = uvec3(1u), hi = uvec3(1u);
-    for (uint a = 0u; a < 3u; ++a) {
-        if (a == axis) continue;
-        if (l[a] == 0u) lo[a] = 0u;
-        if (l[a] == 2u) hi[a] = 2u;
-    }
-    for (uint z = lo.z; z <= hi.z; ++z)
-        for (uint y = lo.y; y <= hi.y; ++y)
-            for (uint x = lo.x; x <= hi.x; ++x)
-                if ((around & (1u << (x + 3u * y + 9u * z))) != 0u) return uvec3(x, y, z);
-    return uvec3(1u);  // p itself, whose bit is always set
+    uvec3 lo = (l + 1u) / 2u, hi = (l + 2u) / 2u;
+    if (axis < 3u) lo[axis] = hi[axis] = 1u;
+    uvec3 o;
+    first_kept_around(around, lo, hi, o);  // p itself, whose bit is always set, at the latest
+    return o;
 }
 // The owner of point l (axis 3) or of the edge from l along `axis` of kept cell p's (rank k)
 // child grid, and its rank: p's own where p owns it.

@@ -70,39 +70,49 @@ float grid[27];
 uint load_grid(uvec3 p, uint k, uint r) { return load_child_grid(p, k, r, grid); }
 bool inside(uvec3 l) { return grid[local_index(l)] < 0.0; }
 
-// The value at child-grid point w (which may lie one step outside the grid), if it was evaluated:
-// from kept parent p's (rank k) child grid when its box contains w, else from another kept one.
-bool grid_value(ivec3 w, uvec3 p, uint k, uint r, out float f) {
+// The value at point l of kept parent p's (rank k) child grid, where l may lie one step beyond it
+// (components -1..3), if it was evaluated: from p's corners, or from the point's owner among p and
+// its neighbours (`around`, kept_around), found on bits by find_owner's rule.
+bool grid_value(ivec3 l, uvec3 p, uint k, uint around, uint r, out float f) {
+    ivec3 w = 2 * ivec3(p) + l;
     if (any(lessThan(w, ivec3(0))) || !child_point_exists(uvec3(w))) return false;
-    ivec3 l = w - 2 * ivec3(p);
-    if (all(greaterThanEqual(l, ivec3(0))) && all(lessThanEqual(l, ivec3(2)))) {
-        f = child_grid_value(p, k, uvec3(l), r);
+    bool inside_box = all(greaterThanEqual(l, ivec3(0))) && all(lessThanEqual(l, ivec3(2)));
+    if (inside_box && is_corner(uvec3(l))) {
+        f = corners[8u * k + corner_index(uvec3(l))];
         return true;
     }
-    uvec3 o;  // any kept parent whose box contains w holds its value
-    if (!find_owner(uvec3(w), 2u, r, o)) return false;
-    f = child_grid_value(o, kept_rank(cell_index(o, r)), uvec3(w) - 2u * o, r);
+    uvec3 o;  // offset + 1 from p; the cells whose closed box holds w along each axis
+    if (!first_kept_around(around, uvec3((l + 1) / 2), uvec3((l + 2) / 2), o)) return false;
+    bool own = all(equal(o, uvec3(1u)));
+    uvec3 q = p + o - 1u;
+    uint kq = own ? k : kept_rank(cell_index(q, r));
+    uvec3 local = uvec3(w) - 2u * q;
+    f = is_corner(local) ? corners[8u * kq + corner_index(local)] : owned_value(uvec3(w), q, kq);
     return true;
 }
 
-// extract.h's normal: derivative along axis b at point w (value fw), in units of 1 / cell, central
-// where both neighbours were evaluated, one-sided where one was, 0 where neither (as
+// extract.h's normal: derivative along axis b at local point l (value fl), in units of 1 / cell,
+// central where both neighbours were evaluated, one-sided where one was, 0 where neither (as
 // mesh_sdf_cpu.cpp).
-float grid_derivative(ivec3 w, float fw, uint b, uvec3 p, uint k, uint r) {
+float grid_derivative(ivec3 l, float fl, uint b, uvec3 p, uint k, uint around, uint r) {
     ivec3 e = ivec3(unit_axis(b));
     float hi, lo;
-    bool has_hi = grid_value(w + e, p, k, r, hi);
-    bool has_lo = grid_value(w - e, p, k, r, lo);
-    precise float d = has_hi && has_lo ? 0.5 * (hi - lo) : has_hi ? hi - fw : has_lo ? fw - lo : 0.0;
+    bool has_hi = grid_value(l + e, p, k, around, r, hi);
+    bool has_lo = grid_value(l - e, p, k, around, r, lo);
+    precise float d = has_hi && has_lo ? 0.5 * (hi - lo) : has_hi ? hi - fl : has_lo ? fl - lo : 0.0;
     return d;
 }
-vec3 edge_normal(uvec3 v, uint a, float fa, float fb, float t, uvec3 p, uint k, uint r) {
+
+// The normal at the crossing (parameter t) of the edge from local point s of kept parent p's child
+// grid along axis a, whose end values are fa and fb.
+vec3 edge_normal(uvec3 s, uint a, float fa, float fb, float t, uvec3 p, uint k, uint around,
+                 uint r) {
     vec3 g;
     g[a] = fb - fa;
     for (uint b = 0u; b < 3u; ++b) {
         if (b == a) continue;
-        float d0 = grid_derivative(ivec3(v), fa, b, p, k, r);
-        float d1 = grid_derivative(ivec3(v + unit_axis(a)), fb, b, p, k, r);
+        float d0 = grid_derivative(ivec3(s), fa, b, p, k, around, r);
+        float d1 = grid_derivative(ivec3(s + unit_axis(a)), fb, b, p, k, around, r);
         precise float gb = d0 + t * (d1 - d0);
         g[b] = gb;
     }

@@ -25,8 +25,10 @@ void main() {
 
     // One loop iteration per vertex would leave most SIMD lanes idle (a parent has about one):
     // the vertices kernel does the per-vertex work, one vertex per invocation.
-    uvec2 mask = edge_masks[k];
-    uint vertex = vertex_offsets[2u * k];
+    uvec2 own_mask = edge_masks[k];
+    uint own_first = vertex_offsets[2u * k];
+    uvec2 mask = own_mask;
+    uint vertex = own_first;
     while (mask != uvec2(0u)) {
         uint id = mask.x != 0u ? uint(findLSB(mask.x)) : 32u + uint(findLSB(mask.y));
         if (id < 32u) mask.x &= mask.x - 1u;
@@ -34,25 +36,31 @@ void main() {
         vertex_edges[vertex++] = k << 6 | id;
     }
 
+    // One loop over the parent's emitted triangles (bit 8 i + t of c.zw: child i's table triangle
+    // t) rather than loops over children and their triangles, whose counts differ from lane to
+    // lane; the parent's own vertices (most) without loads.
     uvec4 c = cases[k];
     uint around = (c.z | c.w) != 0u ? kept_around(p, r) : 0u;  // any triangle emitted
     uint index = 3u * triangle_offsets[k];
-    for (uint child = 0u; child < 8u; ++child) {
-        uint emitted = case_byte(c, 8u + child);
-        if (emitted == 0u) continue;
+    uvec2 emitted = c.zw;
+    while (emitted != uvec2(0u)) {
+        uint bit = emitted.x != 0u ? uint(findLSB(emitted.x)) : 32u + uint(findLSB(emitted.y));
+        if (bit < 32u) emitted.x &= emitted.x - 1u;
+        else emitted.y &= emitted.y - 1u;
+        uint child = bit / 8u, t = bit % 8u;
         uint cc = case_byte(c, child);
         uvec3 d = corner_offset(child);
-        for (uint t = 0u; t < mc_triangle_count(cc); ++t) {
-            if ((emitted & (1u << t)) == 0u) continue;
-            for (uint j = 0u; j < 3u; ++j) {
-                uint e = uint(mc_triangle_edge(cc, 3u * t + j));
-                uint a = e / 4u;
-                uvec3 l = d + corner_offset(mc_edge_start_corner(e));
-                uvec3 v = 2u * p + l;
-                uint ko;
-                uvec3 o = local_owner(p, k, around, l, a, r, ko);
-                indices[index++] =
-                    vertex_offsets[2u * ko] + mask_rank(edge_masks[ko], edge_id(a, v - 2u * o));
+        [[unroll]] for (uint j = 0u; j < 3u; ++j) {
+            uint e = uint(mc_triangle_edge(cc, 3u * t + j));
+            uint a = e / 4u;
+            uvec3 l = d + corner_offset(mc_edge_start_corner(e));
+            uvec3 o = owner_around(around, l, a);
+            uint id = edge_id(a, l + 2u - 2u * o);
+            if (all(equal(o, uvec3(1u)))) {
+                indices[index++] = own_first + mask_rank(own_mask, id);
+            } else {
+                uint ko = kept_rank(cell_index(p + o - 1u, r));
+                indices[index++] = vertex_offsets[2u * ko] + mask_rank(edge_masks[ko], id);
             }
         }
     }

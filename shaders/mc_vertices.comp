@@ -22,8 +22,9 @@ void main() {
     uvec3 s;
     edge_from_id(vertex_edges[vertex] & 63u, a, s);
     uvec3 v = 2u * p + s;
-    float fa = child_grid_value(p, k, s, r);
-    float fb = child_grid_value(p, k, s + unit_axis(a), r);
+    uint around = kept_around(p, r);
+    float fa = child_grid_value(p, k, around, s, r);
+    float fb = child_grid_value(p, k, around, s + unit_axis(a), r);
     vec3 u = child_point(v);
     precise float t = fa / (fa - fb);
     if (!(t >= 0.0 && t <= 1.0)) t = 0.5;  // an infinite corner
@@ -34,7 +35,7 @@ void main() {
     positions[3u * vertex] = x.x;
     positions[3u * vertex + 1u] = x.y;
     positions[3u * vertex + 2u] = x.z;
-    vec3 n = edge_normal(v, a, fa, fb, t, p, k, r);
+    vec3 n = edge_normal(s, a, fa, fb, t, p, k, around, r);
     normals[3u * vertex] = n.x;
     normals[3u * vertex + 1u] = n.y;
     normals[3u * vertex + 2u] = n.z;
