@@ -4,7 +4,9 @@
 // the network's linear layers (the multiply-adds; sines, the encoding and the output are extra
 // work not counted), best of --repeat runs, wall and process CPU time. With --gradients it times
 // nfd_asset_evaluate_gradient instead and counts 4 flops per weight (the forward pass's
-// multiply-adds and the backward pass's through the transposed weights).
+// multiply-adds and the backward pass's through the transposed weights). "first call ms" is the
+// context's first evaluation of 4,096 points: on Vulkan mostly the creation of the network's
+// field pipeline, which a process pays once per network shape (from Mesa's disk cache when warm).
 //   field_eval [--points N] [--repeat K] [--vulkan] [--gradients] FILE.nfc...
 #include <nfdecode/nfdecode.h>
 
@@ -51,7 +53,7 @@ double weights_per_point(const nfd_asset_info& info) {
 }
 
 struct Timing {
-    double wall_s = 1e30, cpu_s = 1e30;
+    double wall_s = 1e30, cpu_s = 1e30, first_s = 0;
 };
 
 // One evaluation of `n` points: values, or values and gradients.
@@ -73,9 +75,11 @@ Timing time_evaluate(nfd_device_kind kind, uint32_t threads, const nfd_asset* as
     const size_t n = points.size() / 3;
     std::vector<float> values(n), gradients(with_gradients ? 3 * n : 0);
     float* g = with_gradients ? gradients.data() : nullptr;
+    Timing best;
+    const auto t_first = Clock::now();
     evaluate(ctx, asset, points.data(), std::min<size_t>(n, 4096), values.data(), g,
              "warm-up");  // pipelines, network upload
-    Timing best;
+    best.first_s = std::chrono::duration<double>(Clock::now() - t_first).count();
     for (int k = 0; k < repeat; ++k) {
         const auto t0 = Clock::now();
         const std::clock_t c0 = std::clock();
@@ -108,8 +112,8 @@ int main(int argc, char** argv) {
         return 2;
     }
     const uint32_t cores = std::max(1u, std::thread::hardware_concurrency());
-    std::printf("| file | width | path | threads | Mpoints/s | GFLOP/s | wall ms | CPU ms |\n");
-    std::printf("|---|---:|---|---:|---:|---:|---:|---:|\n");
+    std::printf("| file | width | path | threads | Mpoints/s | GFLOP/s | wall ms | CPU ms | first call ms |\n");
+    std::printf("|---|---:|---|---:|---:|---:|---:|---:|---:|\n");
     for (const char* path : files) {
         const std::vector<unsigned char> bytes = read_file(path);
         nfd_asset* asset = nullptr;
@@ -132,10 +136,10 @@ int main(int argc, char** argv) {
         if (vulkan) runs.push_back({NFD_DEVICE_VULKAN, 0, "Vulkan"});
         for (const Run& r : runs) {
             const Timing t = time_evaluate(r.kind, r.threads, asset, points, repeat, gradients);
-            std::printf("| %s | %u | %s | %u | %.2f | %.1f | %.1f | %.1f |\n", name,
+            std::printf("| %s | %u | %s | %u | %.2f | %.1f | %.1f | %.1f | %.1f |\n", name,
                         info.layer_widths[0], r.label, r.kind == NFD_DEVICE_CPU ? r.threads : 0,
                         double(count) / t.wall_s * 1e-6, flops / t.wall_s * 1e-9, t.wall_s * 1e3,
-                        t.cpu_s * 1e3);
+                        t.cpu_s * 1e3, t.first_s * 1e3);
         }
         nfd_asset_destroy(asset);
     }

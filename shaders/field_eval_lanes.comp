@@ -51,14 +51,15 @@ const uint ROWS_7 = (4 * OUT4_7 + LANES - 1) / LANES;
 // OUTPUTS floats per point, point-major.
 layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { float values[]; };
 
-// Scalar weight (row o, input column c) of field_eval.comp's layout, IN4 vec4s a row; zero for
-// the padding rows and columns this kernel's lanes add.
-#define WEIGHT_AT(W, IN4, OUT4, o, c) \
-    ((o) < 4 * (OUT4) && (c) < 4 * (IN4) ? W.w[(o) * (IN4) + (c) / 4][(c) % 4] : 0.0)
+// Bias of row o of field_eval.comp's layout (IN4 vec4s a row, biases after the rows); zero for
+// the padding rows this kernel's lanes add.
 #define BIAS_AT(W, IN4, OUT4, o) ((o) < 4 * (OUT4) ? W.w[4 * (OUT4) * (IN4) + (o) / 4][(o) % 4] : 0.0)
 
-// This lane's weights of layer K (ROWS rows of SLOTS * LANES inputs) and biases, loaded at
-// constant array indices (the loops are unrolled), so that the arrays stay out of memory.
+// This lane's weights of layer K (ROWS rows of SLOTS * LANES inputs, zero past the layer's rows
+// and columns) and biases, loaded a vec4 at a time into constant array indices (the loops are
+// unrolled), so that the arrays stay out of memory. Loading them one float at a time made the
+// pipeline 2.4x as long to create (lavapipe, width 32: 180 ms instead of 75 in every process,
+// Mesa's disk cache or not), the same code once compiled.
 #define LOAD_LAYER(K, W, IN4, OUT4, ROWS, SLOTS)                                             \
     float w##K[K < NUM_LAYERS ? ROWS * SLOTS * LANES : 1];                                  \
     float b##K[K < NUM_LAYERS ? ROWS : 1];                                                  \
@@ -66,8 +67,10 @@ layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { float val
         [[unroll]] for (uint r = 0; r < ROWS; ++r) {                                        \
             uint o = r * LANES + lane;                                                      \
             b##K[r] = BIAS_AT(W, IN4, OUT4, o);                                             \
-            [[unroll]] for (uint i = 0; i < SLOTS * LANES; ++i)                             \
-                w##K[r * SLOTS * LANES + i] = WEIGHT_AT(W, IN4, OUT4, o, i);                \
+            [[unroll]] for (uint i4 = 0; i4 < SLOTS * LANES / 4; ++i4) {                    \
+                vec4 v = o < 4 * (OUT4) && i4 < (IN4) ? W.w[o * (IN4) + i4] : vec4(0.0);    \
+                [[unroll]] for (uint j = 0; j < 4; ++j) w##K[r * SLOTS * LANES + 4 * i4 + j] = v[j]; \
+            }                                                                               \
         }                                                                                   \
     }
 

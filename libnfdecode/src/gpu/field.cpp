@@ -236,9 +236,10 @@ FieldKernel field_kernel(const Device& d, const DeviceNetwork& net, bool gradien
                         VkDeviceSize(net.weight_vec4s) * 16 <= d.vk->limits().maxComputeSharedMemorySize;
     // On CPU implementations the values of networks up to 48 wide take the lanes kernel (the
     // same bits). Wider ones keep field_eval.comp: the lanes kernel's unrolled rows cost more to
-    // create with its width, even from Mesa's shader cache (2-core lavapipe: +0.1-0.2 s a process
-    // at width 32, +0.3 s at 48, +0.75 s at 64, where a decode at 256 then took longer than with
-    // field_eval.comp; bench/RESULTS.md, "0.13.13").
+    // create with its width, even from Mesa's shader cache (2-core lavapipe, in every process:
+    // 45-75 ms at widths 16-32, 130-200 at 48, 250-350 at 64 against field_eval.comp's 35, and
+    // 2.7 s more than field_eval.comp for a machine's first compile at 64), which at 64 about
+    // equals what a decode at 256 gains (bench/RESULTS.md, "0.13.14").
     const bool lanes =
         d.lane_kernels && !shared && !gradient && !net.storage && net.widest4 <= kLaneKernelWidest4;
     FieldKernel f;
