@@ -87,6 +87,7 @@ struct MeshArrays {
     bool same_geometry(const MeshArrays& o) const {
         return positions == o.positions && normals == o.normals && indices == o.indices;
     }
+    bool operator==(const MeshArrays& o) const { return same_geometry(o) && colours == o.colours; }
 };
 inline MeshArrays arrays_of(const nfd_mesh* mesh) {
     nfd_mesh_data d{};

@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "alloc_tracking.h"
+#include "colour_util.h"
 #include "stream.h"
 #include "test_util.h"
 
@@ -72,15 +73,7 @@ nfd_result one_shot(const Bytes& bytes) {
     return r;
 }
 
-// The mesh at resolution 64 on the CPU, as raw arrays.
-struct MeshArrays {
-    std::vector<float> positions, normals, colours;  // colours empty: none
-    std::vector<uint32_t> indices;
-    bool same_geometry(const MeshArrays& o) const {
-        return positions == o.positions && normals == o.normals && indices == o.indices;
-    }
-    bool operator==(const MeshArrays& o) const { return same_geometry(o) && colours == o.colours; }
-};
+// The mesh at resolution 64 on the CPU, as raw arrays (colour_util.h).
 MeshArrays mesh_of(const nfd_asset* asset) {
     struct ContextFree {
         void operator()(nfd_context* c) const { nfd_context_destroy(c); }
@@ -100,15 +93,7 @@ MeshArrays mesh_of(const nfd_asset* asset) {
     mo.resolution = 64;
     nfd_mesh* mesh = nullptr;
     EXPECT_EQ(nfd_mesh_extract(ctx.get(), asset, &mo, &mesh), NFD_SUCCESS);
-    nfd_mesh_data d{};
-    EXPECT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
-    const float* colours = nullptr;
-    EXPECT_EQ(nfd_mesh_get_colours(mesh, &colours), NFD_SUCCESS);
-    MeshArrays m{{d.positions, d.positions + 3 * d.vertex_count},
-                 {d.normals, d.normals + 3 * d.vertex_count},
-                 {},
-                 {d.indices, d.indices + 3 * d.triangle_count}};
-    if (colours) m.colours.assign(colours, colours + 3 * d.vertex_count);
+    MeshArrays m = arrays_of(mesh);
     nfd_mesh_destroy(mesh);
     return m;
 }
