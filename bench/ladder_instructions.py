@@ -62,7 +62,10 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             cut = Path(tmp) / "cut.nfc"
             cut.write_bytes(args.files[0].read_bytes()[:64])
-            context = instructions([str(cut), "--levels", final, "--device", device], args.binary)
+            context_args = [str(cut), "--levels", final, "--device", device]
+            if device != "cpu":
+                instructions(context_args, args.binary)  # the device's kernels into Mesa's cache
+            context = instructions(context_args, args.binary)
         for path in args.files:
             common = [str(path), "--device", device]
             if device != "cpu":
