@@ -54,6 +54,25 @@ void edge_from_id(uint id, out uint a, out uvec3 s) {
     else if (a == 1u) s = uvec3(i % 3u, (i / 3u) % 2u, i / 6u);
     else s = uvec3(i % 3u, (i / 3u) % 3u, i / 9u);
 }
+// The edges of a parent's child grid (bit edge_id) that lie in the closed box of its neighbour n
+// (kept_around's bit n: offset + 1 = (n % 3, n / 3 % 3, n / 9)), for the 13 neighbours that
+// find_owner tries before the parent: those level with the parent along the edge's axis and,
+// across it, below where the edge lies on the parent's low face (local 0), above where on its
+// high face (local 2), level where in between. The four that touch the parent in a point hold
+// none.
+const uvec2 kEdgesInNeighbour[13] = uvec2[13](
+    uvec2(0u, 0u), uvec2(0x3u, 0u), uvec2(0u, 0u), uvec2(0x240000u, 0u), uvec2(0xfc003fu, 0u),
+    uvec2(0x900000u, 0u), uvec2(0u, 0u), uvec2(0x30u, 0u), uvec2(0u, 0u), uvec2(0u, 0x2010u),
+    uvec2(0x30c3u, 0xe070u), uvec2(0u, 0x8040u), uvec2(0x49240000u, 0x92492u));
+
+// The edges of a parent's child grid that belong to a kept neighbour (`around`: kept_around) and
+// not to the parent: find_owner's rule on bits.
+uvec2 edges_owned_elsewhere(uint around) {
+    uvec2 taken = uvec2(0u);
+    [[unroll]] for (uint n = 0u; n < 13u; ++n)
+        if ((around & (1u << n)) != 0u) taken |= kEdgesInNeighbour[n];
+    return taken;
+}
 bool mask_has(uvec2 mask, uint id) {
     return id < 32u ? (mask.x & (1u << id)) != 0u : (mask.y & (1u << (id - 32u))) != 0u;
 }
