@@ -50,7 +50,8 @@ from .io import MESH_EXTENSIONS, SCAN_ALIGNMENT_EXTENSION, split_extension
 from .rate import check_targets
 
 RESULTS_NAME = "results.jsonl"
-ROW_KEYS = ("input", "output", "status", "bytes", "seconds", "field", "width", "error")
+ROW_KEYS = ("input", "output", "status", "bytes", "seconds", "field", "width", "target_bytes", "target_cd", "tries",
+            "error")
 MANIFEST_SUFFIXES = (".jsonl", ".json")
 
 ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
@@ -103,11 +104,14 @@ class Plan:
 
 
 def row(input: str, status: str, *, output: str | None = None, bytes: int | None = None, seconds: float = 0.0,
-        field: str | None = None, width: int | None = None, error: str | None = None,
-        options_hash: str | None = None) -> dict[str, Any]:
-    """A results.jsonl row (ROW_KEYS in order, then options_hash)."""
+        field: str | None = None, width: int | None = None, options: dict[str, Any] | None = None,
+        tries: int | None = None, error: str | None = None, options_hash: str | None = None) -> dict[str, Any]:
+    """A results.jsonl row (ROW_KEYS in order, then options_hash): the asset's target from its
+    `options` (none where unknown), and `tries`, the encodes its target's search ran."""
+    options = options or {}
     return {"input": input, "output": output, "status": status, "bytes": bytes, "seconds": round(seconds, 3),
-            "field": field, "width": width, "error": error, "options_hash": options_hash}
+            "field": field, "width": width, "target_bytes": options.get("target_bytes"),
+            "target_cd": options.get("target_cd"), "tries": tries, "error": error, "options_hash": options_hash}
 
 
 # --- Discovery -------------------------------------------------------------------------------------
@@ -269,7 +273,8 @@ def _config_options(options: dict[str, Any]) -> dict[str, Any]:
 
 
 def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> dict[str, Any]:
-    """Load and encode one shape; never raises. Returns {status, data, field, seconds, error, final}:
+    """Load and encode one shape; never raises. Returns {status, data, field, seconds, tries, error, final}
+    (`tries`: the encodes a target's search ran, None without a target):
     `final` marks a failure the same input bytes and options will always give (the input or an
     option rejected), which a rerun reports again instead of retrying; crashes, I/O errors, memory
     and a missing device are retried. It imports torch itself and writes nothing (the Ray task)."""
@@ -282,18 +287,21 @@ def encode_asset(input: str, options: dict[str, Any], threads: int | None) -> di
         shape = load_shape(input, colors=options.get("color", "auto"))
         cfg = EncodeConfig(**_config_options(options), quiet=True, threads=threads)
         check_targets(*(options.get(k) for k in TARGETS))
+        tries = None
         if options.get("target_bytes") is not None:
             from .targets import compress_to_bytes
 
-            result, _ = compress_to_bytes(shape, cfg, options["target_bytes"])
+            result, choice = compress_to_bytes(shape, cfg, options["target_bytes"])
+            tries = len(choice.attempts) + (len(choice.color.attempts) if choice.color else 0)
         elif options.get("target_cd") is not None:
             from .targets import compress_to_distortion
 
-            result, _ = compress_to_distortion(shape, cfg, float(options["target_cd"]))
+            result, distortion = compress_to_distortion(shape, cfg, float(options["target_cd"]))
+            tries = len(distortion.attempts)
         else:
             result = compress(shape, cfg)
         return {"status": "ok", "data": result.data, "field": result.field,
-                "seconds": time.perf_counter() - start, "error": None}
+                "seconds": time.perf_counter() - start, "tries": tries, "error": None}
     except NfcError as e:
         message, final = e.message, not isinstance(e, DeviceError)
     except OSError as e:
@@ -501,7 +509,7 @@ def encode_batch(
         asset, digest = job
         target = out / f"{asset.name}.nfc"
         r = row(asset.input, result["status"], seconds=result["seconds"], width=_asked_width(asset.options),
-                error=result["error"])
+                options=asset.options, tries=result.get("tries"), error=result["error"])
         if result["status"] == "ok":
             try:
                 write_atomic(target, result["data"])
@@ -526,7 +534,8 @@ def encode_batch(
             except OSError as e:
                 why = "no such file" if isinstance(e, FileNotFoundError) else f"cannot read ({e.strerror or e})"
                 record(order[asset.name], row(asset.input, "error", width=_asked_width(asset.options),
-                                              error=f"{asset.input}: {why}", seconds=time.perf_counter() - t0))
+                                              options=asset.options, error=f"{asset.input}: {why}",
+                                              seconds=time.perf_counter() - t0))
                 continue
             target = out / f"{asset.name}.nfc"
             before = previous.get(target.name)
@@ -534,11 +543,12 @@ def encode_batch(
                     and target.stat().st_size == before.get("bytes")):
                 record(order[asset.name], row(asset.input, "skipped", output=str(target), bytes=before["bytes"],
                                               seconds=time.perf_counter() - t0, field=before.get("field"),
-                                              width=before.get("width"), options_hash=digest))
+                                              width=before.get("width"), options=asset.options,
+                                              tries=before.get("tries"), options_hash=digest))
             elif (failed := previous.get("error:" + asset.input)) is not None and failed["options_hash"] == digest:
                 record(order[asset.name], row(asset.input, "error", seconds=time.perf_counter() - t0,
-                                              width=_asked_width(asset.options), error=failed.get("error"),
-                                              options_hash=digest))
+                                              width=_asked_width(asset.options), options=asset.options,
+                                              error=failed.get("error"), options_hash=digest))
             else:
                 jobs.append((asset, digest))
         if jobs:

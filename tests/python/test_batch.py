@@ -71,6 +71,7 @@ def test_in_process_batch_rows_isolation_resume_and_no_ray(tmp_path: Path, monke
         r = first[name]
         assert list(r)[: len(ROW_KEYS)] == list(ROW_KEYS)
         assert r["status"] == "ok" and r["error"] is None and r["field"] == "sdf" and r["width"] == 8
+        assert r["target_bytes"] is None and r["target_cd"] is None and r["tries"] is None  # no target, no search
         data = Path(r["output"]).read_bytes()
         assert len(data) == r["bytes"] and r["seconds"] > 0
         assert read_nfc(data).geometry.network.out_features == [8, 8, 1]
@@ -339,6 +340,8 @@ def test_target_bytes_per_asset_bounds_each_file_and_chooses_its_width(tmp_path:
         data = (out / name).read_bytes()
         assert len(data) <= budget and table[name]["bytes"] == len(data)
         assert table[name]["width"] == read_nfc(data).geometry.network.out_features[0]
+        assert table[name]["target_bytes"] == budget and table[name]["target_cd"] is None
+        assert table[name]["tries"] >= 1  # the search's encodes
     assert table["ball.nfc"]["width"] > table["box.nfc"]["width"]
     errors = " | ".join(r["error"] for r in table.values() if r["status"] == "error")
     assert "sphere.obj: no file fits in 40 bytes" in errors and "target_bytes must be int or null" in errors
@@ -350,8 +353,9 @@ def test_target_bytes_per_asset_bounds_each_file_and_chooses_its_width(tmp_path:
     before = hashlib.sha256(json.dumps({"nfencode": __version__, "input_sha256": "d", **options},
                                        sort_keys=True).encode()).hexdigest()[:16]
     assert options_hash({**options, "target_bytes": None}, "d") == before != options_hash({**options, "target_bytes": 9}, "d")
-    assert {Path(r["output"]).name: r["width"] for r in map(json.loads, (out / "results.jsonl").read_text().splitlines())
-            if r["status"] == "skipped"} == {name: table[name]["width"] for name in ("ball.nfc", "box.nfc")}
+    rerun = [r for r in map(json.loads, (out / "results.jsonl").read_text().splitlines()) if r["status"] == "skipped"]
+    assert {Path(r["output"]).name: (r["width"], r["target_bytes"], r["tries"]) for r in rerun} == {
+        name: (table[name]["width"], table[name]["target_bytes"], table[name]["tries"]) for name in ("ball.nfc", "box.nfc")}
 
 
 def test_target_cd_per_asset_and_a_lines_target_replacing_the_command_lines(tmp_path: Path,
@@ -376,6 +380,8 @@ def test_target_cd_per_asset_and_a_lines_target_replacing_the_command_lines(tmp_
     data = (out / "sphere.nfc").read_bytes()
     assert file_chamfer_distance(load_shape(lib / "sphere.obj"), data, 64) <= 0.3
     assert table["sphere.obj"]["width"] == read_nfc(data).geometry.network.out_features[0]
+    assert table["sphere.obj"]["target_cd"] == 0.3 and table["sphere.obj"]["target_bytes"] is None
+    assert table["sphere.obj"]["tries"] >= 1
     assert "give one target, not both" in table["box.ply"]["error"] and table["box.ply"]["width"] is None
 
 
