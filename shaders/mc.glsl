@@ -87,7 +87,6 @@ uint mask_rank(uvec2 mask, uint id) {  // set bits below id
 // Returns kept_around(p), which the kernel may use again for owners of edges.
 float grid[27];
 uint load_grid(uvec3 p, uint k, uint r) { return load_child_grid(p, k, r, grid); }
-bool inside(uvec3 l) { return grid[local_index(l)] < 0.0; }
 
 // The value at point l of kept parent p's (rank k) child grid, where l may lie one step beyond it
 // (components -1..3), if it was evaluated: from p's corners, or from the point's owner among p and
@@ -142,10 +141,12 @@ vec3 edge_normal(uvec3 s, uint a, float fa, float fb, float t, uvec3 p, uint k, 
     return n;
 }
 
-uint cube_case(uvec3 d) {  // child d of the current parent
+// The cube case of child d of a parent whose points inside (f < 0) are the set bits
+// local_index(l) of `inside_bits`.
+uint cube_case(uint inside_bits, uvec3 d) {
     uint c = 0u;
-    for (uint i = 0u; i < 8u; ++i)
-        if (inside(d + corner_offset(i))) c |= 1u << i;
+    [[unroll]] for (uint i = 0u; i < 8u; ++i)
+        c |= (inside_bits >> local_index(d + corner_offset(i)) & 1u) << i;
     return c;
 }
 

@@ -17,26 +17,28 @@ void main() {
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     uint around = load_grid(p, k, r);
+    // The signs and existence of the 27 points as bit masks (bit local_index(l)), for the cases
+    // and the crossed edges.
+    uint inside_bits = 0u, exist_bits = 0u;
+    [[unroll]] for (uint l = 0u; l < 27u; ++l) {
+        if (grid[l] < 0.0) inside_bits |= 1u << l;
+        if (child_point_exists(2u * p + uvec3(l % 3u, (l / 3u) % 3u, l / 9u))) exist_bits |= 1u << l;
+    }
     uint triangles = 0u, busy = 0u;
     uvec4 c = uvec4(0u);
     for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
         if (!child_cell_exists(2u * p + d)) continue;
-        uint cc = cube_case(d);
+        uint cc = cube_case(inside_bits, d);
         uint n = mc_triangle_count(cc);
         set_case_byte(c, child, cc);
         set_case_byte(c, 8u + child, (1u << n) - 1u);
         triangles += n;
         busy += n > 0u ? 1u : 0u;
     }
-    // The crossed edges the parent owns, on bits: crossed from the signs of the 27 points, less
-    // those an earlier kept neighbour owns. (A loop over the 54 edges with owner_around for each
-    // was a quarter of this kernel on lavapipe.)
-    uint inside_bits = 0u, exist_bits = 0u;
-    [[unroll]] for (uint l = 0u; l < 27u; ++l) {
-        if (grid[l] < 0.0) inside_bits |= 1u << l;
-        if (child_point_exists(2u * p + uvec3(l % 3u, (l / 3u) % 3u, l / 9u))) exist_bits |= 1u << l;
-    }
+    // The crossed edges the parent owns, on bits: crossed from the signs, less those an earlier
+    // kept neighbour owns. (A loop over the 54 edges with owner_around for each was a quarter of
+    // this kernel on lavapipe.)
     uvec2 mask = uvec2(0u);
     [[unroll]] for (uint id = 0u; id < 54u; ++id) {
         uint a;
