@@ -47,6 +47,8 @@
 #define NFD_B_KEPT_PREFIX 1        // exclusive prefix of the bitmap words' popcounts
 #define NFD_B_KEPT_CELLS 2         // sorted linear indices of the kept cells
 #define NFD_B_CORNERS 3            // 8 values per kept cell
+#define NFD_B_KEPT_AROUND 44       // per kept cell, which of its 27 neighbours are kept
+                                   // (extract.glsl's kept_around, level_around.comp)
 // A list of child-grid points, owned by kept parents (extract.glsl): the new points of a
 // refinement (values), or the points that need a gradient (UDF).
 #define NFD_B_OWNED 4              // per parent, 27-bit mask of its local points in the list

@@ -25,6 +25,10 @@ layout(std430, binding = NFD_B_KEPT_BITS) readonly buffer KeptBits { uint kept_b
 layout(std430, binding = NFD_B_KEPT_PREFIX) readonly buffer KeptPrefix { uint kept_prefix[]; };
 layout(std430, binding = NFD_B_KEPT_CELLS) readonly buffer KeptCells { uint kept_cells[]; };
 layout(std430, binding = NFD_B_CORNERS) readonly buffer Corners { float corners[]; };
+#ifndef NFD_KEPT_AROUND_WRITTEN  // level_around.comp writes it
+// Per kept cell, kept_around's bits (below), found once per level by level_around.comp.
+layout(std430, binding = NFD_B_KEPT_AROUND) readonly buffer KeptAround { uint kept_arounds[]; };
+#endif
 layout(std430, binding = NFD_B_OWNED) buffer Owned { uint owned[]; };
 layout(std430, binding = NFD_B_OFFSETS) buffer Offsets { uint offsets[]; };  // into `values`
 layout(std430, binding = NFD_B_VALUES) readonly buffer Values { float values[]; };
@@ -89,47 +93,17 @@ uint valid_edge_mask(float f[8], float limit) {
 uvec3 cell_coords(uint c, uint r) { return uvec3(c % r, (c / r) % r, c / (r * r)); }
 uint cell_index(uvec3 p, uint r) { return p.x + r * (p.y + r * p.z); }
 
-bool is_kept(uint c) { return (kept_bits[c >> 5] & (1u << (c & 31u))) != 0u; }
 uint kept_rank(uint c) {
     return kept_prefix[c >> 5] + bitCount(kept_bits[c >> 5] & ((1u << (c & 31u)) - 1u));
 }
 
-// The kept level-r cell with the smallest linear index whose closed box contains the point n / s
-// (in units of level-r cells; s = 2 for child-grid points, 4 for midpoints of child-grid edges).
-// Along an axis the point lies inside one cell, or on the face between two when n % s == 0.
-// False when no such cell is kept.
-bool find_owner(uvec3 n, uint s, uint r, out uvec3 owner) {
-    uvec3 q = n / s;
-    uvec3 lo = q, hi = q;
-    for (int a = 0; a < 3; ++a) {
-        if (n[a] % s == 0u) {
-            lo[a] = q[a] > 0u ? q[a] - 1u : 0u;
-            hi[a] = min(q[a], r - 1u);
-        }
-    }
-    for (uint z = lo.z; z <= hi.z; ++z)
-        for (uint y = lo.y; y <= hi.y; ++y)
-            for (uint x = lo.x; x <= hi.x; ++x)
-                if (is_kept(cell_index(uvec3(x, y, z), r))) {
-                    owner = uvec3(x, y, z);
-                    return true;
-                }
-    owner = lo;
-    return false;
-}
-// For points of a kept cell, where an owner exists.
-uvec3 owner_cell(uvec3 n, uint s, uint r) {
-    uvec3 o;
-    find_owner(n, s, r, o);
-    return o;
-}
-
-// find_owner for the points and edges of one kept cell's child grid, on bits instead of loads: a
-// kernel that looks up many of them (every local point, every edge) reads the kept bits of the
-// 27 cells around the cell once (`around`: bit (x + 1) + 3 (y + 1) + 9 (z + 1) for the cell at
-// offset (x, y, z), clear outside the grid; the cell's own bit 13 set), and each owner is then a
-// few ALU steps. On llvmpipe every load is an 8-lane gather, and find_owner's loop made several
-// per point.
+// Owners are found on bits: the kept bits of the 27 cells around a kept cell (`around`: bit
+// (x + 1) + 3 (y + 1) + 9 (z + 1) for the cell at offset (x, y, z), clear outside the grid; the
+// cell's own bit 13 set) hold every candidate owner of its child grid's points and edges (the
+// cell and those neighbours whose closed box holds one), so each owner is a few ALU steps. The
+// bits are found once per level, by level_around.comp into kept_arounds[rank]: on llvmpipe every
+// load is an 8-lane gather, and a search of the bitmap per point made several. udf_flood.comp,
+// at its pipelines' 16 bindings, computes its own.
 uint kept_around(uvec3 p, uint r) {
     uint around = 0u;
     for (uint z = 0u; z < 3u; ++z) {
@@ -149,7 +123,7 @@ uint kept_around(uvec3 p, uint r) {
     }
     return around;
 }
-// The first kept cell (find_owner's order: z, then y, then x ascending) among p's neighbours at
+// The first kept cell (the owner rule's order: z, then y, then x ascending) among p's neighbours at
 // offsets + 1 from lo to hi (components 0..2), as an offset + 1 from p; false where none is kept.
 bool first_kept_around(uint around, uvec3 lo, uvec3 hi, out uvec3 o) {
     for (uint z = lo.z; z <= hi.z; ++z)
@@ -163,9 +137,9 @@ bool first_kept_around(uint around, uvec3 lo, uvec3 hi, out uvec3 o) {
     return false;
 }
 // The owner of the point of p's child grid at local l (components 0..2), or with `axis` < 3 of the
-// edge from l along that axis, as an offset + 1 from p (components 0..2): find_owner's candidates
-// (the cells whose closed box holds it: p, and p's neighbour below where a component of l is 0,
-// above where it is 2; an edge lies inside p along its axis) in its order.
+// edge from l along that axis, as an offset + 1 from p (components 0..2): the first kept one of
+// the cells whose closed box holds it (p, and p's neighbour below where a component of l is 0,
+// above where it is 2; an edge lies inside p along its axis) in ascending linear index.
 uvec3 owner_around(uint around, uvec3 l, uint axis) {
     uvec3 lo = (l + 1u) / 2u, hi = (l + 2u) / 2u;
     if (axis < 3u) lo[axis] = hi[axis] = 1u;
@@ -228,13 +202,8 @@ float owned_value(uvec3 v, uvec3 o, uint ko) {
     return values[offsets[ko] + bitCount(owned[ko] & (bit - 1u))];
 #endif
 }
-// Value at point l of the child grid of kept cell p (rank k) at level r; with `around`
-// (kept_around) for a kernel that reads many points of p.
-float child_grid_value(uvec3 p, uint k, uvec3 l, uint r) {
-    if (is_corner(l)) return corners[8u * k + corner_index(l)];
-    uvec3 o = owner_cell(2u * p + l, 2u, r);
-    return owned_value(2u * p + l, o, kept_rank(cell_index(o, r)));
-}
+// Value at point l of the child grid of kept cell p (rank k, kept-neighbour bits `around`) at
+// level r.
 float child_grid_value(uvec3 p, uint k, uint around, uvec3 l, uint r) {
     if (is_corner(l)) return corners[8u * k + corner_index(l)];
     uint ko;
@@ -247,7 +216,7 @@ float child_grid_value(uvec3 p, uint k, uint around, uvec3 l, uint r) {
 // p's own points (most of them) take its mask and offset, loaded once (on llvmpipe each load is
 // an 8-lane gather).
 uint load_child_grid(uvec3 p, uint k, uint r, out float grid[27]) {
-    uint around = kept_around(p, r);
+    uint around = kept_arounds[k];
     uint own_mask = owned[k], own_offset = offsets[k];
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);

@@ -18,5 +18,5 @@ void main() {
     uint k = kept_rank(cell_index(p, r));
     uvec3 d = child - 2u * p;
     for (uint c = 0u; c < 8u; ++c)
-        child_corners[8u * j + c] = child_grid_value(p, k, d + corner_offset(c), r);
+        child_corners[8u * j + c] = child_grid_value(p, k, kept_arounds[k], d + corner_offset(c), r);
 }

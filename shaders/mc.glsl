@@ -8,9 +8,8 @@
 // A vertex is made for every crossed edge of the child grid (one whose end points differ in
 // sign: f < 0 inside, as mc_tables.h defines). An edge is shared by up to four visited cells,
 // possibly of different parents; it belongs to the kept parent with the smallest linear index
-// whose closed box contains it (find_owner's rule for its midpoint in quarter-cell units), found
-// by extract.glsl's owner_around. The 54 edges of a 3x3x3 grid are numbered axis by axis:
-// id = 18 a + (index of the start point s, s[a] in {0, 1}, the other two in {0, 1, 2}).
+// whose closed box contains it (the owner rule), found by extract.glsl's owner_around. The 54
+// edges of a 3x3x3 grid are numbered axis by axis: id = 18 a + (index of the start point s, s[a] in {0, 1}, the other two in {0, 1, 2}).
 // A vertex's index is the prefix of the edge masks' popcounts (`vertex_offsets`, per uint word
 // of edge_masks) at its owner's first word plus its rank in the owner's mask.
 #ifndef NFD_MC_GLSL
@@ -56,7 +55,7 @@ void edge_from_id(uint id, out uint a, out uvec3 s) {
 }
 // The edges of a parent's child grid (bit edge_id) that lie in the closed box of its neighbour n
 // (kept_around's bit n: offset + 1 = (n % 3, n / 3 % 3, n / 9)), for the 13 neighbours that
-// find_owner tries before the parent: those level with the parent along the edge's axis and,
+// the owner rule tries before the parent: those level with the parent along the edge's axis and,
 // across it, below where the edge lies on the parent's low face (local 0), above where on its
 // high face (local 2), level where in between. The four that touch the parent in a point hold
 // none.
@@ -66,7 +65,7 @@ const uvec2 kEdgesInNeighbour[13] = uvec2[13](
     uvec2(0x30c3u, 0xe070u), uvec2(0u, 0x8040u), uvec2(0x49240000u, 0x92492u));
 
 // The edges of a parent's child grid that belong to a kept neighbour (`around`: kept_around) and
-// not to the parent: find_owner's rule on bits.
+// not to the parent: the owner rule on bits.
 uvec2 edges_owned_elsewhere(uint around) {
     uvec2 taken = uvec2(0u);
     [[unroll]] for (uint n = 0u; n < 13u; ++n)
@@ -90,7 +89,7 @@ uint load_grid(uvec3 p, uint k, uint r) { return load_child_grid(p, k, r, grid);
 
 // The value at point l of kept parent p's (rank k) child grid, where l may lie one step beyond it
 // (components -1..3), if it was evaluated: from p's corners, or from the point's owner among p and
-// its neighbours (`around`, kept_around), found on bits by find_owner's rule.
+// its neighbours (`around`, kept_around), found on bits by the owner rule.
 bool grid_value(ivec3 l, uvec3 p, uint k, uint around, uint r, out float f) {
     ivec3 w = 2 * ivec3(p) + l;
     if (any(lessThan(w, ivec3(0))) || !child_point_exists(uvec3(w))) return false;

@@ -40,7 +40,7 @@ void main() {
     // t) rather than loops over children and their triangles, whose counts differ from lane to
     // lane; the parent's own vertices (most) without loads.
     uvec4 c = cases[k];
-    uint around = (c.z | c.w) != 0u ? kept_around(p, r) : 0u;  // any triangle emitted
+    uint around = kept_arounds[k];
     uint index = 3u * triangle_offsets[k];
     uvec2 emitted = c.zw;
     while (emitted != uvec2(0u)) {

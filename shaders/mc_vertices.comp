@@ -22,7 +22,7 @@ void main() {
     uvec3 s;
     edge_from_id(vertex_edges[vertex] & 63u, a, s);
     uvec3 v = 2u * p + s;
-    uint around = kept_around(p, r);
+    uint around = kept_arounds[k];
     float fa = child_grid_value(p, k, around, s, r);
     float fb = child_grid_value(p, k, around, s + unit_axis(a), r);
     vec3 u = child_point(v);

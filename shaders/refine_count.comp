@@ -10,7 +10,7 @@ void main() {
     if (k >= item_count()) return;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
-    uint around = kept_around(p, r);
+    uint around = kept_arounds[k];
     uint mask = 0u;
     for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);

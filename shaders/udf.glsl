@@ -2,8 +2,8 @@
 // mesh_udf_cpu.cpp. The parents and child grids are mc.glsl's. Per parent, `near_masks` says
 // which of its children are near cells (step 1). The gradients are evaluated once per child-grid
 // point that is a corner of a near cell, by the point's owner (the kept parent with the smallest
-// index whose closed box contains it, extract.glsl's find_owner, now over all 27 points of a child
-// grid, corners included); the list has the layout of extract.glsl's new values (a 27-bit mask and
+// index whose closed box contains it, extract.glsl's owner_around, now over all 27 points of a
+// child grid, corners included); the list has the layout of extract.glsl's new values (a 27-bit mask and
 // an offset per parent), and field_eval.comp's WITH_GRADIENT output per point: (value, gradient),
 // the value bit-identical to field_eval's. Everything after udf_gradient_count reads the values
 // from there too, so the level's sparse storage is released once the list is made.
@@ -26,20 +26,17 @@ uint listed_gradient(uvec3 w, uvec3 o, uint ko) {
     if ((gradient_owned[ko] & bit) == 0u) return NFD_NOT_LISTED;
     return gradient_offsets[ko] + bitCount(gradient_owned[ko] & (bit - 1u));
 }
-// The index in the gradient list of child-grid point w, or NFD_NOT_LISTED.
-uint gradient_index(uvec3 w, uint r) {
-    uvec3 o;
-    if (!find_owner(w, 2u, r, o)) return NFD_NOT_LISTED;
-    return listed_gradient(w, o, kept_rank(cell_index(o, r)));
-}
-
-// (value, gradient) at child-grid point w, a corner of a near cell (so its owner listed it); or
-// at point l of kept parent p's (rank k) child grid (around: kept_around).
-vec4 field_at(uvec3 w, uint r) { return gradients[gradient_index(w, r)]; }
-vec4 field_at(uvec3 p, uint k, uint around, uvec3 l, uint r) {
+// The index in the gradient list of point l of kept parent p's (rank k) child grid (around: its
+// kept_arounds bits), or NFD_NOT_LISTED.
+uint gradient_index(uvec3 p, uint k, uint around, uvec3 l, uint r) {
     uint ko;
     uvec3 o = local_owner(p, k, around, l, 3u, r, ko);
-    return gradients[listed_gradient(2u * p + l, o, ko)];
+    return listed_gradient(2u * p + l, o, ko);
+}
+// (value, gradient) at point l of kept parent p's child grid, a corner of a near cell (so its
+// owner listed it).
+vec4 field_at(uvec3 p, uint k, uint around, uvec3 l, uint r) {
+    return gradients[gradient_index(p, k, around, l, r)];
 }
 
 // As mesh_udf_cpu.cpp: left to right, no fused multiply-add, so that equal gradients give equal

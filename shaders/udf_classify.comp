@@ -26,7 +26,7 @@ void main() {
     uint k = near_cells[i] >> 5u, child = near_cells[i] & 31u;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
-    uint around = kept_around(p, r);
+    uint around = kept_arounds[k];
     uint own_mask = gradient_owned[k], own_offset = gradient_offsets[k];
     uvec3 d = corner_offset(child);
     float f[8];

@@ -16,7 +16,11 @@ layout(std430, binding = NFD_B_CORNER_GRADIENTS) writeonly buffer CornerGradient
 void main() {
     uint j = global_invocation_index(gl_WorkGroupSize.x);
     if (j >= item_count()) return;
+    uint r = push.parent_cells;
     uvec3 child = cell_coords(child_cells[j], push.child_cells);
+    uvec3 p = child / 2u;
+    uint k = kept_rank(cell_index(p, r));
+    uint around = kept_arounds[k];
     for (uint c = 0u; c < 8u; ++c)
-        corner_gradients[8u * j + c] = gradient_index(child + corner_offset(c), push.parent_cells);
+        corner_gradients[8u * j + c] = gradient_index(p, k, around, child - 2u * p + corner_offset(c), r);
 }

@@ -23,7 +23,7 @@ void main() {
     bool carried_above = push.tally_slot != NFD_NO_COUNTER;
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
-    uint around = kept_around(p, r);
+    uint around = kept_arounds[k];
     // The near cells among the 4x4x4 finest cells 2p - 1 + b (b in 0..3 per axis) around p's
     // children, from the near masks of the kept cells around p: bit b.x + 4 b.y + 16 b.z.
     uvec2 near = uvec2(0u);

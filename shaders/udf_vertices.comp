@@ -22,7 +22,8 @@ void main() {
     uvec3 s;
     edge_from_id(vertex_edges[vertex] & 63u, a, s);
     uvec3 v = 2u * p + s, e = unit_axis(a);
-    vec4 a_end = field_at(v, r), b_end = field_at(v + e, r);
+    uint around = kept_arounds[k];
+    vec4 a_end = field_at(p, k, around, s, r), b_end = field_at(p, k, around, s + e, r);
     float fa = a_end.x, fb = b_end.x;
     precise float sum = fa + fb;
     precise float t = sum > 0.0 ? fa / sum : 0.5;

@@ -39,8 +39,10 @@ static_assert(uint64_t(NFD_MAX_RECORDING_CELLS) < 1ull << 26, "mc_emit's parent 
 namespace {
 
 constexpr BindingMask B(uint32_t binding) { return BindingMask(1) << binding; }
-constexpr BindingMask kLevel =
+// A level's kept cells (level_cells_bindings), and with their kept-neighbour bits (level_bindings).
+constexpr BindingMask kLevelCells =
     B(NFD_B_KEPT_BITS) | B(NFD_B_KEPT_PREFIX) | B(NFD_B_KEPT_CELLS) | B(NFD_B_COUNTERS);
+constexpr BindingMask kLevel = kLevelCells | B(NFD_B_KEPT_AROUND);
 constexpr BindingMask kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
 constexpr BindingMask kGradients =
     B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_GRADIENTS);
@@ -54,9 +56,10 @@ constexpr BindingMask kPredicted =
 constexpr BindingMask kUdfNear =
     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_MASKS);
 // A UDF finest level's surface following (udf_flood.comp), the level's values in the predicted
-// list alone: the claiming and evaluating modes' roles (16, the most a pipeline has), and the
-// faces mode's, which writes the near masks in place of the claims.
-constexpr BindingMask kFloodFrontier = kLevel | B(NFD_B_CORNERS) | kPredicted |
+// list alone: the claiming and evaluating modes' roles (16, the most a pipeline has: these
+// compute their parents' kept-neighbour bits rather than bind a 17th), and the faces mode's,
+// which writes the near masks in place of the claims.
+constexpr BindingMask kFloodFrontier = kLevelCells | B(NFD_B_CORNERS) | kPredicted |
                                        B(NFD_B_FLOOD_VISITED) | B(NFD_B_FLOOD_FRESH) |
                                        B(NFD_B_FLOOD_NEXT) | B(NFD_B_FLOOD_FRONTIER);
 constexpr BindingMask kFlood = kFloodFrontier | B(NFD_B_FLOOD_CLAIMED) | B(NFD_B_FLOOD_POINTS) |
@@ -162,6 +165,7 @@ constexpr KernelDesc kKernels[] = {
     {Kernel::GatherCorners, shaders::gather_corners,
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_CELLS) | B(NFD_B_CHILD_CORNERS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::LevelAround, shaders::level_around, kLevel, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // Marching cubes over the level-1 parents (mc.glsl); McEmit serves SDF and UDF.
     {Kernel::McClassify, shaders::mc_classify,
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |

@@ -70,6 +70,20 @@ nfd_result evaluate_child_grids(Job& job, DeviceNetwork& net, const Level& paren
     return record_values(job, net, parent, push, buffers, scratch, dense, g);
 }
 
+// extract.glsl's kept_around on the host: bit (x + 1) + 3 (y + 1) + 9 (z + 1) set where the cell
+// at offset (x, y, z) from p is in the grid of n^3 cells and kept.
+uint32_t kept_around(const uint8_t* kept, uint32_t n, const uint32_t p[3]) {
+    uint32_t around = 0;
+    for (uint32_t z = 0; z < 3; ++z)
+        for (uint32_t y = 0; y < 3; ++y)
+            for (uint32_t x = 0; x < 3; ++x) {
+                const uint32_t q[3] = {p[0] + x - 1, p[1] + y - 1, p[2] + z - 1};  // wraps below 0
+                if (q[0] < n && q[1] < n && q[2] < n && kept[(size_t(q[2]) * n + q[1]) * n + q[0]])
+                    around |= 1u << (x + 3 * y + 9 * z);
+            }
+    return around;
+}
+
 // The value and gradient at the coarsest level's vertices that `wanted` marks, by the C++
 // evaluator, into `out` (4 floats a vertex).
 nfd_result evaluate_top_gradients(const HostTop& top, const nfd::vector<uint8_t>& wanted,
@@ -111,10 +125,14 @@ uint32_t Plan::level_cells(uint32_t level, uint32_t cells_per_axis) const {
     return uint32_t(std::min<uint64_t>({c, all, UINT32_MAX}));
 }
 
-std::vector<Bind> level_bindings(const Level& level) {
+std::vector<Bind> level_cells_bindings(const Level& level) {
     return {{NFD_B_KEPT_BITS, *level.bits},
             {NFD_B_KEPT_PREFIX, *level.prefix},
             {NFD_B_KEPT_CELLS, *level.list}};
+}
+
+std::vector<Bind> level_bindings(const Level& level) {
+    return with(level_cells_bindings(level), {{NFD_B_KEPT_AROUND, *level.around}});
 }
 
 nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const PointList& list,
@@ -261,13 +279,16 @@ nfd_result LevelBuilder::evaluate_top_on_host() {
         const VkDeviceSize listed = std::max(count, 1u);  // a buffer holds a byte at least
         NFD_TRY(level.buffers.make(listed * 4, &level.list, Memory::Host));
         NFD_TRY(level.buffers.make(listed * 32, &level.corners, Memory::Host));
+        NFD_TRY(level.buffers.make(listed * 4, &level.around, Memory::Host));
         uint32_t* list = level.list->as<uint32_t>();
         float* corners = level.corners->as<float>();
+        uint32_t* around = level.around->as<uint32_t>();
         uint32_t i = 0;
         for (uint32_t c = 0; c < kept.size(); ++c) {
             if (!kept[c]) continue;
             list[i] = c;
             const uint32_t p[3] = {c % n, c / n % n, c / (n * n)};
+            around[i] = kept_around(kept.data(), n, p);
             for (int k = 0; k < 8; ++k) {
                 const uint8_t* o = mc::kCornerOffset[k];
                 const uint32_t v[3] = {2 * (p[0] + o[0]), 2 * (p[1] + o[1]), 2 * (p[2] + o[2])};
@@ -292,6 +313,7 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
     child.capacity = plan_ ? plan_->level_cells(current_, child.cells) : child.kept;
     NFD_TRY(child.buffers.make(VkDeviceSize(child.capacity) * 4, &child.list));
     NFD_TRY(child.buffers.make(VkDeviceSize(child.capacity) * 32, &child.corners));
+    NFD_TRY(child.buffers.make(VkDeviceSize(child.capacity) * 4, &child.around));
     if (child.capacity > 0) {
         LevelPush gather = refine_push(current_, level_.parents.cells, child.count());
         const uint32_t words = child.words();
@@ -301,6 +323,10 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
                                {NFD_B_KEPT_PREFIX, *child.prefix},
                                {NFD_B_KEPT_CELLS, *child.list}},
                               &words, Count{words}));
+        LevelPush around = gather;
+        around.parent_cells = child.cells;
+        NFD_TRY(job_.dispatch(Kernel::LevelAround, level_bindings(child), &around,
+                              child.count()));
         NFD_TRY(job_.dispatch(Kernel::GatherCorners,
                               with(child_grid_bindings(level_.parents, level_.grid),
                                    {{NFD_B_CHILD_CELLS, *child.list},
@@ -449,7 +475,7 @@ nfd_result LevelBuilder::evaluate_finest_flood(const LevelPush& push, Buffers& s
     auto run = [&](Kernel kernel, Count items) {
         LevelPush at = wave;
         at.set(items);
-        std::vector<Bind> roles = with(level_bindings(parents),
+        std::vector<Bind> roles = with(level_cells_bindings(parents),
                                        {{NFD_B_CORNERS, *parents.corners},
                                         {NFD_B_PREDICTED_OWNED, *p.owned},
                                         {NFD_B_PREDICTED_OFFSETS, *p.offsets},
@@ -602,14 +628,15 @@ uint64_t LevelBuilder::next_step_host_bytes(bool mesh) const {
 
 uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf, bool carried) const {
     if (done()) return 0;
-    // Per kept cell K of this level: its list entry and corners (36), its child grid's masks,
-    // offsets and counts (12) and at most 19 new values (76); the points buffer of a chunk; the
-    // scans' block sums (under 1/64 of what they scan, 8 bytes a block, twice for nesting).
+    // Per kept cell K of this level: its list entry, corners and neighbour bits (40), its child
+    // grid's masks, offsets and counts (12) and at most 19 new values (76); the points buffer of
+    // a chunk; the scans' block sums (under 1/64 of what they scan, 8 bytes a block, twice for
+    // nesting).
     const uint64_t k = kept_.kept, chunk = 1u << 20;
     const uint64_t child_level = current_ - 1;
     auto scan = [](uint64_t count) { return 16 * (count / 64 + 2); };
     // The job's counters and a block of indirect records, made by the first step: 32 KiB.
-    uint64_t bytes = 36 * k + 12 * k + 76 * k + 12 * std::min(19 * k, chunk) + scan(k) + 32768;
+    uint64_t bytes = 40 * k + 12 * k + 76 * k + 12 * std::min(19 * k, chunk) + scan(k) + 32768;
     if (child_level > 0) {
         const uint64_t n = cells_at_level(resolution_, uint32_t(child_level));
         const uint64_t words = (n * n * n + 31) / 32;

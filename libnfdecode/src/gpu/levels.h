@@ -38,7 +38,8 @@ struct Plan : Capacities {
 };
 
 // The kept cells of one level: a bitmap over its cells with the prefix of its words' popcounts,
-// the sorted list, and 8 corner values per kept cell. The list holds `capacity` cells, and
+// the sorted list, 8 corner values and the kept-neighbour bits (extract.glsl's kept_arounds) per
+// kept cell. The list holds `capacity` cells, and
 // counter `slot` their number on the device (NFD_NO_COUNTER: exactly `capacity`); `kept` is that
 // number on the host, once known (own jobs: after the level's batch).
 struct Level {
@@ -47,6 +48,7 @@ struct Level {
     uint32_t capacity = 0, slot = NFD_NO_COUNTER, kept = 0;
     Buffers buffers;
     Buffer *bits = nullptr, *prefix = nullptr, *list = nullptr, *corners = nullptr;
+    Buffer* around = nullptr;
     uint32_t words() const { return div_up(uint64_t(cells) * cells * cells, 32); }
     Count count() const { return {capacity, slot}; }
 };
@@ -208,8 +210,10 @@ nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const
 // the UDF mesher's gradient list.
 nfd_result top_gradients(const HostTop& top, float h, Buffers& buffers, Buffer** out);
 
-// The bindings of extract.glsl's level (kept bits, prefix, cells), and with them its child grids
-// (the level's corners, the new points' masks, offsets and values).
+// The bindings of extract.glsl's level: its kept cells (bits, prefix, list), with their
+// kept-neighbour bits, and with those its child grids (the level's corners, the new points'
+// masks, offsets and values).
+std::vector<Bind> level_cells_bindings(const Level& level);
 std::vector<Bind> level_bindings(const Level& level);
 std::vector<Bind> child_grid_bindings(const Level& parent, const PointList& g);
 
