@@ -113,6 +113,7 @@
 #define NFD_B_NEAR_CELLS 43
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel
-#define NFD_LEVEL_PUSH_BYTES 60    // extract.glsl's LevelPush
+#define NFD_LEVEL_PUSH_BYTES 64    // extract.glsl's LevelPush
+#define NFD_POINT_CHUNK (1u << 20) // points of a list that refine_points writes for one evaluation
 
 #endif

@@ -39,17 +39,19 @@ layout(push_constant) uniform LevelPush {
     uint parent_cells;  // cells per axis of the parent level
     uint child_cells;   // of the child level: 2 * parent_cells or one less (the last is dropped)
     uint count;         // capacity of the items (kept parents; kept children: gather_corners;
-                        // vertices: mc_vertices, udf_vertices; points: refine_points), and with
+                        // vertices: mc_vertices, udf_vertices; points: dense_lookup), and with
                         // count_slot and first their number: item_count()
     uint child_level;   // l: child-grid point v is fine vertex v << l
     float step;         // fine cell edge, 2.0f / resolution
     float threshold;    // refine_cells: the activity threshold of a child cell
     float scale;        // mc_vertices, udf_vertices
     float edge_limit;   // UDF: the largest f_a + f_b of a valid edge (grid.h, udf_edge_limit)
-    uint first;         // refine_points: the first point of its chunk
+    uint first;         // the first item (dense_lookup, udf_flood.comp: of a chunk of points)
     uint count_slot;    // the counter with the items' total (counters.glsl), or NFD_NO_COUNTER
     uint tally_slot;    // udf_gradient_count, progressive levels: the counter of the corners it
                         // copies from the level above (else NFD_NO_COUNTER)
+    uint list_first;    // refine_points: its chunk of the point list, NFD_POINT_CHUNK points
+                        // from this one on
 } push;
 
 uint item_count() { return counted_items(push.count, push.count_slot, push.first); }

@@ -138,12 +138,12 @@ std::vector<Bind> level_bindings(const Level& level) {
 nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const PointList& list,
                        const Buffer& results, bool gradient, const LevelPush& push,
                        Buffers& scratch, const Buffer* dense) {
-    // Chunks of kListChunk points: the points buffer (12 bytes a point, 167 MB for the 14M new
-    // points of resolution 1024) stays at 12 MB.
-    constexpr uint32_t kListChunk = 1u << 20;
+    // Chunks of NFD_POINT_CHUNK points: the points buffer (12 bytes a point, 167 MB for the 14M
+    // new points of resolution 1024) stays at 12 MB.
+    constexpr uint32_t kListChunk = NFD_POINT_CHUNK;
     if (list.capacity == 0 || parents.capacity == 0) return NFD_SUCCESS;
-    // refine_points and dense_lookup search the offsets of the parents' capacity, no further
-    // (buffers may be larger than asked for).
+    // dense_lookup searches the offsets of the parents' capacity, no further (buffers may be
+    // larger than asked for).
     const BufferRange offsets(*list.offsets, 0, VkDeviceSize(parents.capacity) * 4);
     if (dense) {
         LevelPush all = push;
@@ -159,17 +159,18 @@ nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const
     }
     Buffer* points;
     NFD_TRY(scratch.make(VkDeviceSize(std::min(list.capacity, kListChunk)) * 12, &points));
-    LevelPush chunk = push;
+    LevelPush chunk = push;  // refine_points runs per parent, writing its points in the chunk
+    chunk.set(parents.count());
     for (uint64_t first = 0; first < list.capacity; first += kListChunk) {
         const Count c{uint32_t(std::min<uint64_t>(kListChunk, list.capacity - first)), list.slot,
                       uint32_t(first)};
-        chunk.set(c);
+        chunk.list_first = uint32_t(first);
         NFD_TRY(job.dispatch(Kernel::RefinePoints,
                              {{NFD_B_KEPT_CELLS, *parents.list},
                               {NFD_B_OWNED, *list.owned},
                               {NFD_B_OFFSETS, offsets},
                               {NFD_B_POINTS, *points}},
-                             &chunk, c));
+                             &chunk, parents.count()));
         NFD_TRY(record_field(job, net, *points, results, c, gradient));
     }
     return NFD_SUCCESS;

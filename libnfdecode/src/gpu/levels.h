@@ -19,6 +19,7 @@ struct LevelPush {
     float step = 0, threshold = 0, scale = 1, edge_limit = 0;
     uint32_t first = 0, count_slot = NFD_NO_COUNTER;
     uint32_t tally_slot = NFD_NO_COUNTER;
+    uint32_t list_first = 0;
     void set(Count c) {
         count = c.capacity;
         count_slot = c.slot;
