@@ -21,6 +21,7 @@ extern const Spirv refine_count;        // which child-grid vertices each kept c
 extern const Spirv refine_points;       // writes the owned vertices' unit positions
 extern const Spirv refine_cells;        // tests the children of kept cells, sets kept bits
 extern const Spirv refine_cells_near;   // the same, and a UDF's near cells for its mesher
+extern const Spirv refine_cells_classify;  // the same, and an SDF level's cases for its mesher
 extern const Spirv gather_corners;      // corner values of the newly kept cells
 extern const Spirv level_around;        // each kept cell's kept neighbours, as bits
 extern const Spirv bitmap_compact;      // kept bitmap -> sorted list of cell indices

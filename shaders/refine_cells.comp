@@ -3,6 +3,8 @@
 // NFD_NEAR_MASKS, for a UDF level that is meshed before the next one refines it (progressive
 // extractions): also each parent's near children (udf_near.comp's test on the same eight
 // values, push.edge_limit the mesher's), so that the mesher skips udf_near's pass over the grid.
+// NFD_MC_CASES, for an SDF level meshed before the next one refines it: also each parent's
+// marching-cubes classification (mc_classify.glsl), so that the mesher skips mc_classify.comp.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -12,6 +14,9 @@ layout(std430, binding = NFD_B_CHILD_BITS) buffer ChildBits { uint child_bits[];
 #include "mc.glsl"
 layout(std430, binding = NFD_B_NEAR_MASKS) writeonly buffer NearMasks { uint near_masks[]; };
 #endif
+#ifdef NFD_MC_CASES
+#include "mc_classify.glsl"
+#endif
 
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
@@ -19,7 +24,7 @@ void main() {
     uint r = push.parent_cells;
     uvec3 p = cell_coords(kept_cells[k], r);
     float grid[27];
-    load_child_grid(p, k, r, grid);
+    uint around = load_child_grid(p, k, r, grid);
 #ifdef NFD_NEAR_MASKS
     uint near = 0u;
 #endif
@@ -38,5 +43,8 @@ void main() {
     }
 #ifdef NFD_NEAR_MASKS
     near_masks[k] = near;
+#endif
+#ifdef NFD_MC_CASES
+    classify_parent(k, p, around, grid);
 #endif
 }

@@ -162,6 +162,10 @@ constexpr KernelDesc kKernels[] = {
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS) | B(NFD_B_MC_TABLES) |
          B(NFD_B_NEAR_MASKS),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::RefineCellsClassify, shaders::refine_cells_classify,
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS) | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) |
+         B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::GatherCorners, shaders::gather_corners,
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_CELLS) | B(NFD_B_CHILD_CORNERS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},

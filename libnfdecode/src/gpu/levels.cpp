@@ -19,6 +19,10 @@ std::vector<Bind> with(std::vector<Bind> b, std::initializer_list<Bind> more) {
     b.insert(b.end(), more);
     return b;
 }
+std::vector<Bind> with(std::vector<Bind> b, const std::vector<Bind>& more) {
+    b.insert(b.end(), more.begin(), more.end());
+    return b;
+}
 
 constexpr uint32_t kNewPointsPerParent = 19;  // of a child grid's 27, the 8 corners are known
 
@@ -351,6 +355,7 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
     level_.predicted = PointList();
     level_.near_buffers.release();
     level_.near = nullptr;
+    level_.classified.release();  // the mesher's, if it did not run
     level_.top = HostTop();
     level_.parents = std::move(kept_);
     kept_ = Level(*job_.device.vk);
@@ -586,19 +591,28 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
             job_.fill(*child.bits, 0);
             std::vector<Bind> refine = with(child_grid_bindings(parents, level_.grid),
                                             {{NFD_B_CHILD_BITS, *child.bits}});
-            // A meshed UDF level: its near cells found with the keep rule (refine_cells.comp's
-            // NFD_NEAR_MASKS), which reads the same values, for the mesher.
-            const bool finds_near = field_ == FieldType::Udf && (meshed_levels_ >> l & 1);
+            // A meshed level: the keep rule reads the values its mesher starts from, so it
+            // also finds a UDF's near cells (refine_cells.comp's NFD_NEAR_MASKS) or classifies an
+            // SDF's parents (NFD_MC_CASES) for the mesher.
+            const bool meshed = (meshed_levels_ >> l & 1) != 0;
+            const bool finds_near = meshed && field_ == FieldType::Udf;
+            const bool classifies = meshed && field_ == FieldType::Sdf;
             LevelPush keep = push;
+            Kernel kernel = Kernel::RefineCells;
             if (finds_near) {
+                kernel = Kernel::RefineCellsNear;
                 NFD_TRY(level_.near_buffers.make(VkDeviceSize(parents.capacity) * 4, &level_.near));
                 job_.fill(*level_.near, 0);  // the mesher's scan runs over the capacity
                 keep.edge_limit = udf_edge_limit(view.step);  // the mesher's (mesh_udf.cpp)
                 refine = with(refine, {{NFD_B_NEAR_MASKS, *level_.near},
                                        {NFD_B_MC_TABLES, job_.device.mc_tables}});
+            } else if (classifies) {
+                kernel = Kernel::RefineCellsClassify;
+                NFD_TRY(level_.classified.make(job_, parents.capacity, nullptr));
+                refine = with(with(refine, level_.classified.classify_bindings()),
+                              {{NFD_B_MC_TABLES, job_.device.mc_tables}});
             }
-            NFD_TRY(job_.dispatch(finds_near ? Kernel::RefineCellsNear : Kernel::RefineCells,
-                                  refine, &keep, parents.count()));
+            NFD_TRY(job_.dispatch(kernel, refine, &keep, parents.count()));
             NFD_TRY(record_scan(job_, scratch, *child.bits, *child.prefix, words, true));
             const uint32_t capacity =
                 plan_ ? plan_->level_cells(l, child.cells) : UINT32_MAX;  // own: sized once known

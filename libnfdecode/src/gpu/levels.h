@@ -83,6 +83,35 @@ struct HostTop {
     float coord(uint32_t v) const { return -1.0f + float(v << level) * step; }
 };
 
+// What a classify kernel (mc_classify.comp, udf_classify.comp) writes per level-1 parent, and
+// the prefix sums of its counts: the input of emit_mesh. Sized for the parents' capacity and
+// zero past their count, so that the scans and totals run on capacities.
+struct DeviceMesh;
+struct Classified {
+    explicit Classified(Context& vk) : buffers(vk) {}
+    Buffers buffers;
+    Buffer *cases = nullptr;           // uvec4: cube cases, emitted-triangle masks
+    Buffer *edge_masks = nullptr;      // uvec2: owned edges that carry a vertex
+    Buffer *vertex_offsets = nullptr;  // per edge-mask word
+    Buffer *triangle_counts = nullptr, *triangle_offsets = nullptr, *active = nullptr;
+    uint32_t parents = 0;              // capacity
+    // Makes the buffers for `parents` kept parents (`active` from the job when the mesh stays on
+    // the device) and records their clearing.
+    nfd_result make(Job& job, uint32_t parents, DeviceMesh* device);
+    // Records the two scans and the mesh's totals (counters `vertex_slot`, `triangle_slot`, with
+    // the given capacities) once the classify kernel is recorded.
+    nfd_result record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
+                            uint32_t vertex_capacity, uint32_t triangle_slot,
+                            uint32_t triangle_capacity);
+    // What the classify kernel writes: cases, edge masks, triangle counts, active cells.
+    std::vector<Bind> classify_bindings() const;
+    void release() {
+        buffers.release();
+        cases = edge_masks = vertex_offsets = triangle_counts = triangle_offsets = active = nullptr;
+        parents = 0;
+    }
+};
+
 // A level as the meshers see it, the finest or a coarser one meshed as if it were (progressive.h):
 // the kept cells of the level above (`parents`), the new values of their child grids (whose cells
 // are this level's), and the push constants that describe them as a finest level (child level 0,
@@ -90,7 +119,7 @@ struct HostTop {
 // that of the parents).
 struct FinestLevel {
     explicit FinestLevel(Context& vk)
-        : parents(vk), buffers(vk), predicted_buffers(vk), near_buffers(vk) {}
+        : parents(vk), buffers(vk), predicted_buffers(vk), near_buffers(vk), classified(vk) {}
     Level parents;
     PointList grid;
     LevelPush push;
@@ -109,6 +138,10 @@ struct FinestLevel {
     // the finest, found with the keep rule (refine_cells.comp's NFD_NEAR_MASKS); else null.
     Buffers near_buffers;
     Buffer* near = nullptr;
+    // A meshed SDF level above the finest: its parents classified with the keep rule
+    // (refine_cells.comp's NFD_MC_CASES, the same child grids), for the mesher, which then skips
+    // mc_classify.comp; no buffers (`parents` 0) otherwise.
+    Classified classified;
     uint64_t points_evaluated = 0;  // own jobs; recorded ones: LevelBuilder::point_slots()
     HostTop top;                    // the coarsest level's (its values in `buffers`), else empty
     // The meshers free the level's storage as soon as they have read it (peak memory), unless
@@ -258,27 +291,6 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
 nfd_result mesh_level(Job& job, DeviceNetwork& net, FieldType field, FinestLevel& level,
                       const Plan* plan, MeshTarget target, ExtractStats* stats,
                       GradientCarry carried = {});
-
-// What a classify kernel (mc_classify.comp, udf_classify.comp) writes per level-1 parent, and
-// the prefix sums of its counts: the input of emit_mesh. Sized for the parents' capacity and
-// zero past their count, so that the scans and totals run on capacities.
-struct Classified {
-    explicit Classified(Context& vk) : buffers(vk) {}
-    Buffers buffers;
-    Buffer *cases = nullptr;           // uvec4: cube cases, emitted-triangle masks
-    Buffer *edge_masks = nullptr;      // uvec2: owned edges that carry a vertex
-    Buffer *vertex_offsets = nullptr;  // per edge-mask word
-    Buffer *triangle_counts = nullptr, *triangle_offsets = nullptr, *active = nullptr;
-    uint32_t parents = 0;              // capacity
-    // Makes the buffers for `parents` kept parents (`active` from the job when the mesh stays on
-    // the device) and records their clearing.
-    nfd_result make(Job& job, uint32_t parents, DeviceMesh* device);
-    // Records the two scans and the mesh's totals (counters `vertex_slot`, `triangle_slot`, with
-    // the given capacities) once the classify kernel is recorded.
-    nfd_result record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
-                            uint32_t vertex_capacity, uint32_t triangle_slot,
-                            uint32_t triangle_capacity);
-};
 
 // The shared back half of both meshers (marching.cpp, as marching.h on the CPU): mc_emit.comp
 // writes each parent's vertex edges and welded triangles, then `vertices` (McVertices or

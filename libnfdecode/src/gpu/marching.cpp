@@ -30,6 +30,13 @@ nfd_result Classified::make(Job& job, uint32_t k, DeviceMesh* device) {
     return NFD_SUCCESS;
 }
 
+std::vector<Bind> Classified::classify_bindings() const {
+    return {{NFD_B_CASES, *cases},
+            {NFD_B_EDGE_MASKS, *edge_masks},
+            {NFD_B_TRIANGLE_COUNTS, *triangle_counts},
+            {NFD_B_ACTIVE, *active}};
+}
+
 nfd_result Classified::record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
                                     uint32_t vertex_capacity, uint32_t triangle_slot,
                                     uint32_t triangle_capacity) {
@@ -89,7 +96,7 @@ nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& c, Kernel vertic
                              {NFD_B_INDICES, *indices}});
     NFD_TRY(job.dispatch(Kernel::McEmit, emit, &finest.push, finest.parents.count()));
     NFD_TRY(job.sync());
-    c.buffers.release();
+    c.release();
 
     if (device) {
         positions = device->positions;

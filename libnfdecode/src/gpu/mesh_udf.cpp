@@ -181,12 +181,10 @@ nfd_result mesh_udf(Job& job, DeviceNetwork& net, FinestLevel& finest, const Pla
     job.fill(*c.cases, 0);  // each near cell ors its bytes in; a parent's others stay 0
     std::vector<Bind> classify = level_bindings(parents);
     classify.insert(classify.end(), gradient_bindings.begin(), gradient_bindings.end());
+    std::vector<Bind> written = c.classify_bindings();
+    classify.insert(classify.end(), written.begin(), written.end());
     classify.insert(classify.end(), {{NFD_B_MC_TABLES, job.device.mc_tables},
-                                     {NFD_B_NEAR_CELLS, *near_cells},
-                                     {NFD_B_CASES, *c.cases},
-                                     {NFD_B_EDGE_MASKS, *c.edge_masks},
-                                     {NFD_B_TRIANGLE_COUNTS, *c.triangle_counts},
-                                     {NFD_B_ACTIVE, *c.active}});
+                                     {NFD_B_NEAR_CELLS, *near_cells}});
     LevelPush per_cell = push;
     per_cell.set(near_count);
     NFD_TRY(job.dispatch(Kernel::UdfClassify, classify, &per_cell, near_count));
