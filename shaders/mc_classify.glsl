@@ -1,8 +1,8 @@
 // SDF marching cubes, step 1 (mc.glsl): per parent, each child's cube case (all its table
 // triangles are emitted), the crossed edges it owns (its vertices) and its triangle count; the
-// host prefix-sums the counts. Run by mc_classify.comp, and on a meshed level above the finest
-// by refine_cells.comp's NFD_MC_CASES variant, whose keep rule reads the same child grids: the
-// level's mesher then skips mc_classify's second read of them.
+// host prefix-sums the counts. refine_cells.comp's NFD_MC_CASES variant (the mc_classify kernel)
+// runs it on the child grid its keep rule reads: a meshed level above the finest is classified
+// as it is refined, and its mesher reads the grids no second time.
 #ifndef NFD_MC_CLASSIFY_GLSL
 #define NFD_MC_CLASSIFY_GLSL
 #include "mc.glsl"

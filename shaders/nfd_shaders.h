@@ -21,7 +21,6 @@ extern const Spirv refine_count;        // which child-grid vertices each kept c
 extern const Spirv refine_points;       // writes the owned vertices' unit positions
 extern const Spirv refine_cells;        // tests the children of kept cells, sets kept bits
 extern const Spirv refine_cells_near;   // the same, and a UDF's near cells for its mesher
-extern const Spirv refine_cells_classify;  // the same, and an SDF level's cases for its mesher
 extern const Spirv gather_corners;      // corner values of the newly kept cells
 extern const Spirv level_around;        // each kept cell's kept neighbours, as bits
 extern const Spirv bitmap_compact;      // kept bitmap -> sorted list of cell indices
@@ -31,7 +30,8 @@ extern const Spirv dispatch_args;       // indirect dispatch records from a coun
 extern const Spirv draw_args;           // a recording's indirect draw record
 extern const Spirv scan;                // exclusive prefix sum per block, block totals
 extern const Spirv scan_add;            // adds scanned block totals back
-extern const Spirv mc_classify;         // SDF, per finest-level parent: cases, owned edges
+extern const Spirv mc_classify;         // SDF, per parent of a meshed level: cases, owned edges
+                                        // (above the finest level with the keep rule)
 extern const Spirv mc_emit;             // per finest-level parent: vertex edges, triangles
 extern const Spirv mc_vertices;         // SDF, per vertex: position (edge crossing), normal
 extern const Spirv udf_predict;         // UDF, meshed level: likely near-cell corners, own list

@@ -3,8 +3,10 @@
 // NFD_NEAR_MASKS, for a UDF level that is meshed before the next one refines it (progressive
 // extractions): also each parent's near children (udf_near.comp's test on the same eight
 // values, push.edge_limit the mesher's), so that the mesher skips udf_near's pass over the grid.
-// NFD_MC_CASES, for an SDF level meshed before the next one refines it: also each parent's
-// marching-cubes classification (mc_classify.glsl), so that the mesher skips mc_classify.comp.
+// NFD_MC_CASES (the mc_classify kernel): each parent's marching-cubes classification
+// (mc_classify.glsl), the SDF mesher's first step, and on a level above the finest (child level
+// > 0: meshed in a progressive extraction before the next level refines it) the keep rule too,
+// from one read of the child grid. On the finest level nothing is kept (CHILD_BITS unused).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -16,6 +18,9 @@ layout(std430, binding = NFD_B_NEAR_MASKS) writeonly buffer NearMasks { uint nea
 #endif
 #ifdef NFD_MC_CASES
 #include "mc_classify.glsl"
+#define REFINES (push.child_level > 0u)
+#else
+#define REFINES true
 #endif
 
 void main() {
@@ -33,7 +38,7 @@ void main() {
         if (!child_cell_exists(2u * p + d)) continue;
         float v[8];
         for (uint c = 0u; c < 8u; ++c) v[c] = grid[local_index(d + corner_offset(c))];
-        if (may_contain_surface(v, push.threshold)) {
+        if (REFINES && may_contain_surface(v, push.threshold)) {
             uint ci = cell_index(2u * p + d, push.child_cells);
             atomicOr(child_bits[ci >> 5], 1u << (ci & 31u));
         }

@@ -162,18 +162,14 @@ constexpr KernelDesc kKernels[] = {
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS) | B(NFD_B_MC_TABLES) |
          B(NFD_B_NEAR_MASKS),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::RefineCellsClassify, shaders::refine_cells_classify,
-     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS) | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) |
-         B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
-     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::GatherCorners, shaders::gather_corners,
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_CELLS) | B(NFD_B_CHILD_CORNERS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::LevelAround, shaders::level_around, kLevel, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // Marching cubes over the level-1 parents (mc.glsl); McEmit serves SDF and UDF.
     {Kernel::McClassify, shaders::mc_classify,
-     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |
-         B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS) | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) |
+         B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::McEmit, shaders::mc_emit,
      kLevel | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |

@@ -38,8 +38,7 @@ enum class Kernel : uint32_t {
     FieldEvalLanes,  // values on CPU implementations (field.cpp, field_kernel)
     Scan, ScanPopcount, ScanAdd, BitmapCompact,
     CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseValues, DenseGradients,
-    RefineCount, RefinePoints, RefineCells, RefineCellsNear, RefineCellsClassify, GatherCorners,
-    LevelAround,
+    RefineCount, RefinePoints, RefineCells, RefineCellsNear, GatherCorners, LevelAround,
     McClassify, McEmit, McVertices,
     UdfPredict, UdfPredictJoin, UdfNear, UdfNearPredicted,
     UdfFloodSeedMidpoints, UdfFloodSeedChildren, UdfFloodSeedIsolated, UdfFloodClaimCorners,

@@ -607,7 +607,7 @@ nfd_result LevelBuilder::step(CarriedGradients* carried) {
                 refine = with(refine, {{NFD_B_NEAR_MASKS, *level_.near},
                                        {NFD_B_MC_TABLES, job_.device.mc_tables}});
             } else if (classifies) {
-                kernel = Kernel::RefineCellsClassify;
+                kernel = Kernel::McClassify;
                 NFD_TRY(level_.classified.make(job_, parents.capacity, nullptr));
                 refine = with(with(refine, level_.classified.classify_bindings()),
                               {{NFD_B_MC_TABLES, job_.device.mc_tables}});

@@ -83,7 +83,7 @@ struct HostTop {
     float coord(uint32_t v) const { return -1.0f + float(v << level) * step; }
 };
 
-// What a classify kernel (mc_classify.comp, udf_classify.comp) writes per level-1 parent, and
+// What a classify kernel (mc_classify, udf_classify.comp) writes per level-1 parent, and
 // the prefix sums of its counts: the input of emit_mesh. Sized for the parents' capacity and
 // zero past their count, so that the scans and totals run on capacities.
 struct DeviceMesh;
@@ -138,9 +138,9 @@ struct FinestLevel {
     // the finest, found with the keep rule (refine_cells.comp's NFD_NEAR_MASKS); else null.
     Buffers near_buffers;
     Buffer* near = nullptr;
-    // A meshed SDF level above the finest: its parents classified with the keep rule
-    // (refine_cells.comp's NFD_MC_CASES, the same child grids), for the mesher, which then skips
-    // mc_classify.comp; no buffers (`parents` 0) otherwise.
+    // What the SDF mesher's first step wrote: on a meshed level above the finest, its
+    // refinement's (the mc_classify kernel with the keep rule, one read of the child grids), so
+    // that the mesher starts after it; no buffers (`parents` 0) otherwise.
     Classified classified;
     uint64_t points_evaluated = 0;  // own jobs; recorded ones: LevelBuilder::point_slots()
     HostTop top;                    // the coarsest level's (its values in `buffers`), else empty
