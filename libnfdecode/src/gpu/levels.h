@@ -40,9 +40,9 @@ struct Plan : Capacities {
 
 // The kept cells of one level: a bitmap over its cells with the prefix of its words' popcounts,
 // the sorted list, 8 corner values and the kept-neighbour bits (extract.glsl's kept_arounds) per
-// kept cell. The list holds `capacity` cells, and
-// counter `slot` their number on the device (NFD_NO_COUNTER: exactly `capacity`); `kept` is that
-// number on the host, once known (own jobs: after the level's batch).
+// kept cell. The list holds `capacity` cells, and counter `slot` their number on the device
+// (NFD_NO_COUNTER: exactly `capacity`); `kept` is that number on the host, once known (own jobs:
+// after the level's batch).
 struct Level {
     explicit Level(Context& vk) : buffers(vk) {}
     uint32_t cells = 0;  // per axis
@@ -83,10 +83,11 @@ struct HostTop {
     float coord(uint32_t v) const { return -1.0f + float(v << level) * step; }
 };
 
-// What a classify kernel (mc_classify, udf_classify.comp) writes per level-1 parent, and
-// the prefix sums of its counts: the input of emit_mesh. Sized for the parents' capacity and
-// zero past their count, so that the scans and totals run on capacities.
-struct DeviceMesh;
+struct DeviceMesh;  // below
+
+// What a classify kernel (mc_classify, udf_classify.comp) writes per level-1 parent, and the
+// prefix sums of its counts: the input of emit_mesh. Sized for the parents' capacity and zero
+// past their count, so that the scans and totals run on capacities.
 struct Classified {
     explicit Classified(Context& vk) : buffers(vk) {}
     Buffers buffers;
