@@ -64,6 +64,7 @@
 #define NFD_B_MC_TABLES 12         // mc_tables.h, in mc.glsl's layout
 #define NFD_B_CASES 13             // per parent, uvec4: cube case and emitted-triangle mask
                                    // of each child (8 bits each)
+#define NFD_B_EMITTING 45          // per parent, which of its 8 children emit a triangle
 #define NFD_B_EDGE_MASKS 14        // per parent, uvec2: the owned edges (of 54) with a vertex
 #define NFD_B_TRIANGLE_COUNTS 15
 #define NFD_B_ACTIVE 16            // one counter: cells that emitted a triangle
@@ -108,8 +109,9 @@
 // joined back into one value list (udf_predict.comp's NFD_PREDICT_JOIN), which the next level
 // refines.
 #define NFD_B_JOINED_VALUES 42
-// The UDF mesher's near cells in order, 32 * parent rank + child (bitmap_compact.comp over the
-// near masks), for udf_classify.comp's invocation per near cell.
+// A mesher's cells in order, 32 * parent rank + child (bitmap_compact.comp over per-parent
+// child masks): the UDF's near cells, for udf_classify.comp's invocation per near cell; the cells
+// that emit a triangle, for mc_emit.comp's.
 #define NFD_B_NEAR_CELLS 43
 
 #define NFD_LOCAL_SIZE 64          // every level and mesher kernel

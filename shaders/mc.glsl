@@ -22,6 +22,8 @@ layout(std430, binding = NFD_B_MC_TABLES) readonly buffer Tables { int mc_tables
 // table triangles that are emitted.
 layout(std430, binding = NFD_B_CASES) buffer Cases { uvec4 cases[]; };
 layout(std430, binding = NFD_B_EDGE_MASKS) buffer EdgeMasks { uvec2 edge_masks[]; };
+// Bit i: child i emits a triangle (its byte 8 + i of `cases` is not 0), for mc_emit's cell list.
+layout(std430, binding = NFD_B_EMITTING) buffer Emitting { uint emitting[]; };
 
 uint case_byte(uvec4 c, uint i) { return (c[i >> 2] >> (8u * (i & 3u))) & 0xffu; }
 void set_case_byte(inout uvec4 c, uint i, uint value) { c[i >> 2] |= value << (8u * (i & 3u)); }

@@ -21,7 +21,7 @@ void classify_parent(uint k, uvec3 p, uint around, float values[27]) {
         if (values[l] < 0.0) inside_bits |= 1u << l;
         if (child_point_exists(2u * p + uvec3(l % 3u, (l / 3u) % 3u, l / 9u))) exist_bits |= 1u << l;
     }
-    uint triangles = 0u, busy = 0u;
+    uint triangles = 0u, busy = 0u, emits = 0u;
     uvec4 c = uvec4(0u);
     for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
@@ -32,6 +32,7 @@ void classify_parent(uint k, uvec3 p, uint around, float values[27]) {
         set_case_byte(c, 8u + child, (1u << n) - 1u);
         triangles += n;
         busy += n > 0u ? 1u : 0u;
+        emits |= n > 0u ? 1u << child : 0u;
     }
     // The crossed edges the parent owns, on bits: crossed from the signs, less those an earlier
     // kept neighbour owns. (A loop over the 54 edges with owner_around for each was a quarter of
@@ -50,6 +51,7 @@ void classify_parent(uint k, uvec3 p, uint around, float values[27]) {
     cases[k] = c;
     edge_masks[k] = mask;
     triangle_counts[k] = triangles;
+    emitting[k] = emits;
     if (busy > 0u) atomicAdd(active_cells, busy);
 }
 

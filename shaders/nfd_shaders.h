@@ -32,7 +32,8 @@ extern const Spirv scan;                // exclusive prefix sum per block, block
 extern const Spirv scan_add;            // adds scanned block totals back
 extern const Spirv mc_classify;         // SDF, per parent of a meshed level: cases, owned edges
                                         // (above the finest level with the keep rule)
-extern const Spirv mc_emit;             // per finest-level parent: vertex edges, triangles
+extern const Spirv mc_vertex_edges;     // per finest-level parent: its vertices' edges
+extern const Spirv mc_emit;             // per emitting cell: its triangles' welded indices
 extern const Spirv mc_vertices;         // SDF, per vertex: position (edge crossing), normal
 extern const Spirv udf_predict;         // UDF, meshed level: likely near-cell corners, own list
 extern const Spirv udf_predict_join;    // ... and back into one value list, above the finest

@@ -79,6 +79,7 @@ void main() {
     if (emitted != 0u) {
         atomicOr(cases[k][2u + (child >> 2)], emitted << (8u * (child & 3u)));
         atomicAdd(triangle_counts[k], bitCount(emitted));
+        atomicOr(emitting[k], 1u << child);
         atomicAdd(active_cells, 1u);
     }
 }

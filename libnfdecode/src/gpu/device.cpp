@@ -44,6 +44,9 @@ constexpr BindingMask kLevelCells =
     B(NFD_B_KEPT_BITS) | B(NFD_B_KEPT_PREFIX) | B(NFD_B_KEPT_CELLS) | B(NFD_B_COUNTERS);
 constexpr BindingMask kLevel = kLevelCells | B(NFD_B_KEPT_AROUND);
 constexpr BindingMask kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
+// What a mesher's classify kernel writes (levels.h, Classified::classify_bindings).
+constexpr BindingMask kClassified = B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |
+                                    B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE) | B(NFD_B_EMITTING);
 constexpr BindingMask kGradients =
     B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_GRADIENTS);
 // The UDF gradient list's masks; NFD_B_OWNED and NFD_B_CORNER_GRADIENTS serve copying from other
@@ -168,12 +171,14 @@ constexpr KernelDesc kKernels[] = {
     {Kernel::LevelAround, shaders::level_around, kLevel, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // Marching cubes over the level-1 parents (mc.glsl); McEmit serves SDF and UDF.
     {Kernel::McClassify, shaders::mc_classify,
-     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS) | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) |
-         B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
-     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_BITS) | B(NFD_B_MC_TABLES) | kClassified, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::McVertexEdges, shaders::mc_vertex_edges,
+     B(NFD_B_COUNTERS) | B(NFD_B_EDGE_MASKS) | B(NFD_B_VERTEX_OFFSETS) | B(NFD_B_VERTEX_EDGES), 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::McEmit, shaders::mc_emit,
      kLevel | B(NFD_B_MC_TABLES) | B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |
-         B(NFD_B_VERTEX_OFFSETS) | B(NFD_B_TRIANGLE_OFFSETS) | B(NFD_B_VERTEX_EDGES) |
+         B(NFD_B_VERTEX_OFFSETS) | B(NFD_B_TRIANGLE_OFFSETS) | B(NFD_B_NEAR_CELLS) |
          B(NFD_B_INDICES),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::McVertices, shaders::mc_vertices,
@@ -213,9 +218,8 @@ constexpr KernelDesc kKernels[] = {
          B(NFD_B_CORNER_GRADIENTS),
      0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfClassify, shaders::udf_classify,
-     kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_CELLS) | B(NFD_B_CASES) |
-         B(NFD_B_EDGE_MASKS) | B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE),
-     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+     kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_CELLS) | kClassified, 0,
+     NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfVertices, shaders::udf_vertices,
      kLevel | kGradients | B(NFD_B_VERTEX_EDGES) | B(NFD_B_POSITIONS) | B(NFD_B_NORMALS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},

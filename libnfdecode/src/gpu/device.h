@@ -39,7 +39,7 @@ enum class Kernel : uint32_t {
     Scan, ScanPopcount, ScanAdd, BitmapCompact,
     CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseValues, DenseGradients,
     RefineCount, RefinePoints, RefineCells, RefineCellsNear, GatherCorners, LevelAround,
-    McClassify, McEmit, McVertices,
+    McClassify, McVertexEdges, McEmit, McVertices,
     UdfPredict, UdfPredictJoin, UdfNear, UdfNearPredicted,
     UdfFloodSeedMidpoints, UdfFloodSeedChildren, UdfFloodSeedIsolated, UdfFloodClaimCorners,
     UdfFloodFaces, UdfFloodListPoints, UdfFloodStoreValues,  // udf_flood.comp's modes 0-6

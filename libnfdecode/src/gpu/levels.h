@@ -2,6 +2,7 @@
 // the meshers that consume the finest of them (mesh_sdf.cpp, mesh_udf.cpp; the GPU sides of
 // mesh_sdf_cpu.cpp and mesh_udf_cpu.cpp). Layouts: shaders/extract.glsl's long comment.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -95,20 +96,31 @@ struct Classified {
     Buffer *edge_masks = nullptr;      // uvec2: owned edges that carry a vertex
     Buffer *vertex_offsets = nullptr;  // per edge-mask word
     Buffer *triangle_counts = nullptr, *triangle_offsets = nullptr, *active = nullptr;
+    // Per parent its children that emit a triangle, and the prefix of their counts, whose total
+    // is counter `emitting_slot`: mc_emit's list of cells.
+    Buffer *emitting = nullptr, *emitting_offsets = nullptr;
+    uint32_t emitting_slot = NFD_NO_COUNTER;
     uint32_t parents = 0;              // capacity
     // Makes the buffers for `parents` kept parents (`active` from the job when the mesh stays on
     // the device) and records their clearing.
     nfd_result make(Job& job, uint32_t parents, DeviceMesh* device);
-    // Records the two scans and the mesh's totals (counters `vertex_slot`, `triangle_slot`, with
-    // the given capacities) once the classify kernel is recorded.
+    // Records the three scans and the mesh's totals (counters `vertex_slot`, `triangle_slot`,
+    // with the given capacities, and emitting_slot) once the classify kernel is recorded.
     nfd_result record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
                             uint32_t vertex_capacity, uint32_t triangle_slot,
                             uint32_t triangle_capacity);
-    // What the classify kernel writes: cases, edge masks, triangle counts, active cells.
+    // What the classify kernel writes: cases, edge masks, triangle counts, active cells, the
+    // emitting children.
     std::vector<Bind> classify_bindings() const;
+    // The most emitting cells: 8 per parent, and no more than the triangles' capacity.
+    uint32_t emitting_capacity(uint32_t triangle_capacity) const {
+        return uint32_t(std::min<uint64_t>(8ull * parents, triangle_capacity));
+    }
     void release() {
         buffers.release();
         cases = edge_masks = vertex_offsets = triangle_counts = triangle_offsets = active = nullptr;
+        emitting = emitting_offsets = nullptr;
+        emitting_slot = NFD_NO_COUNTER;
         parents = 0;
     }
 };
@@ -293,11 +305,12 @@ nfd_result mesh_level(Job& job, DeviceNetwork& net, FieldType field, FinestLevel
                       const Plan* plan, MeshTarget target, ExtractStats* stats,
                       GradientCarry carried = {});
 
-// The shared back half of both meshers (marching.cpp, as marching.h on the CPU): mc_emit.comp
-// writes each parent's vertex edges and welded triangles, then `vertices` (McVertices or
-// UdfVertices, bound with `inputs` and the vertex buffers) places each vertex; `classified`'s,
-// `finest`'s and `input_buffers` are released as soon as they are not needed, then the mesh is
-// read back (own jobs) or its draw record written (device targets).
+// The shared back half of both meshers (marching.cpp, as marching.h on the CPU): the emitting
+// cells listed, mc_vertex_edges.comp writes each parent's vertex edges and mc_emit.comp each
+// emitting cell's welded triangles, then `vertices` (McVertices or UdfVertices, bound with
+// `inputs` and the vertex buffers) places each vertex; `classified`'s, `finest`'s and
+// `input_buffers` are released as soon as they are not needed, then the mesh is read back (own
+// jobs) or its draw record written (device targets).
 nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& classified, Kernel vertices,
                      std::vector<Bind> inputs, Buffers& input_buffers, MeshTarget target,
                      ExtractStats* stats);

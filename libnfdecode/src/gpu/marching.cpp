@@ -1,5 +1,6 @@
 // The back half of both GPU meshers (levels.h, emit_mesh), as marching.h is on the CPU: welded
 // vertices numbered by owner (mc.glsl), triangles per parent, children and table order within.
+#include <algorithm>
 #include <new>
 
 #include "levels.h"
@@ -21,11 +22,15 @@ nfd_result Classified::make(Job& job, uint32_t k, DeviceMesh* device) {
     NFD_TRY(buffers.make(VkDeviceSize(k) * 8, &vertex_offsets));
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &triangle_counts));
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &triangle_offsets));
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &emitting));
+    NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &emitting_offsets));
+    NFD_TRY(job.new_slot(&emitting_slot));
     if (device) active = device->active;
     else NFD_TRY(buffers.make(4, &active));
     // The scans run over the capacity: what no parent writes must be zero.
     job.fill(*edge_masks, 0);
     job.fill(*triangle_counts, 0);
+    job.fill(*emitting, 0);
     job.fill(*active, 0);
     return NFD_SUCCESS;
 }
@@ -34,7 +39,8 @@ std::vector<Bind> Classified::classify_bindings() const {
     return {{NFD_B_CASES, *cases},
             {NFD_B_EDGE_MASKS, *edge_masks},
             {NFD_B_TRIANGLE_COUNTS, *triangle_counts},
-            {NFD_B_ACTIVE, *active}};
+            {NFD_B_ACTIVE, *active},
+            {NFD_B_EMITTING, *emitting}};
 }
 
 nfd_result Classified::record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
@@ -42,6 +48,9 @@ nfd_result Classified::record_scans(Job& job, Buffers& scratch, uint32_t vertex_
                                     uint32_t triangle_capacity) {
     NFD_TRY(record_scan(job, scratch, *edge_masks, *vertex_offsets, 2 * parents, true));
     NFD_TRY(record_scan(job, scratch, *triangle_counts, *triangle_offsets, parents, false));
+    NFD_TRY(record_scan(job, scratch, *emitting, *emitting_offsets, parents, true));
+    NFD_TRY(job.total(*emitting, *emitting_offsets, parents, true, emitting_slot,
+                      emitting_capacity(triangle_capacity)));
     NFD_TRY(job.total(*edge_masks, *vertex_offsets, 2 * parents, true, vertex_slot,
                       vertex_capacity));
     return job.total(*triangle_counts, *triangle_offsets, parents, false, triangle_slot,
@@ -68,10 +77,12 @@ nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& c, Kernel vertic
     Buffers scratch(vk);
     NFD_TRY(c.record_scans(job, scratch, vertex_slot, device ? vertex_count : UINT32_MAX,
                            triangle_slot, device ? triangles : UINT32_MAX));
+    uint32_t emitting = device ? c.emitting_capacity(triangles) : 0;
     if (!device) {
         NFD_TRY(job.sync());
         vertex_count = job.counter(vertex_slot);
         triangles = job.counter(triangle_slot);
+        emitting = job.counter(c.emitting_slot);
         uint32_t active = 0;
         NFD_TRY(vk.download(*c.active, 0, &active, 4));
         stats->active_cells = active;
@@ -82,20 +93,36 @@ nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& c, Kernel vertic
     // Peak memory: each batch makes its outputs once the previous one's inputs are gone, and the
     // read-back frees each device buffer as soon as it is copied.
     Buffers out(vk);
-    Buffer *edges, *positions, *normals, *indices;
+    Buffer *edges, *positions, *normals, *indices, *cells;
     NFD_TRY(out.make(VkDeviceSize(vertex_count) * 4, &edges));
+    NFD_TRY(out.make(VkDeviceSize(std::max(emitting, 1u)) * 4, &cells));
     if (device) indices = device->indices;
     else NFD_TRY(out.make(VkDeviceSize(triangles) * 12, &indices));
+    const uint32_t words = c.parents;
+    NFD_TRY(job.dispatch(Kernel::BitmapCompact,
+                         {{NFD_B_KEPT_BITS, *c.emitting},
+                          {NFD_B_KEPT_PREFIX, *c.emitting_offsets},
+                          {NFD_B_KEPT_CELLS, *cells}},
+                         &words, Count{words}));
+    NFD_TRY(job.dispatch(Kernel::McVertexEdges,
+                         {{NFD_B_EDGE_MASKS, *c.edge_masks},
+                          {NFD_B_VERTEX_OFFSETS, *c.vertex_offsets},
+                          {NFD_B_VERTEX_EDGES, *edges}},
+                         &finest.push, finest.parents.count()));
     std::vector<Bind> emit = level_bindings(finest.parents);
     emit.insert(emit.end(), {{NFD_B_MC_TABLES, job.device.mc_tables},
                              {NFD_B_CASES, *c.cases},
                              {NFD_B_EDGE_MASKS, *c.edge_masks},
                              {NFD_B_VERTEX_OFFSETS, *c.vertex_offsets},
                              {NFD_B_TRIANGLE_OFFSETS, *c.triangle_offsets},
-                             {NFD_B_VERTEX_EDGES, *edges},
+                             {NFD_B_NEAR_CELLS, *cells},
                              {NFD_B_INDICES, *indices}});
-    NFD_TRY(job.dispatch(Kernel::McEmit, emit, &finest.push, finest.parents.count()));
+    LevelPush per_cell = finest.push;
+    const Count cell_items{emitting, c.emitting_slot};
+    per_cell.set(cell_items);
+    NFD_TRY(job.dispatch(Kernel::McEmit, emit, &per_cell, cell_items));
     NFD_TRY(job.sync());
+    vk.destroy(*cells);
     c.release();
 
     if (device) {
