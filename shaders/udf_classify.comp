@@ -56,6 +56,7 @@ void main() {
         if (dot3(g[c], n) < 0.0) cc |= 1u << c;
     uint valid_edges = valid_edge_mask(f, push.edge_limit);  // step 5's test, per cube edge
     uint emitted = 0u;
+    uvec2 own_edges = uvec2(0u);  // the parent's own (most of them): one atomic per word below
     for (uint t = 0u; t < mc_triangle_count(cc); ++t) {
         bool valid = true;  // step 5
         for (uint j = 0u; j < 3u; ++j)
@@ -70,10 +71,13 @@ void main() {
             uint ko;
             uvec3 o = local_owner(p, k, around, l, a, r, ko);
             uint id = edge_id(a, v - 2u * o);
-            if (id < 32u) atomicOr(edge_masks[ko].x, 1u << id);
+            if (ko == k) own_edges |= id < 32u ? uvec2(1u << id, 0u) : uvec2(0u, 1u << (id - 32u));
+            else if (id < 32u) atomicOr(edge_masks[ko].x, 1u << id);
             else atomicOr(edge_masks[ko].y, 1u << (id - 32u));
         }
     }
+    if (own_edges.x != 0u) atomicOr(edge_masks[k].x, own_edges.x);
+    if (own_edges.y != 0u) atomicOr(edge_masks[k].y, own_edges.y);
     // mc.glsl's case_byte layout: byte `child` the case, byte 8 + child the emitted mask.
     if (cc != 0u) atomicOr(cases[k][child >> 2], cc << (8u * (child & 3u)));
     if (emitted != 0u) {
