@@ -12,7 +12,7 @@ void main() {
     uvec3 p = cell_coords(kept_cells[k], r);
     uint around = kept_arounds[k];
     uint mask = 0u;
-    for (uint l = 0u; l < 27u; ++l) {
+    [[dont_unroll]] for (uint l = 0u; l < 27u; ++l) {
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         uvec3 v = 2u * p + lv;
         if (!is_corner(lv) && child_point_exists(v) &&

@@ -239,7 +239,7 @@ void main() {
 #else
     float grid[27];
     uint own_offset = predicted_offsets[k];
-    for (uint l = 0u; l < 27u; ++l) {
+    [[dont_unroll]] for (uint l = 0u; l < 27u; ++l) {
         uint bit = 1u << l;
         uvec3 lv = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         grid[l] = 0.0;

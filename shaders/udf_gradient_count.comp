@@ -49,7 +49,7 @@ void main() {
     uint copied = 0u;
     bool copies = carried_above;
 #endif
-    for (uint l = 0u; l < 27u; ++l) {
+    [[dont_unroll]] for (uint l = 0u; l < 27u; ++l) {
         uvec3 local = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         if (!child_point_exists(2u * p + local) ||
             any(notEqual(owner_around(around, local, 3u), uvec3(1u))))

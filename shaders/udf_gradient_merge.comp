@@ -27,7 +27,7 @@ void main() {
     if (k >= item_count()) return;
     uint mask = gradient_owned[k], fresh = owned[k];
     uint to = gradient_offsets[k], from = offsets[k];
-    for (uint l = 0u; l < 27u; ++l) {
+    [[dont_unroll]] for (uint l = 0u; l < 27u; ++l) {
         uint bit = 1u << l;
         if ((mask & bit) == 0u) continue;
         uvec3 local = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
