@@ -67,7 +67,7 @@
 #define NFD_B_EMITTING 45          // per parent, which of its 8 children emit a triangle
 #define NFD_B_EDGE_MASKS 14        // per parent, uvec2: the owned edges (of 54) with a vertex
 #define NFD_B_TRIANGLE_COUNTS 15
-#define NFD_B_ACTIVE 16            // one counter: cells that emitted a triangle
+// 16: unused (the count of cells that emitted a triangle until 0.13.15: the emitting masks' total)
 #define NFD_B_VERTEX_OFFSETS 17    // per edge-mask word, exclusive prefix of popcounts
 #define NFD_B_TRIANGLE_OFFSETS 18
 #define NFD_B_VERTEX_EDGES 19      // per vertex, parent rank << 6 | edge id

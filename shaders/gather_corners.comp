@@ -16,7 +16,8 @@ void main() {
     uvec3 child = cell_coords(child_cells[j], push.child_cells);
     uvec3 p = child / 2u;
     uint k = kept_rank(cell_index(p, r));
+    uint around = kept_arounds[k];
     uvec3 d = child - 2u * p;
     for (uint c = 0u; c < 8u; ++c)
-        child_corners[8u * j + c] = child_grid_value(p, k, kept_arounds[k], d + corner_offset(c), r);
+        child_corners[8u * j + c] = child_grid_value(p, k, around, d + corner_offset(c), r);
 }

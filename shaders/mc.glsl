@@ -9,7 +9,8 @@
 // sign: f < 0 inside, as mc_tables.h defines). An edge is shared by up to four visited cells,
 // possibly of different parents; it belongs to the kept parent with the smallest linear index
 // whose closed box contains it (the owner rule), found by extract.glsl's owner_around. The 54
-// edges of a 3x3x3 grid are numbered axis by axis: id = 18 a + (index of the start point s, s[a] in {0, 1}, the other two in {0, 1, 2}).
+// edges of a 3x3x3 grid are numbered axis by axis: id = 18 a + (index of the start point s, s[a]
+// in {0, 1}, the other two in {0, 1, 2}).
 // A vertex's index is the prefix of the edge masks' popcounts (`vertex_offsets`, per uint word
 // of edge_masks) at its owner's first word plus its rank in the owner's mask.
 #ifndef NFD_MC_GLSL

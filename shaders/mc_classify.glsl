@@ -9,7 +9,6 @@
 layout(std430, binding = NFD_B_TRIANGLE_COUNTS) writeonly buffer TriangleCounts {
     uint triangle_counts[];
 };
-layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; };
 
 // Kept parent k at p, with kept-neighbour bits `around` and child grid `values` (local_index
 // order, 0 where a point does not exist).
@@ -21,7 +20,7 @@ void classify_parent(uint k, uvec3 p, uint around, float values[27]) {
         if (values[l] < 0.0) inside_bits |= 1u << l;
         if (child_point_exists(2u * p + uvec3(l % 3u, (l / 3u) % 3u, l / 9u))) exist_bits |= 1u << l;
     }
-    uint triangles = 0u, busy = 0u, emits = 0u;
+    uint triangles = 0u, emits = 0u;
     uvec4 c = uvec4(0u);
     for (uint child = 0u; child < 8u; ++child) {
         uvec3 d = corner_offset(child);
@@ -31,7 +30,6 @@ void classify_parent(uint k, uvec3 p, uint around, float values[27]) {
         set_case_byte(c, child, cc);
         set_case_byte(c, 8u + child, (1u << n) - 1u);
         triangles += n;
-        busy += n > 0u ? 1u : 0u;
         emits |= n > 0u ? 1u << child : 0u;
     }
     // The crossed edges the parent owns, on bits: crossed from the signs, less those an earlier
@@ -52,7 +50,6 @@ void classify_parent(uint k, uvec3 p, uint around, float values[27]) {
     edge_masks[k] = mask;
     triangle_counts[k] = triangles;
     emitting[k] = emits;
-    if (busy > 0u) atomicAdd(active_cells, busy);
 }
 
 #endif

@@ -3,8 +3,8 @@
 // which of its children are near cells (step 1). The gradients are evaluated once per child-grid
 // point that is a corner of a near cell, by the point's owner (the kept parent with the smallest
 // index whose closed box contains it, extract.glsl's owner_around, now over all 27 points of a
-// child grid, corners included); the list has the layout of extract.glsl's new values (a 27-bit mask and
-// an offset per parent), and field_eval.comp's WITH_GRADIENT output per point: (value, gradient),
+// child grid, corners included); the list has the layout of extract.glsl's new values (a 27-bit
+// mask and an offset per parent), and field_eval.comp's WITH_GRADIENT output per point: (value, gradient),
 // the value bit-identical to field_eval's. Everything after udf_gradient_count reads the values
 // from there too, so the level's sparse storage is released once the list is made.
 #ifndef NFD_UDF_GLSL

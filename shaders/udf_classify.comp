@@ -16,7 +16,6 @@
 layout(std430, binding = NFD_B_TRIANGLE_COUNTS) buffer TriangleCounts {
     uint triangle_counts[];
 };
-layout(std430, binding = NFD_B_ACTIVE) buffer ActiveCells { uint active_cells; };
 
 layout(std430, binding = NFD_B_NEAR_CELLS) readonly buffer NearCells { uint near_cells[]; };
 
@@ -84,6 +83,5 @@ void main() {
         atomicOr(cases[k][2u + (child >> 2)], emitted << (8u * (child & 3u)));
         atomicAdd(triangle_counts[k], bitCount(emitted));
         atomicOr(emitting[k], 1u << child);
-        atomicAdd(active_cells, 1u);
     }
 }

@@ -46,7 +46,7 @@ constexpr BindingMask kLevel = kLevelCells | B(NFD_B_KEPT_AROUND);
 constexpr BindingMask kChildGrid = kLevel | B(NFD_B_CORNERS) | B(NFD_B_OWNED) | B(NFD_B_OFFSETS);
 // What a mesher's classify kernel writes (levels.h, Classified::classify_bindings).
 constexpr BindingMask kClassified = B(NFD_B_CASES) | B(NFD_B_EDGE_MASKS) |
-                                    B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_ACTIVE) | B(NFD_B_EMITTING);
+                                    B(NFD_B_TRIANGLE_COUNTS) | B(NFD_B_EMITTING);
 constexpr BindingMask kGradients =
     B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_GRADIENTS);
 // The UDF gradient list's masks; NFD_B_OWNED and NFD_B_CORNER_GRADIENTS serve copying from other

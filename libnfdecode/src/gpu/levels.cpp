@@ -660,7 +660,7 @@ uint64_t LevelBuilder::next_step_device_bytes(bool mesh, bool udf, bool carried)
     if (mesh) {
         // Classified (48 per parent), the emitting cells' list (8 per parent at most), the
         // vertex edges (4 + 12 + 12 bytes each), the triangles.
-        bytes += 48 * k + 32 * k + 4 + 4 * scan(2 * k) + kMostVerticesPerParent * 28 * k +
+        bytes += 48 * k + 32 * k + 4 * scan(2 * k) + kMostVerticesPerParent * 28 * k +
                  most_triangles_per_parent() * 12 * k;
         // UDF: near masks, gradient masks, counts, offsets; value + gradient of at most 27
         // points per parent; a points chunk; the near cells' prefix and list (8 per parent at

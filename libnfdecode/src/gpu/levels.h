@@ -95,22 +95,21 @@ struct Classified {
     Buffer *cases = nullptr;           // uvec4: cube cases, emitted-triangle masks
     Buffer *edge_masks = nullptr;      // uvec2: owned edges that carry a vertex
     Buffer *vertex_offsets = nullptr;  // per edge-mask word
-    Buffer *triangle_counts = nullptr, *triangle_offsets = nullptr, *active = nullptr;
+    Buffer *triangle_counts = nullptr, *triangle_offsets = nullptr;
     // Per parent its children that emit a triangle, and the prefix of their counts, whose total
-    // is counter `emitting_slot`: mc_emit's list of cells.
+    // is counter `emitting_slot` (the mesh's active cells): mc_emit's list of cells.
     Buffer *emitting = nullptr, *emitting_offsets = nullptr;
     uint32_t emitting_slot = NFD_NO_COUNTER;
     uint32_t parents = 0;              // capacity
-    // Makes the buffers for `parents` kept parents (`active` from the job when the mesh stays on
-    // the device) and records their clearing.
+    // Makes the buffers for `parents` kept parents (the emitting cells' counter the mesh's when
+    // it stays on the device) and records their clearing.
     nfd_result make(Job& job, uint32_t parents, DeviceMesh* device);
     // Records the three scans and the mesh's totals (counters `vertex_slot`, `triangle_slot`,
     // with the given capacities, and emitting_slot) once the classify kernel is recorded.
     nfd_result record_scans(Job& job, Buffers& scratch, uint32_t vertex_slot,
                             uint32_t vertex_capacity, uint32_t triangle_slot,
                             uint32_t triangle_capacity);
-    // What the classify kernel writes: cases, edge masks, triangle counts, active cells, the
-    // emitting children.
+    // What the classify kernel writes: cases, edge masks, triangle counts, emitting children.
     std::vector<Bind> classify_bindings() const;
     // The most emitting cells: 8 per parent, and no more than the triangles' capacity.
     uint32_t emitting_capacity(uint32_t triangle_capacity) const {
@@ -118,7 +117,7 @@ struct Classified {
     }
     void release() {
         buffers.release();
-        cases = edge_masks = vertex_offsets = triangle_counts = triangle_offsets = active = nullptr;
+        cases = edge_masks = vertex_offsets = triangle_counts = triangle_offsets = nullptr;
         emitting = emitting_offsets = nullptr;
         emitting_slot = NFD_NO_COUNTER;
         parents = 0;
@@ -271,9 +270,9 @@ struct DeviceMesh {
     explicit DeviceMesh(Context& vk) : buffers(vk) {}
     Buffers buffers;
     Buffer *positions = nullptr, *normals = nullptr, *indices = nullptr, *draw = nullptr;
-    Buffer* active = nullptr;  // classify's counter of cells with triangles
     uint32_t vertex_capacity = 0, triangle_capacity = 0;
     uint32_t vertex_slot = NFD_NO_COUNTER, triangle_slot = NFD_NO_COUNTER;
+    uint32_t emitting_slot = NFD_NO_COUNTER;  // the cells with triangles
     uint32_t gradient_slot = NFD_NO_COUNTER;  // UDF
     // Makes the buffers of the capacities set above.
     nfd_result make();

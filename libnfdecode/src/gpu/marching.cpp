@@ -11,8 +11,7 @@ nfd_result DeviceMesh::make() {
     NFD_TRY(buffers.make(VkDeviceSize(vertex_capacity) * 12, &positions));
     NFD_TRY(buffers.make(VkDeviceSize(vertex_capacity) * 12, &normals));
     NFD_TRY(buffers.make(VkDeviceSize(triangle_capacity) * 12, &indices));
-    NFD_TRY(buffers.make(20, &draw));  // VkDrawIndexedIndirectCommand
-    return buffers.make(4, &active);
+    return buffers.make(20, &draw);  // VkDrawIndexedIndirectCommand
 }
 
 nfd_result Classified::make(Job& job, uint32_t k, DeviceMesh* device) {
@@ -24,14 +23,12 @@ nfd_result Classified::make(Job& job, uint32_t k, DeviceMesh* device) {
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &triangle_offsets));
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &emitting));
     NFD_TRY(buffers.make(VkDeviceSize(k) * 4, &emitting_offsets));
-    NFD_TRY(job.new_slot(&emitting_slot));
-    if (device) active = device->active;
-    else NFD_TRY(buffers.make(4, &active));
+    if (device) emitting_slot = device->emitting_slot;
+    else NFD_TRY(job.new_slot(&emitting_slot));
     // The scans run over the capacity: what no parent writes must be zero.
     job.fill(*edge_masks, 0);
     job.fill(*triangle_counts, 0);
     job.fill(*emitting, 0);
-    job.fill(*active, 0);
     return NFD_SUCCESS;
 }
 
@@ -39,7 +36,6 @@ std::vector<Bind> Classified::classify_bindings() const {
     return {{NFD_B_CASES, *cases},
             {NFD_B_EDGE_MASKS, *edge_masks},
             {NFD_B_TRIANGLE_COUNTS, *triangle_counts},
-            {NFD_B_ACTIVE, *active},
             {NFD_B_EMITTING, *emitting}};
 }
 
@@ -83,9 +79,7 @@ nfd_result emit_mesh(Job& job, FinestLevel& finest, Classified& c, Kernel vertic
         vertex_count = job.counter(vertex_slot);
         triangles = job.counter(triangle_slot);
         emitting = job.counter(c.emitting_slot);
-        uint32_t active = 0;
-        NFD_TRY(vk.download(*c.active, 0, &active, 4));
-        stats->active_cells = active;
+        stats->active_cells = emitting;  // the cells that emitted a triangle
     }
     scratch.release();
     vk.destroy(*c.triangle_counts);

@@ -38,6 +38,7 @@ public:
         NFD_TRY(job_.new_slot(&mesh_.vertex_slot));
         NFD_TRY(job_.new_slot(&mesh_.triangle_slot));
         NFD_TRY(job_.new_slot(&mesh_.gradient_slot));
+        NFD_TRY(job_.new_slot(&mesh_.emitting_slot));
         return mesh_.make();
     }
 
@@ -77,9 +78,7 @@ public:
                 t.stats.points_evaluated += job_.counter(slot);
             if (geometry_.field == FieldType::Udf)
                 t.stats.gradients_evaluated = job_.counter(mesh_.gradient_slot);
-            uint32_t active = 0;
-            NFD_TRY(device_.vk->download(*mesh_.active, 0, &active, 4));
-            t.stats.active_cells = active;
+            t.stats.active_cells = job_.counter(mesh_.emitting_slot);
         }
         totals_ = t;
         finished_ = true;
