@@ -59,4 +59,13 @@ float activate_output(float y) {
     return y;
 }
 
+float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign(0) = +1
+    if (OUTPUT_ACTIVATION == 1) return y >= 0.0 ? 1.0 : -1.0;
+    if (OUTPUT_ACTIVATION == 2) {
+        float s = 1.0 / (1.0 + exp(-y));
+        return s * (1.0 - s);
+    }
+    return 1.0;
+}
+
 #endif

@@ -14,8 +14,8 @@
 // no change. A constant in place of the `ping`/`pong` reads (which also lets the compiler drop
 // the encoding and layer 0) gives 0.3 s: the per-lane gathers at loop-counter indices dominate.
 // So on such devices field_eval_lanes.comp, which has no gathers in its point loop and gives
-// this kernel's bits, evaluates the values of networks up to 48 wide (0.17 s for the same 1M
-// points); this kernel keeps their gradients, wider networks and storage-buffer layers.
+// this kernel's value bits, evaluates the values and gradients of networks up to 48 wide (0.17 s
+// for the same 1M values); this kernel keeps wider networks and storage-buffer layers.
 //
 // Weight layout (written by gpu_decode.cpp): per layer, rows of `in4` vec4s, the output padded to
 // a multiple of 4 with zero rows, then the bias as out4 vec4s. Layer 0's columns are permuted to
@@ -83,15 +83,6 @@ vec4 pong[POINTS * MAX4];
 // slope[(K * POINTS + p) * MAX4 + o4]: omega0 cos(omega0 z) of hidden layer K's outputs.
 vec4 slope[(NUM_LAYERS - 1) * POINTS * MAX4];
 #endif
-
-float output_slope(float y) {  // d activate_output / dy; abs: sign(y) with sign(0) = +1
-    if (OUTPUT_ACTIVATION == 1) return y >= 0.0 ? 1.0 : -1.0;
-    if (OUTPUT_ACTIVATION == 2) {
-        float s = 1.0 / (1.0 + exp(-y));
-        return s * (1.0 - s);
-    }
-    return 1.0;
-}
 
 // Hidden activation of point p into DST at output vec4 o4: sin(omega0 z), and in the gradient
 // variant also its slope omega0 cos(omega0 z), from the same sincos_reduced.

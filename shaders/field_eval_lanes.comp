@@ -22,6 +22,18 @@
 // the lane that computed their (frequency, axis) pair, both sine and cosine of one sincos: three a
 // lane at L = 8 rather than the seven that one column per lane and slot would take (6-16% faster
 // at widths 16-48).
+//
+// Defining WITH_GRADIENT gives the value + gradient variant (field_eval.comp's WITH_GRADIENT, a
+// network with one output), in reverse mode: the forward pass is the value kernel's (the same
+// value bits) and keeps each hidden unit's slope omega0 cos(omega0 z); the backward pass is the
+// same shape run on the transposed weights. Each lane also holds the columns r * LANES + lane of
+// every layer's weights (loaded once per workgroup), so d(output)/d(input c) is a row of the
+// transposed layer, its inputs (the layer's output derivatives) shuffled from the lanes that own
+// them, and it lands on the lane that owns unit c of the layer below, with its slope. At layer 0
+// a lane's columns are the sine and cosine of its own (frequency, axis) pairs and, on lanes 0-2,
+// the coordinate u itself, so each lane finishes its pairs' chain rule with its own sines and
+// cosines; the three axes are then summed over the lanes. The gradient's sums run in another
+// order than field_eval.comp's: the gradient agrees with it to rounding, not bit for bit.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
@@ -48,7 +60,7 @@ const uint ROWS_5 = (4 * OUT4_5 + LANES - 1) / LANES;
 const uint ROWS_6 = (4 * OUT4_6 + LANES - 1) / LANES;
 const uint ROWS_7 = (4 * OUT4_7 + LANES - 1) / LANES;
 
-// OUTPUTS floats per point, point-major.
+// OUTPUTS floats per point, point-major; with WITH_GRADIENT (value, gradient) as 4 floats.
 layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { float values[]; };
 
 // Bias of row o of field_eval.comp's layout (IN4 vec4s a row, biases after the rows); zero for
@@ -74,6 +86,27 @@ layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { float val
         }                                                                                   \
     }
 
+#ifdef WITH_GRADIENT
+// This lane's columns of layer K as rows of its transposed weights (COLS slots of ROWS * LANES
+// rows of K), from the transposed block that field.cpp appends to the layer's block (OUT4 vec4s
+// a column; its slot s is column s * LANES + lane; layer 0's slots: field.cpp,
+// transposed_source_column), a vec4 at a time as LOAD_LAYER.
+#define LOAD_TRANSPOSED(K, W, IN4, OUT4, ROWS, COLS)                                         \
+    float t##K[K < NUM_LAYERS ? COLS * ROWS * LANES : 1];                                   \
+    if (K < NUM_LAYERS) {                                                                   \
+        [[unroll]] for (uint s = 0; s < COLS; ++s) {                                        \
+            uint column = (OUT4) * (4 * (IN4) + 1) + (s * LANES + lane) * (OUT4);          \
+            [[unroll]] for (uint o4 = 0; o4 < ROWS * LANES / 4; ++o4) {                     \
+                vec4 v = o4 < (OUT4) ? W.w[column + o4] : vec4(0.0);                        \
+                [[unroll]] for (uint j = 0; j < 4; ++j) t##K[(s * ROWS * LANES) + 4 * o4 + j] = v[j]; \
+            }                                                                               \
+        }                                                                                   \
+    }
+// Layer 0's slots: per pair slot s the sine's and the cosine's column of pair s * LANES + lane,
+// then the coordinate's column (lanes 0-2).
+const uint ENCODED_COLS = 2 * PAIR_SLOTS + 1;
+#endif
+
 // Input c of a hidden layer: the previous layer's row c, from lane c % LANES's slot c / LANES.
 #define HIDDEN_INPUT(SRC, c) subgroupShuffle(SRC[(c) / LANES], (c) % LANES)
 // Input c of layer 0, in field_eval.comp's column order: (u, 0), then per block of 4 frequencies
@@ -85,30 +118,70 @@ layout(std430, binding = NFD_B_FIELD_VALUES) writeonly buffer Values { float val
      : subgroupShuffle(((c) - 4) % 24 < 12 ? sines[PAIR_OF(c) / LANES] : cosines[PAIR_OF(c) / LANES], \
                        PAIR_OF(c) % LANES))
 
-// acc[r] += the dot products of row r's weight vec4s with the input vec4s, in input order (as
-// field_eval.comp sums them); INPUT(SRC, c) gives input c.
-#define ACCUMULATE(K, INPUT, SRC, ROWS, SLOTS, IN4)                                         \
+// acc[r] += the dot products of row r's weight vec4s (in WEIGHTS, SLOTS * LANES a row) with the
+// input vec4s, in input order (as field_eval.comp sums them); INPUT(SRC, c) gives input c.
+#define ACCUMULATE(WEIGHTS, INPUT, SRC, ROWS, SLOTS, IN4)                                   \
     [[unroll]] for (uint i4 = 0; i4 < IN4; ++i4) {                                          \
         vec4 x = vec4(INPUT(SRC, 4 * i4), INPUT(SRC, 4 * i4 + 1), INPUT(SRC, 4 * i4 + 2),   \
                       INPUT(SRC, 4 * i4 + 3));                                              \
         [[unroll]] for (uint r = 0; r < ROWS; ++r) {                                        \
             uint c = r * SLOTS * LANES + 4 * i4;                                            \
-            acc[r] += dot(vec4(w##K[c], w##K[c + 1], w##K[c + 2], w##K[c + 3]), x);         \
+            acc[r] += dot(vec4(WEIGHTS[c], WEIGHTS[c + 1], WEIGHTS[c + 2], WEIGHTS[c + 3]), x); \
         }                                                                                   \
     }
 
 // Layer K from SRC (IN4 input vec4s, SLOTS inputs a lane) into DST (ROWS outputs a lane):
-// hidden layers apply sin(omega0 *), the last none.
+// hidden layers apply sin(omega0 *), the last none. The gradient variant keeps each hidden
+// unit's slope omega0 cos(omega0 z) in DST_slope, from the same sincos_reduced (sin_reduced is
+// its sine: the same value bits).
+#ifdef WITH_GRADIENT
+#define ACTIVATE(DST, r, z)                                                                 \
+    {                                                                                       \
+        vec2 sc = sincos_reduced(OMEGA0 * z);                                               \
+        DST[r] = sc.x;                                                                      \
+        DST##_slope[r] = OMEGA0 * sc.y;                                                     \
+    }
+#define DECLARE_SLOPE(DST, n) float DST##_slope[n];
+#else
+#define ACTIVATE(DST, r, z) DST[r] = sin_reduced(OMEGA0 * z);
+#define DECLARE_SLOPE(DST, n)
+#endif
 #define LAYER(K, INPUT, SRC, DST, ROWS, SLOTS, IN4)                                         \
     float DST[K < NUM_LAYERS ? ROWS : 1];                                                   \
+    DECLARE_SLOPE(DST, K < NUM_LAYERS ? ROWS : 1)                                           \
     if (K < NUM_LAYERS) {                                                                   \
         float acc[ROWS];                                                                    \
         [[unroll]] for (uint r = 0; r < ROWS; ++r) acc[r] = b##K[r];                        \
-        ACCUMULATE(K, INPUT, SRC, ROWS, SLOTS, IN4)                                         \
-        [[unroll]] for (uint r = 0; r < ROWS; ++r)                                          \
-            DST[r] = K + 1 < NUM_LAYERS ? sin_reduced(OMEGA0 * acc[r]) : acc[r];           \
+        ACCUMULATE(w##K, INPUT, SRC, ROWS, SLOTS, IN4)                                      \
+        [[unroll]] for (uint r = 0; r < ROWS; ++r) {                                        \
+            if (K + 1 < NUM_LAYERS) ACTIVATE(DST, r, acc[r]) else DST[r] = acc[r];          \
+        }                                                                                   \
         if (K + 1 == NUM_LAYERS) y = DST[0];                                                \
     }
+
+#ifdef WITH_GRADIENT
+// d(output)/d(z) of the output layer's rows this lane owns: the output's own derivative on row 0
+// (lane 0's first slot), zero on the padding rows.
+#define OUTPUT_DERIVATIVE(DST, ROWS)                                                        \
+    [[unroll]] for (uint r = 0; r < ROWS; ++r) DST[r] = r == 0 && lane == 0 ? d_output : 0.0;
+// Backward through layer K > 0: G holds d(output)/d(z_K) (ROWS_K rows a lane; for the output
+// layer, OUTPUT_DERIVATIVE), DST receives d(output)/d(z_{K-1}) = (W_K^T G) * slope_{K-1}, on the
+// lanes and slots that own layer K - 1's units (COLS a lane).
+#define BACK_LAYER(K, G, ROWS, OUT4, DST, COLS, SLOPE)                                      \
+    float DST[COLS];                                                                        \
+    if (K < NUM_LAYERS) {                                                                   \
+        float g_in[ROWS];                                                                   \
+        if (K + 1 == NUM_LAYERS) {                                                          \
+            OUTPUT_DERIVATIVE(g_in, ROWS)                                                   \
+        } else {                                                                            \
+            [[unroll]] for (uint r = 0; r < ROWS; ++r) g_in[r] = G[r];                      \
+        }                                                                                   \
+        float acc[COLS];                                                                    \
+        [[unroll]] for (uint r = 0; r < COLS; ++r) acc[r] = 0.0;                            \
+        ACCUMULATE(t##K, HIDDEN_INPUT, g_in, COLS, ROWS, OUT4)                              \
+        [[unroll]] for (uint r = 0; r < COLS; ++r) DST[r] = acc[r] * SLOPE[r];              \
+    }
+#endif
 
 void main() {
     const uint lane = gl_SubgroupInvocationID;
@@ -126,6 +199,16 @@ void main() {
     LOAD_LAYER(5, layer5, OUT4_4, OUT4_5, ROWS_5, ROWS_4)
     LOAD_LAYER(6, layer6, OUT4_5, OUT4_6, ROWS_6, ROWS_5)
     LOAD_LAYER(7, layer7, OUT4_6, OUT4_7, ROWS_7, ROWS_6)
+#ifdef WITH_GRADIENT
+    LOAD_TRANSPOSED(0, layer0, ENC4, OUT4_0, ROWS_0, ENCODED_COLS)
+    LOAD_TRANSPOSED(1, layer1, OUT4_0, OUT4_1, ROWS_1, ROWS_0)
+    LOAD_TRANSPOSED(2, layer2, OUT4_1, OUT4_2, ROWS_2, ROWS_1)
+    LOAD_TRANSPOSED(3, layer3, OUT4_2, OUT4_3, ROWS_3, ROWS_2)
+    LOAD_TRANSPOSED(4, layer4, OUT4_3, OUT4_4, ROWS_4, ROWS_3)
+    LOAD_TRANSPOSED(5, layer5, OUT4_4, OUT4_5, ROWS_5, ROWS_4)
+    LOAD_TRANSPOSED(6, layer6, OUT4_5, OUT4_6, ROWS_6, ROWS_5)
+    LOAD_TRANSPOSED(7, layer7, OUT4_6, OUT4_7, ROWS_7, ROWS_6)
+#endif
 
     // This lane's sin/cos pairs: frequency and axis (past the last pair: never read).
     float pair_frequency[PAIR_SLOTS];
@@ -162,7 +245,45 @@ void main() {
         LAYER(5, HIDDEN_INPUT, a4, a5, ROWS_5, ROWS_4, OUT4_4)
         LAYER(6, HIDDEN_INPUT, a5, a6, ROWS_6, ROWS_5, OUT4_5)
         LAYER(7, HIDDEN_INPUT, a6, a7, ROWS_7, ROWS_6, OUT4_6)
+#ifndef WITH_GRADIENT
         // The output layer's row `lane` is output `lane` (row r = 0 of each lane).
         if (lane < OUTPUTS) values[(push.first + p) * OUTPUTS + lane] = activate_output(y);
+#else
+        // Backward from the output (lane 0's y) to layer 0's outputs, then through layer 0 and
+        // the encoding: sin(f u_a) has derivative f cos(f u_a), cos(f u_a) has -f sin(f u_a).
+        float d_output = output_slope(y);
+        float g7[ROWS_7];  // read by no layer: layer 7 can only be the output
+        BACK_LAYER(7, g7, ROWS_7, OUT4_7, g6, ROWS_6, a6_slope)
+        BACK_LAYER(6, g6, ROWS_6, OUT4_6, g5, ROWS_5, a5_slope)
+        BACK_LAYER(5, g5, ROWS_5, OUT4_5, g4, ROWS_4, a4_slope)
+        BACK_LAYER(4, g4, ROWS_4, OUT4_4, g3, ROWS_3, a3_slope)
+        BACK_LAYER(3, g3, ROWS_3, OUT4_3, g2, ROWS_2, a2_slope)
+        BACK_LAYER(2, g2, ROWS_2, OUT4_2, g1, ROWS_1, a1_slope)
+        BACK_LAYER(1, g1, ROWS_1, OUT4_1, g0, ROWS_0, a0_slope)
+        float g_in[ROWS_0];
+        if (NUM_LAYERS == 1) {
+            OUTPUT_DERIVATIVE(g_in, ROWS_0)
+        } else {
+            [[unroll]] for (uint r = 0; r < ROWS_0; ++r) g_in[r] = g0[r];
+        }
+        float acc[ENCODED_COLS];
+        [[unroll]] for (uint m = 0; m < ENCODED_COLS; ++m) acc[m] = 0.0;
+        ACCUMULATE(t0, HIDDEN_INPUT, g_in, ENCODED_COLS, ROWS_0, OUT4_0)
+        // The coordinate's column: u_lane on lanes 0-2 (zero weights on the others).
+        vec3 partial = acc[2 * PAIR_SLOTS] * vec3(equal(uvec3(0, 1, 2), uvec3(lane)));
+        [[unroll]] for (uint s = 0; s < PAIR_SLOTS; ++s) {
+            float d = pair_frequency[s] * (acc[2 * s] * cosines[s] - acc[2 * s + 1] * sines[s]);
+            partial += d * vec3(equal(uvec3(0, 1, 2), uvec3(pair_axis[s])));
+        }
+        vec3 gradient = vec3(0.0);
+        [[unroll]] for (uint l = 0; l < LANES; ++l) gradient += subgroupShuffle(partial, l);
+        if (lane == 0) {
+            uint o = 4 * (push.first + p);
+            values[o] = activate_output(y);
+            values[o + 1] = gradient.x;
+            values[o + 2] = gradient.y;
+            values[o + 3] = gradient.z;
+        }
+#endif
     }
 }

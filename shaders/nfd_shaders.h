@@ -17,11 +17,13 @@ extern const Spirv field_gradient_storage;  // the same, weights in storage buff
 extern const Spirv field_eval_shared;      // MLP for GPUs: a point per invocation, weights in shared memory
 extern const Spirv field_gradient_shared;  // value + gradient, the same shape
 extern const Spirv field_eval_lanes;   // MLP for CPU implementations: a subgroup a point
+extern const Spirv field_gradient_lanes;  // value + gradient, the same shape
 extern const Spirv refine_count;        // which child-grid vertices each kept cell owns
 extern const Spirv refine_points;       // writes the owned vertices' unit positions
 extern const Spirv refine_cells;        // tests the children of kept cells, sets kept bits
 extern const Spirv refine_cells_near;   // the same, and a UDF's near cells for its mesher
 extern const Spirv gather_corners;      // corner values of the newly kept cells
+extern const Spirv gather_corners_gradients;  // and, for UDF levels, their gradients' places
 extern const Spirv level_around;        // each kept cell's kept neighbours, as bits
 extern const Spirv bitmap_compact;      // kept bitmap -> sorted list of cell indices
 extern const Spirv dense_lookup;        // point lists of the host-evaluated coarsest level
@@ -47,7 +49,6 @@ extern const Spirv udf_gradient_count;  // UDF: which points each parent evaluat
 extern const Spirv udf_gradient_count_predicted;  // the same, the predicted points copied
 extern const Spirv udf_gradient_merge;  // UDF levels: fresh and carried gradients into one list
 extern const Spirv udf_gradient_merge_predicted;  // the same, predicted ones too
-extern const Spirv udf_corner_gradients;  // UDF levels: the next level's corners in this list
 extern const Spirv udf_classify;        // UDF, per finest-level parent: pseudo-signed cases
 extern const Spirv udf_vertices;        // UDF, per vertex: position (|f| minimum), normal
 

@@ -54,26 +54,27 @@ void main() {
     [[unroll]] for (uint c = 0u; c < 8u; ++c)  // step 3
         if (dot3(g[c], n) < 0.0) cc |= 1u << c;
     uint valid_edges = valid_edge_mask(f, push.edge_limit);  // step 5's test, per cube edge
-    uint emitted = 0u;
-    uvec2 own_edges = uvec2(0u);  // the parent's own (most of them): one atomic per word below
+    uint emitted = 0u, used_edges = 0u;
     for (uint t = 0u; t < mc_triangle_count(cc); ++t) {
-        bool valid = true;  // step 5
-        for (uint j = 0u; j < 3u; ++j)
-            valid = valid && (valid_edges >> uint(mc_triangle_edge(cc, 3u * t + j)) & 1u) != 0u;
-        if (!valid) continue;
+        uint edges = 0u;
+        for (uint j = 0u; j < 3u; ++j) edges |= 1u << uint(mc_triangle_edge(cc, 3u * t + j));
+        if ((edges & valid_edges) != edges) continue;  // step 5
         emitted |= 1u << t;
-        for (uint j = 0u; j < 3u; ++j) {
-            uint e = uint(mc_triangle_edge(cc, 3u * t + j));
-            uint a = e / 4u;
-            uvec3 l = d + corner_offset(mc_edge_start_corner(e));
-            uvec3 v = 2u * p + l;
-            uint ko;
-            uvec3 o = local_owner(p, k, around, l, a, r, ko);
-            uint id = edge_id(a, v - 2u * o);
-            if (ko == k) own_edges |= id < 32u ? uvec2(1u << id, 0u) : uvec2(0u, 1u << (id - 32u));
-            else if (id < 32u) atomicOr(edge_masks[ko].x, 1u << id);
-            else atomicOr(edge_masks[ko].y, 1u << (id - 32u));
-        }
+        used_edges |= edges;
+    }
+    // Each edge of the emitted triangles once (a cell's triangles share most of theirs).
+    uvec2 own_edges = uvec2(0u);  // the parent's own (most of them): one atomic per word below
+    for (uint m = used_edges; m != 0u; m &= m - 1u) {
+        uint e = uint(findLSB(m));
+        uint a = e / 4u;
+        uvec3 l = d + corner_offset(mc_edge_start_corner(e));
+        uvec3 v = 2u * p + l;
+        uint ko;
+        uvec3 o = local_owner(p, k, around, l, a, r, ko);
+        uint id = edge_id(a, v - 2u * o);
+        if (ko == k) own_edges |= id < 32u ? uvec2(1u << id, 0u) : uvec2(0u, 1u << (id - 32u));
+        else if (id < 32u) atomicOr(edge_masks[ko].x, 1u << id);
+        else atomicOr(edge_masks[ko].y, 1u << (id - 32u));
     }
     if (own_edges.x != 0u) atomicOr(edge_masks[k].x, own_edges.x);
     if (own_edges.y != 0u) atomicOr(edge_masks[k].y, own_edges.y);

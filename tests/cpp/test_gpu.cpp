@@ -404,11 +404,15 @@ TEST_F(Gpu, StagedMemoryGivesTheSameResults) {
 
 // The field kernels' GPU shape (a point per invocation, weights in shared memory; picked on devices
 // that are not CPU implementations), forced on this device: the same values, gradients and
-// meshes, bit for bit, as the default shape on every golden vector, SDF and UDF.
+// meshes, bit for bit, as field_eval.comp's shape (this device without its lanes kernels, whose
+// gradients differ by rounding) on every golden vector, SDF and UDF.
 TEST_F(Gpu, SharedWeightKernelsGiveTheSameResults) {
     const std::unique_ptr<gpu::Device> shared = device_forcing("NFD_FORCE_SHARED_WEIGHTS");
     ASSERT_TRUE(shared);
     ASSERT_TRUE(shared->shared_weight_kernels);
+    std::unique_ptr<gpu::Device> plain;
+    ASSERT_EQ(gpu::create_device(nullptr, false, &plain), NFD_SUCCESS);
+    plain->lane_kernels = false;
     std::mt19937 rng(5);
     std::uniform_real_distribution<float> u(-1.0f, 1.0f);
     std::vector<float> points(3 * 1000);
@@ -417,13 +421,13 @@ TEST_F(Gpu, SharedWeightKernelsGiveTheSameResults) {
         SCOPED_TRACE(name);
         const Geometry g = parse_or_throw(read_bytes(golden_path(name, ".nfc")));
         MeshData usual_mesh, shared_mesh;
-        ASSERT_EQ(gpu::extract_mesh(device(), g, 96, &usual_mesh, nullptr), NFD_SUCCESS);
+        ASSERT_EQ(gpu::extract_mesh(*plain, g, 96, &usual_mesh, nullptr), NFD_SUCCESS);
         ASSERT_EQ(gpu::extract_mesh(*shared, g, 96, &shared_mesh, nullptr), NFD_SUCCESS);
         EXPECT_EQ(shared_mesh.indices, usual_mesh.indices);
         EXPECT_EQ(shared_mesh.positions, usual_mesh.positions);
         EXPECT_EQ(shared_mesh.normals, usual_mesh.normals);
         std::vector<float> a(1000), b(1000), ga(3000), gb(3000), cpu(1000);
-        ASSERT_EQ(gpu::evaluate_gradient(device(), g.network, points.data(), 1000, a.data(), ga.data()),
+        ASSERT_EQ(gpu::evaluate_gradient(*plain, g.network, points.data(), 1000, a.data(), ga.data()),
                   NFD_SUCCESS);
         ASSERT_EQ(gpu::evaluate_gradient(*shared, g.network, points.data(), 1000, b.data(), gb.data()),
                   NFD_SUCCESS);
@@ -436,6 +440,23 @@ TEST_F(Gpu, SharedWeightKernelsGiveTheSameResults) {
     for (const gpu::Device::FieldPipeline& f : shared->field_pipelines)
         shared_pipelines += f.kernel == gpu::Kernel::FieldEvalShared || f.kernel == gpu::Kernel::FieldGradientShared;
     EXPECT_GE(shared_pipelines, 2u) << "the shared-memory kernels did not run";
+}
+
+// random_siren's first layer (`frequencies`, 8 bits), then `hidden` - 1 more layers of `width`
+// at its second layer's steps, then `outputs`.
+GeomSpec hidden_siren(uint32_t width, uint32_t frequencies, uint32_t hidden, uint32_t outputs,
+                      uint32_t seed, uint8_t field_type) {
+    GeomSpec spec = random_siren(width, 8, seed, field_type, uint16_t(outputs), uint8_t(frequencies));
+    spec.widths.assign(hidden, uint16_t(width));
+    spec.widths.push_back(uint16_t(outputs));
+    spec.steps.resize(2 * spec.widths.size(), spec.steps[2]);
+    std::mt19937 rng(width);
+    std::uniform_int_distribution<int32_t> level(-127, 127);
+    spec.levels.resize(width * (spec.input_width() + 1));
+    for (uint32_t l = 1; l < spec.widths.size(); ++l)
+        for (uint32_t k = 0; k < (spec.widths[l - 1] + 1u) * spec.widths[l]; ++k)
+            spec.levels.push_back(level(rng));
+    return spec;
 }
 
 // On a CPU implementation with 8-wide compute subgroups (lavapipe) the values of networks up to
@@ -457,18 +478,8 @@ TEST_F(Gpu, LaneKernelGivesTheValueKernelsBits) {
     for (const Shape& shape : shapes) {
         SCOPED_TRACE(testing::Message() << "width " << shape.width << " L " << shape.frequencies
                                         << " outputs " << shape.outputs << " hidden " << shape.hidden);
-        // random_siren's first layer, then `hidden` - 1 layers at its second layer's steps.
-        GeomSpec spec = random_siren(shape.width, 8, 1000 + shape.width, 0, shape.outputs,
-                                     uint8_t(shape.frequencies));
-        spec.widths.assign(shape.hidden, uint16_t(shape.width));
-        spec.widths.push_back(uint16_t(shape.outputs));
-        spec.steps.resize(2 * spec.widths.size(), spec.steps[2]);
-        std::mt19937 rng(shape.width);
-        std::uniform_int_distribution<int32_t> level(-127, 127);
-        spec.levels.resize(shape.width * (spec.input_width() + 1));
-        for (uint32_t l = 1; l < spec.widths.size(); ++l)
-            for (uint32_t k = 0; k < (spec.widths[l - 1] + 1u) * spec.widths[l]; ++k)
-                spec.levels.push_back(level(rng));
+        GeomSpec spec = hidden_siren(shape.width, shape.frequencies, shape.hidden, shape.outputs,
+                                     1000 + shape.width, 0);
         ParsedFile file;
         const Bytes bytes = shape.outputs == 1
                                 ? geom_file(spec)
@@ -493,9 +504,71 @@ TEST_F(Gpu, LaneKernelGivesTheValueKernelsBits) {
         EXPECT_NE(f.kernel, gpu::Kernel::FieldEvalLanes);
 }
 
+// The gradient variant of the lanes kernel (CPU implementations, networks up to 48 wide, reverse
+// mode on the transposed blocks field.cpp appends): values bit for bit field_eval.comp's, gradients
+// within rounding of field_eval.comp's and the CPU twin's, on random UDF networks of 1-4 hidden
+// layers, widths 4-48 and L = 0-16 and on every golden vector; on the golden vectors the meshes
+// have field_eval.comp's triangles and positions, their normals (the gradients) within 1e-5.
+TEST_F(Gpu, LaneGradientKernelMatchesTheGradientKernel) {
+    if (!device().lane_kernels) GTEST_SKIP() << "not a CPU implementation with 8-wide subgroups";
+    std::unique_ptr<gpu::Device> lanes, plain;
+    ASSERT_EQ(gpu::create_device(nullptr, false, &lanes), NFD_SUCCESS);
+    ASSERT_EQ(gpu::create_device(nullptr, false, &plain), NFD_SUCCESS);
+    plain->lane_kernels = false;
+    const std::vector<float> points = random_points(3001, 13);
+    const size_t n = points.size() / 3;
+    struct Shape { uint32_t width, frequencies, hidden; };
+    std::vector<Geometry> geometries;
+    std::vector<std::string> labels;
+    // (Widths 16 and 32 at L = 16: the golden vectors. Each shape is a pipeline of its own,
+    // ~10 s to compile the first time on 2-core lavapipe at width 48.)
+    for (const Shape& shape : std::vector<Shape>{{4, 0, 1}, {24, 5, 3}, {12, 16, 4}, {48, 8, 2}}) {
+        geometries.push_back(parse_or_throw(geom_file(
+            hidden_siren(shape.width, shape.frequencies, shape.hidden, 1, 3000 + shape.width, 1))));
+        labels.push_back("width " + std::to_string(shape.width) + " L " +
+                         std::to_string(shape.frequencies) + " hidden " + std::to_string(shape.hidden));
+    }
+    for (const std::string& name : golden_names()) {
+        geometries.push_back(parse_or_throw(read_bytes(golden_path(name, ".nfc"))));
+        labels.push_back(name);
+    }
+    for (size_t k = 0; k < geometries.size(); ++k) {
+        SCOPED_TRACE(labels[k]);
+        const Network& net = geometries[k].network;
+        std::vector<float> a(n), b(n), ga(3 * n), gb(3 * n), cpu(n), gcpu(3 * n);
+        ASSERT_EQ(gpu::evaluate_gradient(*lanes, net, points.data(), n, a.data(), ga.data()), NFD_SUCCESS);
+        ASSERT_EQ(gpu::evaluate_gradient(*plain, net, points.data(), n, b.data(), gb.data()), NFD_SUCCESS);
+        evaluate_gradient_cpu(net, points.data(), n, cpu.data(), gcpu.data());
+        EXPECT_EQ(a, b);
+        double worst = 0, worst_cpu = 0, scale = 0;
+        for (size_t i = 0; i < 3 * n; ++i) {
+            worst = std::max(worst, double(std::fabs(ga[i] - gb[i])));
+            worst_cpu = std::max(worst_cpu, double(std::fabs(ga[i] - gcpu[i])));
+            scale = std::max(scale, double(std::fabs(gb[i])));
+        }
+        EXPECT_LE(worst, 1e-5 * scale);
+        EXPECT_LE(worst_cpu, 1e-5 * scale);
+        if (k + golden_names().size() < geometries.size()) continue;
+        MeshData lane_mesh, plain_mesh;
+        ASSERT_EQ(gpu::extract_mesh(*lanes, geometries[k], 96, &lane_mesh, nullptr), NFD_SUCCESS);
+        ASSERT_EQ(gpu::extract_mesh(*plain, geometries[k], 96, &plain_mesh, nullptr), NFD_SUCCESS);
+        EXPECT_EQ(lane_mesh.indices, plain_mesh.indices);
+        EXPECT_EQ(lane_mesh.positions, plain_mesh.positions);
+        ASSERT_EQ(lane_mesh.normals.size(), plain_mesh.normals.size());
+        for (size_t i = 0; i < lane_mesh.normals.size(); ++i)
+            ASSERT_NEAR(lane_mesh.normals[i], plain_mesh.normals[i], 1e-5f) << i;
+    }
+    size_t lane_gradients = 0;
+    for (const gpu::Device::FieldPipeline& f : lanes->field_pipelines)
+        lane_gradients += f.kernel == gpu::Kernel::FieldGradientLanes;
+    EXPECT_GE(lane_gradients, 4u) << "the lanes gradient kernel did not run";
+    for (const gpu::Device::FieldPipeline& f : plain->field_pipelines)
+        EXPECT_NE(f.kernel, gpu::Kernel::FieldGradientLanes);
+}
+
 // Hostile weights that pass the CRC (steps that overflow to inf against levels of +-127, subnormal
-// steps, NaN-producing inf - inf sums) through the lanes kernel: no fault, and the old kernel's
-// bits (NaN where it gives NaN).
+// steps, NaN-producing inf - inf sums) through the lanes kernels: no fault, and the old kernel's
+// value bits (NaN where it gives NaN).
 TEST_F(Gpu, LaneKernelOnHostileWeights) {
     if (!device().lane_kernels) GTEST_SKIP() << "not a CPU implementation with 8-wide subgroups";
     std::unique_ptr<gpu::Device> plain;
@@ -516,6 +589,15 @@ TEST_F(Gpu, LaneKernelOnHostileWeights) {
         for (size_t i = 0; i < n; ++i)
             ASSERT_TRUE(std::isnan(lanes[i]) ? std::isnan(usual[i]) : lanes[i] == usual[i])
                 << i << ": " << lanes[i] << " against " << usual[i];
+        // The gradient variant (as a UDF's): no fault, the value kernel's values.
+        file.geometry.network.output = OutputActivation::Abs;
+        std::vector<float> values(n), gradients(3 * n);
+        ASSERT_EQ(gpu::evaluate_gradient(device(), file.geometry.network, points.data(), n,
+                                         values.data(), gradients.data()),
+                  NFD_SUCCESS);
+        for (size_t i = 0; i < n; ++i)
+            ASSERT_TRUE(std::isnan(values[i]) ? std::isnan(usual[i]) : values[i] == std::fabs(usual[i]))
+                << i;
     }
 }
 

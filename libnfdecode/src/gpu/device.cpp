@@ -81,7 +81,7 @@ constexpr BindingMask kArgs = B(NFD_B_SCAN_COUNTERS) | B(NFD_B_ARGS);
 static_assert(NFD_B_FIELD_COUNTERS >= NFD_B_FIELD_LAYER0 + NFD_GPU_MAX_LAYERS, "after the layers");
 constexpr uint32_t kNoSpecialization = UINT32_MAX;
 
-constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldEvalLanes; }
+constexpr bool is_field_kernel(Kernel kernel) { return kernel <= Kernel::FieldGradientLanes; }
 
 // Where each kernel family binds the job's counters (counters.glsl): the field kernels after
 // their layers, the small list kernels after the scan's bindings, the level kernels (extract.glsl)
@@ -130,6 +130,8 @@ constexpr KernelDesc kKernels[] = {
      B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LOCAL_SIZE},
     {Kernel::FieldEvalLanes, shaders::field_eval_lanes, kField,
      B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LANES},
+    {Kernel::FieldGradientLanes, shaders::field_gradient_lanes, kField,
+     B(NFD_B_FIELD_FREQUENCIES) | kFieldLayers, NFD_FIELD_PUSH_BYTES, NFD_FIELD_LANES},
     // Prefix scans and compaction.
     {Kernel::Scan, shaders::scan, B(NFD_B_SCAN_IN) | B(NFD_B_SCAN_OUT) | B(NFD_B_SCAN_SUMS), 0,
      NFD_COUNT_PUSH_BYTES, NFD_SCAN_LOCAL_SIZE, 0},
@@ -168,6 +170,10 @@ constexpr KernelDesc kKernels[] = {
     {Kernel::GatherCorners, shaders::gather_corners,
      kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_CELLS) | B(NFD_B_CHILD_CORNERS), 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
+    {Kernel::GatherCornersGradients, shaders::gather_corners_gradients,
+     kChildGrid | B(NFD_B_VALUES) | B(NFD_B_CHILD_CELLS) | B(NFD_B_CHILD_CORNERS) |
+         B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_CORNER_GRADIENTS),
+     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::LevelAround, shaders::level_around, kLevel, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     // Marching cubes over the level-1 parents (mc.glsl); McEmit serves SDF and UDF.
     {Kernel::McClassify, shaders::mc_classify,
@@ -213,10 +219,6 @@ constexpr KernelDesc kKernels[] = {
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfGradientMergePredicted, shaders::udf_gradient_merge_predicted,
      kGradientMerge | kPredicted, 0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
-    {Kernel::UdfCornerGradients, shaders::udf_corner_gradients,
-     kLevel | B(NFD_B_GRADIENT_OWNED) | B(NFD_B_GRADIENT_OFFSETS) | B(NFD_B_CHILD_CELLS) |
-         B(NFD_B_CORNER_GRADIENTS),
-     0, NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},
     {Kernel::UdfClassify, shaders::udf_classify,
      kLevel | kGradients | B(NFD_B_MC_TABLES) | B(NFD_B_NEAR_CELLS) | kClassified, 0,
      NFD_LEVEL_PUSH_BYTES, NFD_LOCAL_SIZE},

@@ -35,16 +35,17 @@ inline uint32_t div_up(uint64_t a, uint64_t b) { return uint32_t((a + b - 1) / b
 enum class Kernel : uint32_t {
     FieldEval, FieldEvalStorage, FieldGradient, FieldGradientStorage,  // specialized per network
     FieldEvalShared, FieldGradientShared,  // the same for GPUs (field.cpp, prepare_field)
-    FieldEvalLanes,  // values on CPU implementations (field.cpp, field_kernel)
+    FieldEvalLanes, FieldGradientLanes,  // CPU implementations (field.cpp, field_kernel)
     Scan, ScanPopcount, ScanAdd, BitmapCompact,
     CountTotal, CountTotalPopcount, DispatchArgs, DrawArgs, DenseValues, DenseGradients,
-    RefineCount, RefinePoints, RefineCells, RefineCellsNear, GatherCorners, LevelAround,
+    RefineCount, RefinePoints, RefineCells, RefineCellsNear, GatherCorners,
+    GatherCornersGradients, LevelAround,
     McClassify, McVertexEdges, McEmit, McVertices,
     UdfPredict, UdfPredictJoin, UdfNear, UdfNearPredicted,
     UdfFloodSeedMidpoints, UdfFloodSeedChildren, UdfFloodSeedIsolated, UdfFloodClaimCorners,
     UdfFloodFaces, UdfFloodListPoints, UdfFloodStoreValues,  // udf_flood.comp's modes 0-6
     UdfGradientCount, UdfGradientCountPredicted, UdfGradientMerge, UdfGradientMergePredicted,
-    UdfCornerGradients, UdfClassify, UdfVertices,
+    UdfClassify, UdfVertices,
     Count
 };
 constexpr size_t kKernelCount = size_t(Kernel::Count);
@@ -91,9 +92,10 @@ public:
     // for CPU implementations, whose SIMD lanes want several points per invocation. Tests set
     // NFD_FORCE_SHARED_WEIGHTS to run it on lavapipe.
     bool shared_weight_kernels = false;
-    // field_eval_lanes.comp for the values of networks up to 48 wide: on CPU implementations
-    // whose compute subgroups are NFD_FIELD_LANES invocations with shuffles (lavapipe), where it
-    // runs ~5x faster than field_eval.comp (bench/RESULTS.md, "0.13.13").
+    // field_eval_lanes.comp for the values and gradients of networks up to 48 wide: on CPU
+    // implementations whose compute subgroups are NFD_FIELD_LANES invocations with shuffles
+    // (lavapipe), where it runs ~5x faster than field_eval.comp (bench/RESULTS.md, "0.13.13",
+    // "0.13.16").
     bool lane_kernels = false;
     unsigned host_threads = 0;  // gpu_decode.h, set_host_threads
     // The largest predicted list of a UDF's finest level (levels.h, FinestLevel::predicted; 16
@@ -207,6 +209,7 @@ struct DeviceNetwork {
     uint32_t max4 = 0;                     // widest layer input/output, in vec4s
     uint32_t widest4 = 0;                  // widest layer output, in vec4s
     uint32_t weight_vec4s = 0;             // every layer's block, back to back (no alignment)
+    bool transposed = false;               // blocks end in field_eval_lanes.comp's transposes
     VkDeviceSize bytes = 0;                // of `weights`, the aligned blocks
     std::vector<uint32_t> specialization;  // field_eval.comp's constants 0-13
     struct Variant {

@@ -125,17 +125,36 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
     return NFD_SUCCESS;
 }
 
-// Vec4 rows per layer: in4 inputs (layer 0: the encoding's blocks), out4 outputs.
+// Vec4 rows per layer: in4 inputs (layer 0: the encoding's blocks), out4 outputs; with
+// transposed blocks (field_eval_lanes.comp's gradient), the columns each holds.
 struct LayerVec4s {
     uint32_t in4[NFD_GPU_MAX_LAYERS] = {};
     uint32_t out4[NFD_GPU_MAX_LAYERS] = {};
+    uint32_t transposed_columns[NFD_GPU_MAX_LAYERS] = {};
 };
+
+// field_eval_lanes.comp's gradient reads layer l's weights by columns: lane `lane`'s column slot
+// s is transposed row s * NFD_FIELD_LANES + lane. For a hidden layer that is input column s *
+// LANES + lane (zero past the inputs); for layer 0 the shader's pairs: slot s of 2 * pair_slots
+// + 1 is the sine (s even) or cosine (s odd) column of (frequency k, axis a) pair q = (s / 2) *
+// LANES + lane, q = 3k + a, and the last slot the coordinate u_lane on lanes 0-2. The column
+// in the block's row layout, or UINT32_MAX for a zero row.
+uint32_t transposed_source_column(uint32_t layer, uint32_t row, uint32_t in4, uint32_t freq4) {
+    if (layer > 0) return row < 4 * in4 ? row : UINT32_MAX;
+    const uint32_t pairs = 12 * freq4, pair_slots = div_up(pairs, NFD_FIELD_LANES);
+    const uint32_t slot = row / NFD_FIELD_LANES, lane = row % NFD_FIELD_LANES;
+    if (slot == 2 * pair_slots) return lane < 3 ? lane : UINT32_MAX;
+    const uint32_t q = (slot / 2) * NFD_FIELD_LANES + lane, k = q / 3, axis = q % 3;
+    if (q >= pairs) return UINT32_MAX;
+    return 4 + 24 * (k / 4) + 4 * (axis + 3 * (slot % 2)) + k % 4;
+}
 
 // Where field_eval.comp finds each layer (device.h, DeviceNetwork: ranges, offsets, storage or
 // uniform) and the kernel's specialization: from the network's shape alone, so that a shape read
 // ahead of its weights (warm_field_pipelines) gives the very pipelines of the whole network.
-nfd_result network_layout(const VkPhysicalDeviceLimits& limits, const Network& net,
-                          DeviceNetwork* out, LayerVec4s* v) {
+nfd_result network_layout(const Device& d, const Network& net, DeviceNetwork* out,
+                          LayerVec4s* v) {
+    const VkPhysicalDeviceLimits& limits = d.vk->limits();
     const uint32_t layers = uint32_t(net.layers.size());
     if (layers < 1 || layers > NFD_GPU_MAX_LAYERS ||
         net.frequencies.size() > NFD_GPU_MAX_FREQUENCIES || net.output_width() < 1 ||
@@ -162,6 +181,24 @@ nfd_result network_layout(const VkPhysicalDeviceLimits& limits, const Network& n
         out->range[l] = VkDeviceSize(v->out4[l]) * (4 * v->in4[l] + 1) * 16;
         out->storage |= out->range[l] > block;
         out->weight_vec4s += uint32_t(out->range[l] / 16);
+    }
+    // The lanes kernel's transposed blocks after each layer's, for networks with a gradient (one
+    // output) where every enlarged block still fits a uniform block (else their gradients stay
+    // with field_eval.comp).
+    uint32_t widest4 = 0;
+    for (uint32_t l = 0; l < layers; ++l) widest4 = std::max(widest4, v->out4[l]);
+    out->transposed = d.lane_kernels && !out->storage && widest4 <= kLaneKernelWidest4 &&
+                      net.output_width() == 1;
+    for (uint32_t l = 0; l < layers; ++l) {
+        const uint32_t slots = l == 0 ? 2 * div_up(12 * freq4, NFD_FIELD_LANES) + 1
+                                      : div_up(4 * v->in4[l], NFD_FIELD_LANES);
+        v->transposed_columns[l] = slots * NFD_FIELD_LANES;
+        out->transposed &=
+            out->range[l] + VkDeviceSize(v->transposed_columns[l]) * v->out4[l] * 16 <= block;
+    }
+    for (uint32_t l = 0; l < layers; ++l) {
+        if (!out->transposed) v->transposed_columns[l] = 0;
+        out->range[l] += VkDeviceSize(v->transposed_columns[l]) * v->out4[l] * 16;
     }
     const VkDeviceSize align = std::max<VkDeviceSize>(
         256, out->storage ? limits.minStorageBufferOffsetAlignment
@@ -192,7 +229,7 @@ nfd_result network_layout(const VkPhysicalDeviceLimits& limits, const Network& n
 // Per layer, rows of in4 vec4s at aligned offsets (device.h, DeviceNetwork).
 nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     LayerVec4s v;
-    NFD_TRY(network_layout(d.vk->limits(), net, out, &v));
+    NFD_TRY(network_layout(d, net, out, &v));
     const uint32_t layers = uint32_t(net.layers.size());
     for (const Layer& layer : net.layers)
         if (layer.weights.size() != size_t(layer.in) * layer.out || layer.bias.size() != layer.out)
@@ -213,6 +250,13 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
         }
         float* bias = w + size_t(v.out4[l]) * 4 * 4 * v.in4[l];
         for (uint32_t o = 0; o < layer.out; ++o) bias[o] = layer.bias[o];
+        float* transposed = bias + 4 * v.out4[l];
+        for (uint32_t r = 0; r < v.transposed_columns[l]; ++r) {
+            const uint32_t c = transposed_source_column(l, r, v.in4[l], (v.in4[0] - 1) / 6);
+            if (c == UINT32_MAX) continue;
+            for (uint32_t o = 0; o < layer.out; ++o)
+                transposed[size_t(r) * 4 * v.out4[l] + o] = w[size_t(o) * 4 * v.in4[l] + c];
+        }
     }
     NFD_TRY(d.vk->upload(out->weights, 0, weights.data(), total));
     NFD_TRY(d.vk->upload(out->frequencies, 0, frequencies.data(), kFrequencyBytes));
@@ -235,13 +279,16 @@ FieldKernel field_kernel(const Device& d, const DeviceNetwork& net, bool gradien
     const bool shared = d.shared_weight_kernels && !net.storage &&
                         VkDeviceSize(net.weight_vec4s) * 16 <= d.vk->limits().maxComputeSharedMemorySize;
     // On CPU implementations the values of networks up to 48 wide take the lanes kernel (the
-    // same bits). Wider ones keep field_eval.comp: the lanes kernel's unrolled rows cost more to
-    // create with its width, even from Mesa's shader cache (2-core lavapipe, in every process:
-    // 45-75 ms at widths 16-32, 130-200 at 48, 250-350 at 64 against field_eval.comp's 35, and
-    // 2.7 s more than field_eval.comp for a machine's first compile at 64), which at 64 about
-    // equals what a decode at 256 gains (bench/RESULTS.md, "0.13.14").
-    const bool lanes =
-        d.lane_kernels && !shared && !gradient && !net.storage && net.widest4 <= kLaneKernelWidest4;
+    // same bits), and their gradients its gradient variant where the network's blocks carry the
+    // transposes it reads (the same values; gradients within rounding). Wider ones keep
+    // field_eval.comp: the lanes kernel's unrolled rows cost more to create with its width, even
+    // from Mesa's shader cache (2-core lavapipe, in every process: 45-75 ms at widths 16-32,
+    // 130-200 at 48, 250-350 at 64 against field_eval.comp's 35, and 2.7 s more than
+    // field_eval.comp for a machine's first compile at 64), which at 64 about equals what a
+    // decode at 256 gains (bench/RESULTS.md, "0.13.14"); the gradient variant costs about three
+    // times the value kernel's ("0.13.16").
+    const bool lanes = d.lane_kernels && !shared && !net.storage &&
+                       net.widest4 <= kLaneKernelWidest4 && (!gradient || net.transposed);
     FieldKernel f;
     f.points = lanes ? kLanePointsPerInvocation : shared ? 1 : net.max4 <= 32 ? kPointsPerInvocation : 2;
     f.specialization = net.specialization;
@@ -249,7 +296,7 @@ FieldKernel field_kernel(const Device& d, const DeviceNetwork& net, bool gradien
     if (shared)
         f.specialization.insert(f.specialization.end(),
                                 {0u /* local size: set by the pipeline */, net.weight_vec4s});
-    f.kernel = lanes    ? Kernel::FieldEvalLanes
+    f.kernel = lanes    ? (gradient ? Kernel::FieldGradientLanes : Kernel::FieldEvalLanes)
                : shared ? (gradient ? Kernel::FieldGradientShared : Kernel::FieldEvalShared)
                : gradient ? (net.storage ? Kernel::FieldGradientStorage : Kernel::FieldGradient)
                           : (net.storage ? Kernel::FieldEvalStorage : Kernel::FieldEval);
@@ -318,27 +365,28 @@ std::shared_ptr<DeviceNetwork> layout_copy(const DeviceNetwork& net) {
     layout->max4 = net.max4;
     layout->widest4 = net.widest4;
     layout->weight_vec4s = net.weight_vec4s;
+    layout->transposed = net.transposed;
     layout->bytes = net.bytes;
     layout->specialization = net.specialization;
     return layout;
 }
 
-// Compiles the value and (or) gradient pipelines of `layout`, in that order, on one thread of the
-// device (Device::warmers), into the device's list, where prepare_field finds them or waits for
-// them. False when no thread could start, or kMaxWarmers are running: each pipeline is then
-// compiled where it is first needed.
-bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, bool values,
-                           bool gradients) {
+// Compiles the value or gradient pipeline of `layout` on a thread of the device
+// (Device::warmers), into the device's list, where prepare_field finds it or waits for it. A
+// UDF's two run on two threads: its first levels wait for the values' pipeline, its meshed levels
+// for the gradients', which on lavapipe takes several times as long to create. False when no
+// thread could start, or kMaxWarmers are running: the pipeline is then compiled where it is first
+// needed.
+bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, bool gradient) {
     std::lock_guard<std::mutex> lock(d.mutex);
     d.join_warmers(true);
     if (d.warmers.size() >= kMaxWarmers) return false;
     Device::Warmer& w = d.warmers.emplace_back();
     try {
-        w.thread = std::thread([&d, &w, layout, values, gradients] {
+        w.thread = std::thread([&d, &w, layout, gradient] {
             run_as_background_thread();
             try {  // a failure is the decode's to report
-                if (values) prepare_field(d, *layout, false);
-                if (gradients) prepare_field(d, *layout, true);
+                prepare_field(d, *layout, gradient);
             } catch (const std::bad_alloc&) {
             }
             w.done = true;
@@ -361,7 +409,8 @@ nfd_result prepare_fields(Device& d, DeviceNetwork& net, FieldType field) {
     }
     if (!value_missing && !gradient_missing) return NFD_SUCCESS;
     try {
-        compile_in_background(d, layout_copy(net), value_missing, gradient_missing);
+        if (value_missing) compile_in_background(d, layout_copy(net), false);
+        if (gradient_missing) compile_in_background(d, layout_copy(net), true);
     } catch (const std::bad_alloc&) {
         return NFD_ERROR_OUT_OF_MEMORY;
     }
@@ -372,8 +421,9 @@ void warm_field_pipelines(Device& d, const Network& shape, FieldType field) {
     try {
         auto layout = std::make_shared<DeviceNetwork>();
         LayerVec4s v;
-        if (network_layout(d.vk->limits(), shape, layout.get(), &v) != NFD_SUCCESS) return;
-        compile_in_background(d, layout, true, field == FieldType::Udf);
+        if (network_layout(d, shape, layout.get(), &v) != NFD_SUCCESS) return;
+        compile_in_background(d, layout, false);
+        if (field == FieldType::Udf) compile_in_background(d, layout, true);
     } catch (const std::bad_alloc&) {
     }
 }

@@ -332,21 +332,18 @@ nfd_result LevelBuilder::gather_kept(CarriedGradients* carried) {
         around.parent_cells = child.cells;
         NFD_TRY(job_.dispatch(Kernel::LevelAround, level_bindings(child), &around,
                               child.count()));
-        NFD_TRY(job_.dispatch(Kernel::GatherCorners,
-                              with(child_grid_bindings(level_.parents, level_.grid),
-                                   {{NFD_B_CHILD_CELLS, *child.list},
-                                    {NFD_B_CHILD_CORNERS, *child.corners}}),
-                              &gather, child.count()));
-        if (carried && carried->gradients) {
+        std::vector<Bind> corners = with(child_grid_bindings(level_.parents, level_.grid),
+                                         {{NFD_B_CHILD_CELLS, *child.list},
+                                          {NFD_B_CHILD_CORNERS, *child.corners}});
+        const bool gradients = carried && carried->gradients;
+        if (gradients) {
             NFD_TRY(carried->buffers.make(VkDeviceSize(child.capacity) * 32, &carried->corners));
-            NFD_TRY(job_.dispatch(Kernel::UdfCornerGradients,
-                                  with(level_bindings(level_.parents),
-                                       {{NFD_B_GRADIENT_OWNED, *carried->owned},
-                                        {NFD_B_GRADIENT_OFFSETS, *carried->offsets},
-                                        {NFD_B_CHILD_CELLS, *child.list},
-                                        {NFD_B_CORNER_GRADIENTS, *carried->corners}}),
-                                  &gather, child.count()));
+            corners = with(corners, {{NFD_B_GRADIENT_OWNED, *carried->owned},
+                                     {NFD_B_GRADIENT_OFFSETS, *carried->offsets},
+                                     {NFD_B_CORNER_GRADIENTS, *carried->corners}});
         }
+        NFD_TRY(job_.dispatch(gradients ? Kernel::GatherCornersGradients : Kernel::GatherCorners,
+                              corners, &gather, child.count()));
         NFD_TRY(job_.submit());
     }
     level_.buffers.release();
