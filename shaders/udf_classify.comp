@@ -39,8 +39,9 @@ void main() {
         if (all(equal(o, uvec3(1u)))) {  // p's own point: its mask and offset loaded once
             uint bit = 1u << local_index(l);
             fg = gradients[own_offset + bitCount(own_mask & (bit - 1u))];
-        } else {
-            fg = field_at(p, k, around, l, r);
+        } else {  // a neighbour's: its rank, then its list (the owner found once)
+            uvec3 owner = p + o - 1u;
+            fg = gradients[listed_gradient(2u * p + l, owner, kept_rank(cell_index(owner, r)))];
         }
         f[c] = fg.x;
         g[c] = fg.yzw;

@@ -17,6 +17,11 @@ layout(std430, binding = NFD_B_CORNER_GRADIENTS) readonly buffer CornerGradients
     uint corner_gradients[];
 };
 
+// v | v >> s of a 64-bit mask held as (low, high) words, 0 < s < 32.
+uvec2 shift_or(uvec2 v, uint s) {
+    return v | uvec2((v.x >> s) | (v.y << (32u - s)), v.y >> s);
+}
+
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
     if (k >= item_count()) return;
@@ -41,6 +46,12 @@ void main() {
             else near.y |= 1u << (bit - 32u);
         }
     }
+    // Point `local` is a corner of the finest cells b = local + {0, 1} per axis: the near bits
+    // dilated toward lower b along x, y and z (bits past b = 2 are polluted by the shifts and
+    // never read).
+    near = shift_or(near, 1u);
+    near = shift_or(near, 4u);
+    near = shift_or(near, 16u);
     uint mask = 0u, fresh = 0u, carried_points = 0u;
 #ifdef NFD_PREDICTED_VALUES
     uint copied = predicted_owned[k];
@@ -54,13 +65,8 @@ void main() {
         if (!child_point_exists(2u * p + local) ||
             any(notEqual(owner_around(around, local, 3u), uvec3(1u))))
             continue;
-        bool needed = false;  // a near cell among the 8 around the point: b = local + 1 - c
-        for (uint c = 0u; c < 8u; ++c) {
-            uvec3 b = local + uvec3(1u) - corner_offset(c);
-            uint bit = b.x + 4u * b.y + 16u * b.z;
-            needed = needed || ((bit < 32u ? near.x >> bit : near.y >> (bit - 32u)) & 1u) != 0u;
-        }
-        if (!needed) continue;
+        uint bit = local.x + 4u * local.y + 16u * local.z;
+        if (((bit < 32u ? near.x >> bit : near.y >> (bit - 32u)) & 1u) == 0u) continue;
         mask |= 1u << l;
         bool carried = carried_above && is_corner(local) &&
                        corner_gradients[8u * k + corner_index(local)] != NFD_NOT_LISTED;

@@ -25,18 +25,21 @@ layout(std430, binding = NFD_B_FRESH_GRADIENTS) readonly buffer FreshGradients {
 void main() {
     uint k = global_invocation_index(gl_WorkGroupSize.x);
     if (k >= item_count()) return;
+    // The parent's masks and offsets loaded once (the compiler cannot hoist them past the
+    // stores: the buffers might alias), then the listed points only.
     uint mask = gradient_owned[k], fresh = owned[k];
     uint to = gradient_offsets[k], from = offsets[k];
-    [[dont_unroll]] for (uint l = 0u; l < 27u; ++l) {
-        uint bit = 1u << l;
-        if ((mask & bit) == 0u) continue;
+#ifdef NFD_PREDICTED_VALUES
+    uint predicted_mask = predicted_owned[k], predicted_offset = predicted_offsets[k];
+#endif
+    for (uint m = mask; m != 0u; m &= m - 1u) {
+        uint l = uint(findLSB(m)), bit = 1u << l;
         uvec3 local = uvec3(l % 3u, (l / 3u) % 3u, l / 9u);
         if ((fresh & bit) != 0u) {
             gradients[to++] = fresh_gradients[from++];
 #ifdef NFD_PREDICTED_VALUES
-        } else if ((predicted_owned[k] & bit) != 0u) {
-            gradients[to++] = predicted[predicted_offsets[k] +
-                                        bitCount(predicted_owned[k] & (bit - 1u))];
+        } else if ((predicted_mask & bit) != 0u) {
+            gradients[to++] = predicted[predicted_offset + bitCount(predicted_mask & (bit - 1u))];
 #endif
         } else {
             gradients[to++] = above_gradients[corner_gradients[8u * k + corner_index(local)]];
