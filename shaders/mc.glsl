@@ -17,7 +17,8 @@
 #define NFD_MC_GLSL
 
 // mc_tables.h as uploaded by device.cpp: triangles[256][16] (edge ids, -1 padded), then
-// triangle_count[256], then kEdgeCorners[12][2], then holds_triangle[128].
+// triangle_count[256], then kEdgeCorners[12][2], then holds_triangle[128], then per case its
+// triangles' edges as 12-bit masks (triangle t at bit 12 t of a pair of words).
 layout(std430, binding = NFD_B_MC_TABLES) readonly buffer Tables { int mc_tables[]; };
 // Byte i of cases[k] (i = 0..7 in .xy) is child i's cube case, byte 8 + i (.zw) the mask of its
 // table triangles that are emitted.
@@ -32,6 +33,17 @@ void set_case_byte(inout uvec4 c, uint i, uint value) { c[i >> 2] |= value << (8
 int mc_triangle_edge(uint cube_case, uint i) { return mc_tables[16u * cube_case + i]; }
 uint mc_triangle_count(uint cube_case) { return uint(mc_tables[4096u + cube_case]); }
 uint mc_edge_start_corner(uint e) { return uint(mc_tables[4096u + 256u + 2u * e]); }
+uvec2 mc_triangle_edge_masks(uint cube_case) {
+    uint at = 4096u + 256u + 24u + 128u + 2u * cube_case;
+    return uvec2(mc_tables[at], mc_tables[at + 1u]);
+}
+// The edges of triangle t of a case whose masks (mc_triangle_edge_masks) are `masks`, as bits.
+uint mc_triangle_edge_mask(uvec2 masks, uint t) {
+    uint bit = 12u * t;
+    uint low = bit < 32u ? masks.x >> bit : 0u;
+    uint high = bit == 0u ? 0u : bit < 32u ? masks.y << (32u - bit) : masks.y >> (bit - 32u);
+    return (low | high) & 0xfffu;
+}
 // Whether the edges in the 12-bit mask include all three edges of some triangle of the table.
 bool mc_holds_triangle(uint edge_mask) {
     return (uint(mc_tables[4096u + 256u + 24u + edge_mask / 32u]) >> (edge_mask % 32u) & 1u) != 0u;

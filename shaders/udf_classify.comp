@@ -56,9 +56,9 @@ void main() {
         if (dot3(g[c], n) < 0.0) cc |= 1u << c;
     uint valid_edges = valid_edge_mask(f, push.edge_limit);  // step 5's test, per cube edge
     uint emitted = 0u, used_edges = 0u;
+    uvec2 triangle_edges = mc_triangle_edge_masks(cc);
     for (uint t = 0u; t < mc_triangle_count(cc); ++t) {
-        uint edges = 0u;
-        for (uint j = 0u; j < 3u; ++j) edges |= 1u << uint(mc_triangle_edge(cc, 3u * t + j));
+        uint edges = mc_triangle_edge_mask(triangle_edges, t);
         if ((edges & valid_edges) != edges) continue;  // step 5
         emitted |= 1u << t;
         used_edges |= edges;

@@ -247,7 +247,7 @@ static_assert(rows_bind_their_counters(), "a kernel with counters has them in it
 // The marching-cubes tables, exactly as the CPU reference uses them (mc.glsl's layout).
 nfd_result upload_mc_tables(Device& d) {
     const mc::Tables& t = mc::tables();
-    std::vector<int32_t> table(256 * 16 + 256 + 24 + 4096 / 32);
+    std::vector<int32_t> table(256 * 16 + 256 + 24 + 4096 / 32 + 256 * 2);
     for (int c = 0; c < 256; ++c) {
         for (int i = 0; i < 16; ++i) table[16 * c + i] = t.triangles[c][i];
         table[4096 + c] = t.triangle_count[c];
@@ -255,6 +255,13 @@ nfd_result upload_mc_tables(Device& d) {
     for (int e = 0; e < 12; ++e)
         for (int j = 0; j < 2; ++j) table[4096 + 256 + 2 * e + j] = mc::kEdgeCorners[e][j];
     for (int w = 0; w < 4096 / 32; ++w) table[4096 + 256 + 24 + w] = int32_t(t.holds_triangle[w]);
+    for (int c = 0; c < 256; ++c) {  // triangle i's 12-bit edge mask at bit 12 i of a pair
+        uint64_t masks = 0;
+        for (int i = 0; i < t.triangle_count[c]; ++i)
+            for (int j = 0; j < 3; ++j) masks |= uint64_t(1) << (12 * i + t.triangles[c][3 * i + j]);
+        table[4096 + 256 + 24 + 128 + 2 * c] = int32_t(uint32_t(masks));
+        table[4096 + 256 + 24 + 128 + 2 * c + 1] = int32_t(uint32_t(masks >> 32));
+    }
     NFD_TRY(d.vk->create_buffer(table.size() * 4, &d.mc_tables));
     return d.vk->upload(d.mc_tables, 0, table.data(), table.size() * 4);
 }
