@@ -35,20 +35,29 @@ void main() {
     uint own_first = vertex_offsets[2u * k];
     uint cc = case_byte(c, child);
     uvec3 d = corner_offset(child);
-    for (uint emitted = case_byte(c, 8u + child); emitted != 0u; emitted &= emitted - 1u) {
-        uint t = uint(findLSB(emitted));
-        [[unroll]] for (uint j = 0u; j < 3u; ++j) {
-            uint e = uint(mc_triangle_edge(cc, 3u * t + j));
-            uint a = e / 4u;
-            uvec3 l = d + corner_offset(mc_edge_start_corner(e));
-            uvec3 o = owner_around(around, l, a);
-            uint id = edge_id(a, l + 2u - 2u * o);
-            if (all(equal(o, uvec3(1u)))) {  // the parent's own vertex (most): no loads
-                indices[index++] = own_first + mask_rank(own_mask, id);
-            } else {
-                uint ko = kept_rank(cell_index(p + o - 1u, r));
-                indices[index++] = vertex_offsets[2u * ko] + mask_rank(edge_masks[ko], id);
-            }
+    uint emitted = case_byte(c, 8u + child);
+    // The vertex of each edge the emitted triangles use, once per edge (a cell's triangles share
+    // most of theirs).
+    uvec2 triangle_edges = mc_triangle_edge_masks(cc);
+    uint used = 0u;
+    for (uint m = emitted; m != 0u; m &= m - 1u)
+        used |= mc_triangle_edge_mask(triangle_edges, uint(findLSB(m)));
+    uint vertex[12];
+    for (uint m = used; m != 0u; m &= m - 1u) {
+        uint e = uint(findLSB(m));
+        uint a = e / 4u;
+        uvec3 l = d + corner_offset(mc_edge_start_corner(e));
+        uvec3 o = owner_around(around, l, a);
+        uint id = edge_id(a, l + 2u - 2u * o);
+        if (all(equal(o, uvec3(1u)))) {  // the parent's own vertex (most): no loads
+            vertex[e] = own_first + mask_rank(own_mask, id);
+        } else {
+            uint ko = kept_rank(cell_index(p + o - 1u, r));
+            vertex[e] = vertex_offsets[2u * ko] + mask_rank(edge_masks[ko], id);
         }
+    }
+    for (; emitted != 0u; emitted &= emitted - 1u) {
+        uint t = uint(findLSB(emitted));
+        [[unroll]] for (uint j = 0u; j < 3u; ++j) indices[index++] = vertex[mc_triangle_edge(cc, 3u * t + j)];
     }
 }
