@@ -11,6 +11,11 @@
 
 #include <pthread.h>
 #include <sched.h>
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 #include <condition_variable>
 #include <deque>
@@ -116,6 +121,14 @@ void run_as_background_thread() {
     sched_param param{};
     param.sched_priority = 0;  // the only priority of SCHED_BATCH; no privilege needed
     pthread_setschedparam(pthread_self(), SCHED_BATCH, &param);  // refused: stays as it was
+#endif
+}
+
+void run_as_lowest_priority_thread() {
+    run_as_background_thread();
+#ifdef __linux__
+    // Linux's nice value is per thread (the thread's id as the process id).
+    setpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)), 19);  // refused: stays as it was
 #endif
 }
 

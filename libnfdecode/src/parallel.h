@@ -17,6 +17,10 @@ namespace nfd {
 // core by the decode it just started (bench/RESULTS.md, "Workers that do not preempt"); where the
 // policy is unavailable (other systems, a sandbox refusing it) the thread runs as it was.
 void run_as_background_thread();
+// The same, and on Linux at the lowest priority (nice 19): for work that is needed last, such as
+// a UDF's gradient pipeline on lavapipe, which should take the CPU only when the decode's own
+// threads leave it (while they wait for it, at the latest).
+void run_as_lowest_priority_thread();
 
 inline unsigned resolve_thread_count(unsigned requested) {
     if (requested) return requested;

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -124,6 +126,21 @@ TEST(Parallel, WorkersRunAsBackgroundThreads) {
     });
     EXPECT_EQ(worker_policy.load(), SCHED_BATCH);
     EXPECT_EQ(sched_getscheduler(0), caller_policy);
+}
+#endif
+
+#ifdef __linux__
+// run_as_lowest_priority_thread lowers its own thread alone to nice 19 (Linux's nice is per
+// thread), under SCHED_BATCH where the sandbox allows it.
+TEST(Parallel, LowestPriorityThreadLowersItselfAlone) {
+    const int caller_nice = getpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)));
+    int nice = -100;
+    std::thread([&] {
+        run_as_lowest_priority_thread();
+        nice = getpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid)));
+    }).join();
+    EXPECT_EQ(nice, 19);
+    EXPECT_EQ(getpriority(PRIO_PROCESS, id_t(syscall(SYS_gettid))), caller_nice);
 }
 #endif
 

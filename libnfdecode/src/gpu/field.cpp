@@ -374,9 +374,13 @@ std::shared_ptr<DeviceNetwork> layout_copy(const DeviceNetwork& net) {
 // Compiles the value or gradient pipeline of `layout` on a thread of the device
 // (Device::warmers), into the device's list, where prepare_field finds it or waits for it. A
 // UDF's two run on two threads: its first levels wait for the values' pipeline, its meshed levels
-// for the gradients', which on lavapipe takes several times as long to create. False when no
-// thread could start, or kMaxWarmers are running: the pipeline is then compiled where it is first
-// needed.
+// for the gradients'. On a CPU implementation the gradients' runs at the lowest priority: it
+// takes about three times as long to create there, and at normal priority it took the core of the
+// first level's host evaluation (bench/RESULTS.md, "0.13.16"); the decode's own device work is
+// CPU work there, so the compile yields to it and runs while the decode waits for it. (Not on a
+// GPU, whose compiles are short, where a lowest-priority thread on a busy host could starve.)
+// False when no thread could start, or kMaxWarmers are running: the pipeline is then compiled
+// where it is first needed.
 bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, bool gradient) {
     std::lock_guard<std::mutex> lock(d.mutex);
     d.join_warmers(true);
@@ -384,7 +388,8 @@ bool compile_in_background(Device& d, std::shared_ptr<DeviceNetwork> layout, boo
     Device::Warmer& w = d.warmers.emplace_back();
     try {
         w.thread = std::thread([&d, &w, layout, gradient] {
-            run_as_background_thread();
+            if (gradient && d.vk->cpu_implementation()) run_as_lowest_priority_thread();
+            else run_as_background_thread();
             try {  // a failure is the decode's to report
                 prepare_field(d, *layout, gradient);
             } catch (const std::bad_alloc&) {
