@@ -374,6 +374,14 @@ std::unique_ptr<gpu::Device> device_forcing(const char* force) {
     return d;
 }
 
+// A device of its own without the lanes kernels (field_eval.comp's shape on lavapipe too).
+std::unique_ptr<gpu::Device> device_without_lanes() {
+    std::unique_ptr<gpu::Device> d;
+    EXPECT_EQ(gpu::create_device(nullptr, false, &d), NFD_SUCCESS);
+    if (d) d->lane_kernels = false;
+    return d;
+}
+
 // The staged path of discrete GPUs (device-local buffers the host reaches by copies), forced on
 // this device: the same values, gradients and meshes, SDF and UDF, as with mapped memory.
 TEST_F(Gpu, StagedMemoryGivesTheSameResults) {
@@ -410,9 +418,8 @@ TEST_F(Gpu, SharedWeightKernelsGiveTheSameResults) {
     const std::unique_ptr<gpu::Device> shared = device_forcing("NFD_FORCE_SHARED_WEIGHTS");
     ASSERT_TRUE(shared);
     ASSERT_TRUE(shared->shared_weight_kernels);
-    std::unique_ptr<gpu::Device> plain;
-    ASSERT_EQ(gpu::create_device(nullptr, false, &plain), NFD_SUCCESS);
-    plain->lane_kernels = false;
+    const std::unique_ptr<gpu::Device> plain = device_without_lanes();
+    ASSERT_TRUE(plain);
     std::mt19937 rng(5);
     std::uniform_real_distribution<float> u(-1.0f, 1.0f);
     std::vector<float> points(3 * 1000);
@@ -466,10 +473,10 @@ GeomSpec hidden_siren(uint32_t width, uint32_t frequencies, uint32_t hidden, uin
 // a 64-wide network keeps field_eval.comp.
 TEST_F(Gpu, LaneKernelGivesTheValueKernelsBits) {
     if (!device().lane_kernels) GTEST_SKIP() << "not a CPU implementation with 8-wide subgroups";
-    std::unique_ptr<gpu::Device> lanes, plain;
+    std::unique_ptr<gpu::Device> lanes;
     ASSERT_EQ(gpu::create_device(nullptr, false, &lanes), NFD_SUCCESS);
-    ASSERT_EQ(gpu::create_device(nullptr, false, &plain), NFD_SUCCESS);
-    plain->lane_kernels = false;
+    const std::unique_ptr<gpu::Device> plain = device_without_lanes();
+    ASSERT_TRUE(plain);
     const std::vector<float> points = random_points(3001, 11);
     const size_t n = points.size() / 3;
     struct Shape { uint32_t width, frequencies, outputs, hidden; };
@@ -511,10 +518,10 @@ TEST_F(Gpu, LaneKernelGivesTheValueKernelsBits) {
 // have field_eval.comp's triangles and positions, their normals (the gradients) within 1e-5.
 TEST_F(Gpu, LaneGradientKernelMatchesTheGradientKernel) {
     if (!device().lane_kernels) GTEST_SKIP() << "not a CPU implementation with 8-wide subgroups";
-    std::unique_ptr<gpu::Device> lanes, plain;
+    std::unique_ptr<gpu::Device> lanes;
     ASSERT_EQ(gpu::create_device(nullptr, false, &lanes), NFD_SUCCESS);
-    ASSERT_EQ(gpu::create_device(nullptr, false, &plain), NFD_SUCCESS);
-    plain->lane_kernels = false;
+    const std::unique_ptr<gpu::Device> plain = device_without_lanes();
+    ASSERT_TRUE(plain);
     const std::vector<float> points = random_points(3001, 13);
     const size_t n = points.size() / 3;
     struct Shape { uint32_t width, frequencies, hidden; };
@@ -571,9 +578,8 @@ TEST_F(Gpu, LaneGradientKernelMatchesTheGradientKernel) {
 // value bits (NaN where it gives NaN).
 TEST_F(Gpu, LaneKernelOnHostileWeights) {
     if (!device().lane_kernels) GTEST_SKIP() << "not a CPU implementation with 8-wide subgroups";
-    std::unique_ptr<gpu::Device> plain;
-    ASSERT_EQ(gpu::create_device(nullptr, false, &plain), NFD_SUCCESS);
-    plain->lane_kernels = false;
+    const std::unique_ptr<gpu::Device> plain = device_without_lanes();
+    ASSERT_TRUE(plain);
     const std::vector<float> points = random_points(1000, 5);
     const size_t n = points.size() / 3;
     for (const float step : {3.0e38f, 1.0e-45f, 1.0e20f}) {

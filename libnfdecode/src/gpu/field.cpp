@@ -128,6 +128,7 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
 // Vec4 rows per layer: in4 inputs (layer 0: the encoding's blocks), out4 outputs; with
 // transposed blocks (field_eval_lanes.comp's gradient), the columns each holds.
 struct LayerVec4s {
+    uint32_t freq4 = 0;  // the encoding's frequency blocks of 4
     uint32_t in4[NFD_GPU_MAX_LAYERS] = {};
     uint32_t out4[NFD_GPU_MAX_LAYERS] = {};
     uint32_t transposed_columns[NFD_GPU_MAX_LAYERS] = {};
@@ -160,7 +161,7 @@ nfd_result network_layout(const Device& d, const Network& net, DeviceNetwork* ou
         net.frequencies.size() > NFD_GPU_MAX_FREQUENCIES || net.output_width() < 1 ||
         net.output_width() > 4)
         return NFD_ERROR_UNSUPPORTED_FEATURE;
-    const uint32_t freq4 = div_up(net.frequencies.size(), 4);
+    const uint32_t freq4 = v->freq4 = div_up(net.frequencies.size(), 4);
     std::fill(std::begin(v->out4), std::end(v->out4), 1u);
     uint32_t in = net.input_width();
     for (uint32_t l = 0; l < layers; ++l) {
@@ -170,6 +171,11 @@ nfd_result network_layout(const Device& d, const Network& net, DeviceNetwork* ou
         v->out4[l] = div_up(layer.out, 4);
         if (v->out4[l] > kMaxVec4PerLayer) return NFD_ERROR_UNSUPPORTED_FEATURE;
         in = layer.out;
+    }
+    out->max4 = v->in4[0];
+    for (uint32_t l = 0; l < layers; ++l) {
+        out->max4 = std::max(out->max4, v->out4[l]);
+        out->widest4 = std::max(out->widest4, v->out4[l]);
     }
 
     // Uniform blocks are what makes field_eval.comp fast on CPU implementations; a layer too
@@ -185,9 +191,7 @@ nfd_result network_layout(const Device& d, const Network& net, DeviceNetwork* ou
     // The lanes kernel's transposed blocks after each layer's, for networks with a gradient (one
     // output) where every enlarged block still fits a uniform block (else their gradients stay
     // with field_eval.comp).
-    uint32_t widest4 = 0;
-    for (uint32_t l = 0; l < layers; ++l) widest4 = std::max(widest4, v->out4[l]);
-    out->transposed = d.lane_kernels && !out->storage && widest4 <= kLaneKernelWidest4 &&
+    out->transposed = d.lane_kernels && !out->storage && out->widest4 <= kLaneKernelWidest4 &&
                       net.output_width() == 1;
     for (uint32_t l = 0; l < layers; ++l) {
         const uint32_t slots = l == 0 ? 2 * div_up(12 * freq4, NFD_FIELD_LANES) + 1
@@ -214,11 +218,6 @@ nfd_result network_layout(const Device& d, const Network& net, DeviceNetwork* ou
     float omega0 = net.omega0;
     uint32_t omega0_bits;
     std::memcpy(&omega0_bits, &omega0, 4);
-    out->max4 = v->in4[0];
-    for (uint32_t l = 0; l < layers; ++l) {
-        out->max4 = std::max(out->max4, v->out4[l]);
-        out->widest4 = std::max(out->widest4, v->out4[l]);
-    }
     std::vector<uint32_t>& spec = out->specialization;
     spec = {freq4, layers};
     spec.insert(spec.end(), std::begin(v->out4), std::end(v->out4));
@@ -252,7 +251,7 @@ nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
         for (uint32_t o = 0; o < layer.out; ++o) bias[o] = layer.bias[o];
         float* transposed = bias + 4 * v.out4[l];
         for (uint32_t r = 0; r < v.transposed_columns[l]; ++r) {
-            const uint32_t c = transposed_source_column(l, r, v.in4[l], (v.in4[0] - 1) / 6);
+            const uint32_t c = transposed_source_column(l, r, v.in4[l], v.freq4);
             if (c == UINT32_MAX) continue;
             for (uint32_t o = 0; o < layer.out; ++o)
                 transposed[size_t(r) * 4 * v.out4[l] + o] = w[size_t(o) * 4 * v.in4[l] + c];
