@@ -70,6 +70,7 @@ ENCODE_OPTIONS: dict[str, tuple[type, ...]] = {
     "color_frequencies": (int,),
     "color_resolution": (int,),
     "color_epochs": (int, type(None)),
+    "truncation": (float, int, type(None)),
     "target_bytes": (int, type(None)),
     "target_cd": (float, int, type(None)),
 }

@@ -109,9 +109,9 @@ class StackedSiren:
                     layer.bias.copy_(saved[n + i][k].cpu())
 
 
-def per_shape_loss(pred: torch.Tensor, distance: torch.Tensor, truncation: float = config.TRUNCATION) -> torch.Tensor:
-    """`train.truncated_loss` of each row: (K, B) → (K,)."""
-    target = torch.clamp(distance, -truncation, truncation)
+def per_shape_loss(pred: torch.Tensor, distance: torch.Tensor, truncation: torch.Tensor) -> torch.Tensor:
+    """`train.truncated_loss` of each row, at its shape's d* (truncation: (K, 1)): (K, B) → (K,)."""
+    target = torch.minimum(torch.maximum(distance, -truncation), truncation)
     counted = (distance.abs() <= truncation) | (pred.abs() <= truncation)
     return torch.where(counted, (pred - target) ** 2, torch.zeros_like(pred)).mean(dim=1)
 
@@ -124,11 +124,13 @@ class StackedData:
     validation_distances: torch.Tensor
     sides: torch.Tensor  # (K, n): TrainingData.sides, ones for a shape without them
     has_sides: torch.Tensor  # (K,) bool
+    truncation: torch.Tensor  # (K, 1): each shape's d* (Prepared.truncation)
 
 
 def validation_losses(net: StackedSiren, data: StackedData, bits: int | None) -> torch.Tensor:
     with torch.no_grad():
-        return per_shape_loss(net.forward(data.validation_encoded, bits), data.validation_distances)
+        return per_shape_loss(net.forward(data.validation_encoded, bits), data.validation_distances,
+                              data.truncation)
 
 
 def fit_many(
@@ -167,7 +169,7 @@ def fit_many(
                 for group in optimizer.param_groups:
                     group["lr"] = 0.5 * lr * (1.0 + math.cos(math.pi * step / total_steps))
             pred = net.forward(data.encoded[rows, batch], bits)
-            loss = per_shape_loss(pred, targets[rows, batch])
+            loss = per_shape_loss(pred, targets[rows, batch], data.truncation)
             optimizer.zero_grad(set_to_none=True)
             (loss + config.L1_WEIGHT * net.l1()).sum().backward()
             optimizer.step()
@@ -210,7 +212,8 @@ def _prepare_stacked(shapes: Sequence[Shape], cfg: EncodeConfig,
         has_sides[k] = prep.data.sides is not None
         prep.data = TrainingData(*(torch.empty(0) for _ in names))  # the stack holds it now
         preps.append(prep)
-    return preps, StackedData(*stacked, has_sides)
+    truncation = torch.tensor([[p.truncation] for p in preps], dtype=torch.float32, device=device)
+    return preps, StackedData(*stacked, has_sides, truncation)
 
 
 def compress_many(shapes: Sequence[Shape], cfg: EncodeConfig, *, patience: int | None = None) -> list[EncodeResult]:

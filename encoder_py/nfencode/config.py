@@ -10,8 +10,23 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 # --- Field -----------------------------------------------------------------------------------------
-TRUNCATION = 0.1
-"""d*: distances are clamped to ±d* and the loss ignores points farther than d* (paper)."""
+TRUNCATION = {"sdf": 0.05, "udf": 0.1}
+"""d* per field: distances are clamped to ±d* and the loss ignores points farther than d*; the file
+stores it (GEOM's truncation, which decoders read only as a VDB grid's background). The paper's is
+0.1. An SDF at 0.05 spends the network on the band where its zero set is: BD-rate -8% to -18% on
+the five shapes of issue 10 over three seeds (at equal width about the same bytes and a CD 0.4% to
+5% lower, most at widths 16-24 and on the detailed shapes), for 10-15% more field evaluations in a
+decode (the coarse levels keep the cells that read d*: 2.7-2.9 per active cell at 256 instead of
+2.4-2.6); 0.03 and below cost far more evaluations (armadillo w96: 4.7 per cell) for little more
+CD (bench/RESULTS.md, "A narrower truncation band"). UDFs keep the paper's (not measured)."""
+
+MIN_TRUNCATION, MAX_TRUNCATION = 0.02, 0.1
+"""`--truncation`'s range: at most the paper's 0.1 (the pool stores distances up to sampling.FAR,
+twice that); below 0.02 a decode's coarse levels keep nearly every cell."""
+
+AUTO_PROBE_SIGMA = 0.1
+"""Std. dev. of the offset of `--field auto`'s probe points (sampling.resolve_field): the paper's d*,
+with which AUTO_SDF_MAX_AMBIGUOUS and AUTO_HOLES_MIN_AMBIGUOUS were measured."""
 
 NEAR_SURFACE_SIGMA = {"sdf": 0.01, "udf": 0.025}
 """Std. dev. of the Gaussian offset of near-surface training points, unit-ball frame (paper)."""

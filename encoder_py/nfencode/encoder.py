@@ -68,6 +68,7 @@ class EncodeConfig:
     color_resolution: int = config.COLOR_RESOLUTION
     color_frequencies: int = config.COLOR_NUM_FREQUENCIES
     color_epochs: int | None = None  # overrides the colour schedule's epoch count
+    truncation: float | None = None  # d*; None: the field's (config.TRUNCATION)
 
 
 
@@ -97,6 +98,9 @@ def check_config(cfg: EncodeConfig) -> config.Preset:
         raise InputError(f"epochs must be non-negative, got {cfg.epochs}")
     if cfg.field not in ("auto", "sdf", "udf"):
         raise InputError(f"unknown field type {cfg.field!r} (use sdf, udf or auto)")
+    if cfg.truncation is not None and not (
+            config.MIN_TRUNCATION <= cfg.truncation <= config.MAX_TRUNCATION):
+        raise InputError(f"truncation {cfg.truncation} outside [{config.MIN_TRUNCATION}, {config.MAX_TRUNCATION}]")
     if cfg.color not in COLOR_MODES:
         raise InputError(f"unknown colour mode {cfg.color!r} (use {', '.join(COLOR_MODES)})")
     check_color_options(color_options(cfg))
@@ -143,6 +147,7 @@ class Prepared:
     model: Siren
     data: TrainingData
     rng: np.random.Generator  # the shape's numpy stream, continued by training
+    truncation: float  # d* of the loss, and the file's
 
 
 def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device, work: ShapeWork | None = None) -> Prepared:
@@ -181,7 +186,8 @@ def prepare(shape: Shape, cfg: EncodeConfig, device: torch.device, work: ShapeWo
         data = TrainingData(*(t.to(device) for t in (data.encoded, data.distances, data.validation_encoded,
                                                       data.validation_distances)),
                             None if data.sides is None else data.sides.to(device))
-    return Prepared(field, field_reason, center32, scale32, frame64, pool, model, data, rng)
+    truncation = config.TRUNCATION[field] if cfg.truncation is None else cfg.truncation
+    return Prepared(field, field_reason, center32, scale32, frame64, pool, model, data, rng, truncation)
 
 
 def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_loss: float, start: float) -> EncodeResult:
@@ -193,7 +199,7 @@ def finish(prep: Prepared, best_layers: torch.nn.ModuleList, bits: int, best_los
     c = prep.center32
     geometry = GeometryChunk(
         field_type=FIELD_SDF if prep.field == "sdf" else FIELD_UDF,
-        truncation=config.TRUNCATION,
+        truncation=prep.truncation,
         center=(float(c[0]), float(c[1]), float(c[2])),
         scale=prep.scale32,
         network=network,
@@ -266,17 +272,19 @@ def _compress_geometry(shape: Shape, cfg: EncodeConfig, device: torch.device, st
     epochs = preset.epochs if cfg.epochs is None else cfg.epochs
     prep = prepare(shape, cfg, device, work)
     model, data, pool, rng = prep.model.to(device), prep.data, prep.pool, prep.rng
+    truncation = prep.truncation
     fit(model, data, pool, epochs=epochs, lr=preset.lr, cosine=preset.cosine,
-        batch_size=preset.batch_size, rng=rng,
+        batch_size=preset.batch_size, rng=rng, truncation=truncation,
         signed=0 if data.sides is None else signed_epochs(epochs), quiet=cfg.quiet)
 
     # QAT; keep whichever quantized network, before or after it, validates better.
-    best_loss = validation_loss(model, data, cfg.bits)
+    best_loss = validation_loss(model, data, cfg.bits, truncation)
     best_layers = copy.deepcopy(model.layers)
     if preset.qat_epochs > 0:
         fit(model, data, pool, epochs=preset.qat_epochs, lr=preset.qat_lr, cosine=True,
-            batch_size=preset.batch_size, rng=rng, bits=cfg.bits, quiet=cfg.quiet, desc="qat")
-        qat_loss = validation_loss(model, data, cfg.bits)
+            batch_size=preset.batch_size, rng=rng, truncation=truncation, bits=cfg.bits, quiet=cfg.quiet,
+            desc="qat")
+        qat_loss = validation_loss(model, data, cfg.bits, truncation)
         if qat_loss < best_loss:
             best_loss, best_layers = qat_loss, model.layers
     return finish(prep, best_layers, cfg.bits, best_loss, start)

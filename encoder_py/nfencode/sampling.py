@@ -32,7 +32,7 @@ from . import config
 from .cloud_normals import oriented_normals
 from .errors import InputError
 
-FAR = 2.0 * config.TRUNCATION
+FAR = 2.0 * config.MAX_TRUNCATION
 """Distance stored for points farther than the query bound (only its sign and |d| > d* matter)."""
 
 CLOUD_FAR_SAMPLE = 20_000
@@ -262,7 +262,7 @@ def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Genera
         return FieldChoice("udf", "a point cloud has no inside")
     if requested == "udf":
         return FieldChoice("udf", "requested")
-    w = sampler.winding_numbers(sampler.near_points(config.AUTO_PROBE_POINTS, config.TRUNCATION, rng))
+    w = sampler.winding_numbers(sampler.near_points(config.AUTO_PROBE_POINTS, config.AUTO_PROBE_SIGMA, rng))
     if np.sum(w < -0.5) > np.sum(w > 0.5):
         sampler.flip_orientation()
     if requested == "sdf":

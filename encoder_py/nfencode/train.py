@@ -7,6 +7,7 @@ weights); an epoch then only gathers rows. On 2 cores this halves the time of an
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
@@ -59,7 +60,7 @@ def signed_epochs(epochs: int) -> int:
     return round(epochs * config.UDF_SIGNED_EPOCHS)
 
 
-def truncated_loss(pred: torch.Tensor, distance: torch.Tensor, truncation: float = config.TRUNCATION) -> torch.Tensor:
+def truncated_loss(pred: torch.Tensor, distance: torch.Tensor, truncation: float) -> torch.Tensor:
     """Paper loss: (pred − sgn(d)·min(|d|, d*))², counted where |d| ≤ d* or |pred| ≤ d*, mean over
     the batch. Far points whose prediction stays beyond d* cost nothing: only the band matters."""
     target = torch.clamp(distance, -truncation, truncation)
@@ -75,11 +76,11 @@ def quantizer(bits: int | None) -> ParameterTransform | None:
     return None if bits is None else (lambda x: fake_quantize(x, bits))
 
 
-def validation_loss(model: Siren, data: TrainingData, bits: int | None) -> float:
+def validation_loss(model: Siren, data: TrainingData, bits: int | None, truncation: float) -> float:
     """Truncated loss on the held-out set, of the float network or of its b-bit quantization."""
     with torch.no_grad():
         pred = model.forward_encoded(data.validation_encoded, quantizer(bits))
-        return float(truncated_loss(pred, data.validation_distances))
+        return float(truncated_loss(pred, data.validation_distances, truncation))
 
 
 Batch = tuple[torch.Tensor, torch.Tensor]  # encoded inputs, targets
@@ -145,17 +146,18 @@ def fit(
     cosine: bool,
     batch_size: int,
     rng: np.random.Generator,
+    truncation: float,
     bits: int | None = None,
     signed: int = 0,
     quiet: bool = False,
     desc: str = "train",
 ) -> float:
-    """`optimize` on the truncated loss over epochs drawn from the geometry pool. The first `signed`
-    epochs (data with sides: `signed_epochs`) fit the output before its `abs` to the distances
-    signed by data.sides, in the same schedule: an `abs` network whose inner field has a side per
-    region of space keeps a zero set wherever two regions meet, and one started from random weights
-    leaves such phantom sheets near the surface (and holes where they cut it); started from the
-    sides, the inner field is near the surface a signed distance, whose only zero set is the surface
+    """`optimize` on the truncated loss at d* = `truncation` over epochs drawn from the geometry pool.
+    The first `signed` epochs (data with sides: `signed_epochs`) fit the output before its `abs` to the
+    distances signed by data.sides, in the same schedule: an `abs` network whose inner field has a side
+    per region of space keeps a zero set wherever two regions meet, and one started from random weights
+    leaves such phantom sheets near the surface (and holes where they cut it); started from the sides,
+    the inner field is near the surface a signed distance, whose only zero set is the surface
     (bench/RESULTS.md, issue 6)."""
     output = model.output
     signed_targets = data.distances * data.sides if signed > 0 and data.sides is not None else None
@@ -171,8 +173,9 @@ def fit(
         for batch in order.split(batch_size):
             yield data.encoded[batch], targets[batch]
 
+    loss = functools.partial(truncated_loss, truncation=truncation)
     try:
-        return optimize(model, batches, truncated_loss, epochs=epochs,
+        return optimize(model, batches, loss, epochs=epochs,
                         steps_per_epoch=math.ceil(sum(epoch_counts(1.0)) / batch_size), lr=lr, cosine=cosine,
                         bits=bits, quiet=quiet, desc=desc)
     finally:

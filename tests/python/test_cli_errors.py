@@ -207,3 +207,17 @@ def test_frequency_options(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> N
     network = read_nfc((tmp_path / "f.nfc").read_bytes()).geometry.network
     assert network.num_frequencies == 4 and network.in_features[0] == 3 + 6 * 4
     assert network.frequency_base == float(np.float32(1.7))
+
+
+def test_truncation_option(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(config, "SURFACE_POINTS_PER_EPOCH", 5_000)  # plumbing, not quality
+    (tmp_path / "ok.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    for value in ("0.01", "0.2", "nan"):
+        assert_one_line_error(nfc("encode", "ok.obj", "-o", "out.nfc", "--truncation", value, cwd=tmp_path),
+                              contains="--truncation")
+    assert not (tmp_path / "out.nfc").exists()
+    result = nfc("encode", "ok.obj", "-o", "f.nfc", "--truncation", "0.07", "--width", "4", "--epochs", "1",
+                 "--quiet", "--json", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout.splitlines()[-1])["truncation"] == float(np.float32(0.07))
+    assert read_nfc((tmp_path / "f.nfc").read_bytes()).geometry.truncation == float(np.float32(0.07))

@@ -111,9 +111,24 @@ def test_point_clouds_are_udf_only(small_epochs: None) -> None:
         compress(cloud, EncodeConfig(field="sdf", quiet=True))
 
 
+def test_the_file_stores_the_truncation_its_loss_used(small_epochs: None) -> None:
+    shape = load_shape(BUNNY_RES4)
+
+    def encode(**options: object) -> tuple[float, bytes]:
+        data = compress(shape, EncodeConfig(width=8, epochs=1, quiet=True, **options)).data  # type: ignore[arg-type]
+        return read_nfc(data).geometry.truncation, data
+
+    sdf, sdf_bytes = encode(field="sdf")
+    udf, _ = encode(field="udf")
+    assert (sdf, udf) == (np.float32(config.TRUNCATION["sdf"]), np.float32(config.TRUNCATION["udf"]))
+    paper, paper_bytes = encode(field="sdf", truncation=0.1)
+    assert paper == np.float32(0.1) and paper_bytes != sdf_bytes  # the fit saw another loss
+
+
 @pytest.mark.parametrize(
     "override", [dict(preset="slow"), dict(width=0), dict(bits=1), dict(bits=17), dict(field="tsdf"), dict(epochs=-1),
-                 dict(frequency_base=0.5), dict(frequency_base=float("nan"))]
+                 dict(frequency_base=0.5), dict(frequency_base=float("nan")), dict(truncation=0.01),
+                 dict(truncation=0.5), dict(truncation=float("nan"))]
 )
 def test_bad_settings_are_input_errors(override: dict) -> None:
     with pytest.raises(InputError):

@@ -103,8 +103,8 @@ def test_a_udf_fit_starts_from_the_sides_and_ends_as_a_udf() -> None:
     prep = prepare(sphere(), EncodeConfig(field="udf", width=16, quiet=True), torch.device("cpu"))
     assert prep.model.output == "abs" and prep.data.sides is not None
     assert prep.field_reason == "requested; signed start from the faces' orientation"  # what `nfc encode` prints
-    fit(prep.model, prep.data, prep.pool, epochs=6, lr=1e-3, cosine=True, batch_size=500, rng=prep.rng, signed=6,
-        quiet=True)
+    fit(prep.model, prep.data, prep.pool, epochs=6, lr=1e-3, cosine=True, batch_size=500, rng=prep.rng,
+        truncation=prep.truncation, signed=6, quiet=True)
     assert prep.model.output == "abs"
     assert is_signed_like_the_sphere(prep.model)
 
