@@ -316,6 +316,20 @@ def test_manifest_rows_with_bad_frequency_and_colour_options(tmp_path: Path) -> 
         assert expected in stderr, (expected, stderr)
 
 
+def test_manifest_rows_with_hostile_truncations(tmp_path: Path) -> None:
+    lib = write_library(tmp_path)
+    manifest = tmp_path / "assets.jsonl"
+    rows = [{"truncation": 0.5}, {"truncation": 0.0}, {"truncation": -0.05}, {"truncation": "narrow"},
+            {"truncation": True}]
+    manifest.write_text("\n".join(json.dumps({"path": str(lib / "box.ply"), "name": f"b{i}", **row})
+                                  for i, row in enumerate(rows)) + "\n")
+    code, stdout, stderr = run("encode-batch", manifest, "-o", tmp_path / "out", "--workers", "1", *ENCODE)
+    assert code == 1 and "0 encoded, 0 skipped (up to date), 5 failed of 5" in stdout
+    for expected in ("truncation 0.5 outside", "truncation 0.0 outside", "truncation -0.05 outside",
+                     "truncation must be float or int or null"):
+        assert expected in stderr, (expected, stderr)
+
+
 def test_target_bytes_per_asset_bounds_each_file_and_chooses_its_width(tmp_path: Path) -> None:
     """`target_bytes` (command line or manifest line) runs each asset's rate search: every file at
     most its budget, the row's width the file's, a budget nothing fits and a bad type one error row
