@@ -98,8 +98,7 @@ def check_config(cfg: EncodeConfig) -> config.Preset:
         raise InputError(f"epochs must be non-negative, got {cfg.epochs}")
     if cfg.field not in ("auto", "sdf", "udf"):
         raise InputError(f"unknown field type {cfg.field!r} (use sdf, udf or auto)")
-    if cfg.truncation is not None and not (
-            config.MIN_TRUNCATION <= cfg.truncation <= config.MAX_TRUNCATION):
+    if cfg.truncation is not None and not config.MIN_TRUNCATION <= cfg.truncation <= config.MAX_TRUNCATION:
         raise InputError(f"truncation {cfg.truncation} outside [{config.MIN_TRUNCATION}, {config.MAX_TRUNCATION}]")
     if cfg.color not in COLOR_MODES:
         raise InputError(f"unknown colour mode {cfg.color!r} (use {', '.join(COLOR_MODES)})")
