@@ -68,8 +68,11 @@ def truncated_loss(pred: torch.Tensor, distance: torch.Tensor, truncation: float
     return torch.where(counted, (pred - target) ** 2, torch.zeros_like(pred)).mean()
 
 
-def l1_penalty(model: Siren) -> torch.Tensor:
-    return sum(p.abs().sum() for p in model.parameters())  # type: ignore[return-value]
+def add_l1_gradient(parameters: list[torch.Tensor]) -> None:
+    """Adds the gradient of λ·Σ|θ|, λ·sign(θ), to each parameter's gradient: the sum autograd forms
+    for loss + λ·Σ|θ| bit for bit (one addition of the same two terms), without the penalty's
+    dozen extra graph nodes per step (10% of a width-16 step)."""
+    torch._foreach_add_([p.grad for p in parameters], torch._foreach_sign(parameters), alpha=config.L1_WEIGHT)
 
 
 def quantizer(bits: int | None) -> ParameterTransform | None:
@@ -107,7 +110,8 @@ def optimize(
     epochs · steps_per_epoch steps. Returns the mean data loss of the last epoch.
     """
     transform = quantizer(bits)
-    optimizer = torch.optim.Adam(model.parameters(), lr=lr)
+    parameters = list(model.parameters())
+    optimizer = torch.optim.Adam(parameters, lr=lr)
     total_steps = max(1, epochs * steps_per_epoch)
     device = next(model.parameters()).device
     step = 0
@@ -125,7 +129,8 @@ def optimize(
             pred = model.forward_encoded(inputs, transform)
             loss = loss_fn(pred, targets)
             optimizer.zero_grad(set_to_none=True)
-            (loss + config.L1_WEIGHT * l1_penalty(model)).backward()
+            loss.backward()
+            add_l1_gradient(parameters)
             optimizer.step()
             running += loss.detach().to(torch.float64) * len(inputs)
             count += len(inputs)
@@ -171,7 +176,9 @@ def fit(
         targets = signed_targets if is_signed else data.distances
         order = torch.from_numpy(draw_epoch(pool, rng)).to(data.encoded.device)
         for batch in order.split(batch_size):
-            yield data.encoded[batch], targets[batch]
+            # index_select, not data.encoded[batch]: the same rows, 5x faster on the CPU than
+            # advanced indexing's generic kernel (a fifth of an epoch's time at width 16)
+            yield data.encoded.index_select(0, batch), targets.index_select(0, batch)
 
     loss = functools.partial(truncated_loss, truncation=truncation)
     try:
