@@ -8,7 +8,9 @@ path) at 256 and measures CD (metrics.md, bench/rd.py's measure_nfc), then print
 setting and the BD-rate of each against the anchor (L = 16, β = 1.4 at 8 bits, format 1.0's choice)
 per shape. An encoding is `L` (β = 1.4, the 1.0 and 0.6 encoders' spacing) or `L:β`, optionally
 followed by `@d*`, the truncation distance (`nfc encode --truncation`; without it the paper's 0.1,
-that of format 1.0 and of every row before d* was a column, not the encoder's default for SDFs).
+that of format 1.0 and of every row before d* was a column, not the encoder's default for SDFs),
+then by `/E`, the training epochs (`nfc encode --epochs`; without it 60, format 1.0's `fast`
+preset's count and that of every row before epochs were a column, whatever the preset's is now).
 Points are cached in bench/out/frequencies.csv, so a rerun only encodes what is missing.
 
 One seed's BD-rate over four widths moves by 5-10 points from seed to seed (the w16 fits vary by
@@ -17,7 +19,7 @@ the geometric means over the seeds, and the BD-rate is that of the mean curves, 
 the seeds' own BD-rates beside it.
 
     .venv/bin/python bench/frequencies.py --shapes bunny armadillo dragon spot happy \
-        --widths 16 24 32 48 --frequencies 16 8 5:1.8 8@0.05 [--bits 8 7] [--seeds 0 1 2]
+        --widths 16 24 32 48 --frequencies 16 8 5:1.8 8@0.05 8@0.05/90 [--bits 8 7] [--seeds 0 1 2]
 """
 
 from __future__ import annotations
@@ -37,25 +39,27 @@ from rd import SHAPES, SHARED, measure_nfc
 
 OUT = Path(__file__).resolve().parent / "out"
 CSV = OUT / "frequencies.csv"
-FIELDS = ("shape", "width", "frequencies", "base", "bits", "bytes", "cd", "seconds", "seed", "truncation")
+FIELDS = ("shape", "width", "frequencies", "base", "bits", "bytes", "cd", "seconds", "seed", "truncation", "epochs")
 LEGACY_BASE = "1.4"  # rows written before the base was a column, and a bare `L` on the command line
 LEGACY_TRUNCATION = "0.1"  # rows written before d* was a column, and an encoding without `@d*`
-Encoding = tuple[int, str, str]  # L, β and d* as written
-Setting = tuple[int, str, int, str]  # L, β, bits, d*
-Key = tuple[str, int, int, str, int, str, int]  # shape, width, L, β, bits, d*, seed
+LEGACY_EPOCHS = 60  # rows written before epochs were a column, and an encoding without `/E`
+Encoding = tuple[int, str, str, int]  # L, β and d* as written, epochs
+Setting = tuple[int, str, int, str, int]  # L, β, bits, d*, epochs
+Key = tuple[str, int, int, str, int, str, int, int]  # shape, width, L, β, bits, d*, epochs, seed
 
 
 def parse_encoding(text: str) -> Encoding:
-    """`L`, `L:β`, `L@d*` or `L:β@d*` (β and d* as written, so that they key the CSV exactly)."""
-    encoding, _, truncation = text.partition("@")
+    """`L[:β][@d*][/E]` (β and d* as written, so that they key the CSV exactly)."""
+    encoding, _, epochs = text.partition("/")
+    encoding, _, truncation = encoding.partition("@")
     frequencies, _, base = encoding.partition(":")
     return (int(frequencies), str(float(base)) if base else LEGACY_BASE,
-            str(float(truncation)) if truncation else LEGACY_TRUNCATION)
+            str(float(truncation)) if truncation else LEGACY_TRUNCATION, int(epochs) if epochs else LEGACY_EPOCHS)
 
 
 def setting_name(setting: Setting) -> str:
-    L, base, bits, truncation = setting
-    return f"L={L} β={base} b{bits} d*={truncation}"
+    L, base, bits, truncation, epochs = setting
+    return f"L={L} β={base} b{bits} d*={truncation}" + ("" if epochs == LEGACY_EPOCHS else f" {epochs} epochs")
 
 
 def bd_rate(anchor: list[tuple[float, float]], test: list[tuple[float, float]]) -> float | None:
@@ -87,12 +91,13 @@ def load_points() -> dict[Key, dict[str, str]]:
     if not CSV.exists():
         return {}
     with CSV.open() as f:
-        # early rows: 8 bits, β = 1.4, d* = 0.1, seed 0
+        # early rows: 8 bits, β = 1.4, d* = 0.1, 60 epochs, seed 0
         rows = [{**r, "bits": r.get("bits") or "8", "base": r.get("base") or LEGACY_BASE, "seed": r.get("seed") or "0",
-                 "truncation": r.get("truncation") or LEGACY_TRUNCATION}
+                 "truncation": r.get("truncation") or LEGACY_TRUNCATION,
+                 "epochs": r.get("epochs") or str(LEGACY_EPOCHS)}
                 for r in csv.DictReader(f)]
     return {(r["shape"], int(r["width"]), int(r["frequencies"]), r["base"], int(r["bits"]), r["truncation"],
-             int(r["seed"])): r
+             int(r["epochs"]), int(r["seed"])): r
             for r in rows}
 
 
@@ -119,11 +124,13 @@ def main() -> None:
                         choices=list(SHAPES))
     parser.add_argument("--widths", nargs="+", type=int, default=[16, 24, 32, 48, 64])
     parser.add_argument("--frequencies", nargs="+", type=parse_encoding,
-                        default=[(16, "1.4", "0.1"), (8, "1.4", "0.1"), (5, "1.8", "0.1")], metavar="L[:BETA][@D]",
-                        help="encodings: L frequencies, spaced by β (default 1.4), truncated at d* = D (default 0.1)")
+                        default=[(16, "1.4", "0.1", 60), (8, "1.4", "0.1", 60), (5, "1.8", "0.1", 60)],
+                        metavar="L[:BETA][@D][/E]",
+                        help="encodings: L frequencies, spaced by β (default 1.4), truncated at d* = D (default 0.1), "
+                             "E epochs (default 60)")
     parser.add_argument("--bits", nargs="+", type=int, default=[8])
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="encode every point at each seed")
-    parser.add_argument("--anchor", nargs=2, default=["16", "8"], metavar=("L[:BETA][@D]", "BITS"),
+    parser.add_argument("--anchor", nargs=2, default=["16", "8"], metavar=("L[:BETA][@D][/E]", "BITS"),
                         help="the setting the BD-rates are measured against")
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--threads", type=int, default=None, help="torch threads per encode")
@@ -133,34 +140,37 @@ def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     keep = OUT / "freq"
     keep.mkdir(exist_ok=True)
-    settings: list[Setting] = [(L, base, b, t) for b in args.bits for L, base, t in args.frequencies]
+    settings: list[Setting] = [(L, base, b, t, e) for b in args.bits for L, base, t, e in args.frequencies]
     for shape in args.shapes:
         rel, field, _ = SHAPES[shape]
         gt = None
         for width in args.widths:
-            for (frequencies, base, bits, truncation), seed in itertools.product(settings, args.seeds):
-                if (shape, width, frequencies, base, bits, truncation, seed) in done:
+            for (frequencies, base, bits, truncation, epochs), seed in itertools.product(settings, args.seeds):
+                key = (shape, width, frequencies, base, bits, truncation, epochs, seed)
+                if key in done:
                     continue
                 if gt is None:
                     gt = load_shape(SHARED / "data" / rel)
                 cfg = EncodeConfig(field=field, width=width, frequencies=frequencies, frequency_base=float(base),
                                    bits=bits, seed=seed, quiet=True, threads=args.threads,
-                                   truncation=float(truncation))
+                                   truncation=float(truncation), epochs=epochs)
                 t0 = time.perf_counter()
                 data = compress(gt, cfg).data
                 seconds = time.perf_counter() - t0
                 suffix = (("" if base == LEGACY_BASE else f"_beta{base}") + ("" if bits == 8 else f"_b{bits}")
                           + ("" if truncation == LEGACY_TRUNCATION else f"_d{truncation}")
+                          + ("" if epochs == LEGACY_EPOCHS else f"_e{epochs}")
                           + ("" if seed == 0 else f"_s{seed}"))
                 path = keep / f"{shape}_w{width}_L{frequencies}{suffix}.nfc"
                 path.write_bytes(data)
                 point = measure_nfc(gt, path, path.stem, args.resolution, seconds)
-                done[(shape, width, frequencies, base, bits, truncation, seed)] = {
+                done[key] = {
                     "shape": shape, "width": str(width), "frequencies": str(frequencies), "base": base,
                     "bits": str(bits), "bytes": str(point.bytes), "cd": f"{point.cd:.6g}",
-                    "seconds": f"{seconds:.1f}", "seed": str(seed), "truncation": truncation}
+                    "seconds": f"{seconds:.1f}", "seed": str(seed), "truncation": truncation,
+                    "epochs": str(epochs)}
                 save_points(done)
-                name = setting_name((frequencies, base, bits, truncation))
+                name = setting_name((frequencies, base, bits, truncation, epochs))
                 print(f"{shape} w{width} {name} seed {seed}: {point.bytes} B, "
                       f"CD {point.cd:.6g}, {seconds:.0f} s", flush=True)
 
@@ -182,8 +192,8 @@ def main() -> None:
                 cells.append("—" if mean is None else f"{mean[0]:.0f} / {mean[1]:.5f}")
             print(f"| {shape} | {width} | " + " | ".join(cells) + " |")
 
-    frequencies, base, truncation = parse_encoding(args.anchor[0])
-    anchor: Setting = (frequencies, base, int(args.anchor[1]), truncation)
+    frequencies, base, truncation, epochs = parse_encoding(args.anchor[0])
+    anchor: Setting = (frequencies, base, int(args.anchor[1]), truncation, epochs)
     others = [s for s in settings if s != anchor]
     print(f"\nBD-rate against {setting_name(anchor)} over widths {', '.join(map(str, args.widths))} "
           "(log bytes at equal log CD, pchip; negative: fewer bytes)\n")
