@@ -82,19 +82,24 @@ AUTO_PROBE_POINTS = 20_000
 AMBIGUOUS_WINDING = (0.2, 0.8)
 
 # --- Model -----------------------------------------------------------------------------------------
-NUM_FREQUENCIES = 8
-"""L, Fourier frequencies of the positional encoding. The paper uses 16; 8 gives smaller files at
+NUM_FREQUENCIES = 7
+"""L, Fourier frequencies of the positional encoding. The paper uses 16; fewer give smaller files at
 equal or better CD (the first layer has 3 + 6L inputs and holds most parameters at widths 16-32,
-and the top octaves' weights come out near zero). Measured (bench/frequencies.py, fast preset,
-seed 0, widths 16-48, BD-rate of L = 8 against L = 16): bunny -19%, armadillo -14%, dragon -18%,
-spot -27%; see bench/RESULTS.md "Where the parameters go". `--frequencies 16` is the paper's."""
+and the top octaves' weights come out near zero). 8 from 0.6 (BD-rate against L = 16 at seed 0:
+bunny -19%, armadillo -14%, dragon -18%, spot -27%); 7 at β = 1.5 since 2026-12-07: with the fast
+preset's 120 epochs and an SDF's d* = 0.05 on both sides, BD-rate against L = 8 at β = 1.4 (three
+seeds, widths 16-48) bunny -5.5%, armadillo -1.8%, dragon -3.4%, Happy Buddha -5.3%, spot +13.8%
+(its curve flat near the sampling floor), and against format 1.0 -28% to -42% on each of the five
+(bench/RESULTS.md "Seven frequencies at β = 1.5 and 120 epochs").
+`--frequencies 16` is the paper's."""
 
-FREQUENCY_BASE = 1.4
+FREQUENCY_BASE = 1.5
 """β (`--frequency-base`): f_k = π·β^k. With β = 1.4 the top frequency of L = 16 is ~489 rad/unit,
-well inside f32 precision on [-1, 1] (2^k would put the top octaves beyond it); see FORMAT.md. L = 5
-at β = 1.8 reaches L = 8's top (33 rad/unit) with 18 fewer inputs: BD-rate against L = 16 -23% and
--20% on dragon and happy (L = 8: -18%, -13%), but -6% and +59% on bunny and spot (L = 8: -19%, -26%;
-bench/RESULTS.md "Where the 8-bit grid costs, and the encoding's spacing"), so 1.4 stays."""
+well inside f32 precision on [-1, 1] (2^k would put the top octaves beyond it); see FORMAT.md.
+β = 1.5 gives L = 7 the top of L = 8 at 1.4 (36 against 33 rad/unit) with 6 fewer inputs. Fewer
+still pays on the detailed shapes only: L = 6 at β = 1.6 (same top, 39 inputs; 90 epochs) against
+L = 8 at 1.4, BD-rate -7.8% on dragon and -6.6% on Happy Buddha but +46% on spot; L = 5 at 1.8 (33
+inputs) likewise (bench/RESULTS.md "Where the 8-bit grid costs, and the encoding's spacing")."""
 
 OMEGA0 = 30.0
 """ω₀ of the SIREN sine layers (paper, Sitzmann et al.)."""
@@ -191,8 +196,11 @@ PRESETS: dict[str, Preset] = {
     # 10x higher learning rate cosine-decayed to zero. Bunny, idle 2-core machine, CD at resolution
     # 256: w16 0.01036 in 12.6 s, w32 0.00856 in 14.8 s, against the paper preset's 0.01025 in 73 s
     # and 0.00848 in 104 s. Batches of 10,000 needed 150 epochs for w32 0.00875 (38 s) and stayed
-    # 13% behind at w16; lr 2e-3 or 5e-4 were worse, batches of 1,250 no better.
-    "fast": Preset(epochs=60, lr=1e-3, cosine=True, qat_epochs=10, qat_lr=1e-5, batch_size=2_500),
+    # 13% behind at w16; lr 2e-3 or 5e-4 were worse, batches of 1,250 no better. 120 epochs since
+    # 2026-12-07 (60 before): BD-rate -7% to -14% on five shapes at widths 16-48 over three seeds
+    # (L = 8, d* = 0.05), for 1.2x format 1.0's encode time at 60 (a training step got 20% cheaper
+    # the same day; bench/RESULTS.md "Seven frequencies at β = 1.5 and 120 epochs").
+    "fast": Preset(epochs=120, lr=1e-3, cosine=True, qat_epochs=10, qat_lr=1e-5, batch_size=2_500),
 }
 DEFAULT_PRESET = "fast"
 

@@ -44,10 +44,10 @@ def test_never_more_than_the_budget_and_the_widest_that_fits(budget: int, bytes_
 
 def test_small_budgets_lower_the_bit_width_and_impossible_ones_are_one_line_errors() -> None:
     encode, _ = synthetic(0.72)
-    # At L = 8 width 4 has 233 parameters: 257 B at 8 bits, 236 at 7, 215 at 6.
-    assert rate.parameters(4) == 233
-    data, choice = rate.choose(225, 8, encode)
-    assert len(data) <= 225 and (choice.width, choice.bits) == (rate.MIN_WIDTH, 6)
+    # At L = 7 (the default) width 4 has 209 parameters: 240 B at 8 bits, 221 at 7, 202 at 6.
+    assert rate.parameters(4) == 209
+    data, choice = rate.choose(210, 8, encode)
+    assert len(data) <= 210 and (choice.width, choice.bits) == (rate.MIN_WIDTH, 6)
     with pytest.raises(InputError, match="no file fits in 100 bytes"):
         rate.choose(100, 8, encode)
 
