@@ -104,13 +104,21 @@ def setting_name(preset: str, width: int, frequencies: int) -> str:
     return f"{preset} w{width}" if frequencies == 16 else f"{preset} L{frequencies} w{width}"
 
 
+def encode_config(field: str, width: int, preset: str, frequencies: int) -> EncodeConfig:
+    """The encoder's defaults at `frequencies`; at 16, format 1.0's whole encoding (β = 1.4, d* =
+    0.1, the fast preset's 60 epochs of then), so that `fast w32` rows stay format 1.0's."""
+    if frequencies != 16:
+        return EncodeConfig(field=field, width=width, frequencies=frequencies, preset=preset, seed=SEED, quiet=True)
+    return EncodeConfig(field=field, width=width, frequencies=16, frequency_base=1.4, truncation=0.1,
+                        epochs=60 if preset == "fast" else None, preset=preset, seed=SEED, quiet=True)
+
+
 def run_nfc(gt: Shape, field: str, width: int, preset: str, frequencies: int, resolution: int,
             keep: Path) -> Point:
     """Encodes, keeps the file as keep/<shape>_<setting>.nfc (bench/decode.py input), decodes it
     with libnfdecode (nfc-decode, CPU path: the same mesh as Vulkan) and measures CD."""
-    config = EncodeConfig(field=field, width=width, frequencies=frequencies, preset=preset, seed=SEED, quiet=True)
     t0 = time.perf_counter()
-    result = compress(gt, config)
+    result = compress(gt, encode_config(field, width, preset, frequencies))
     seconds = time.perf_counter() - t0
     keep.mkdir(parents=True, exist_ok=True)
     setting = setting_name(preset, width, frequencies)
@@ -312,7 +320,8 @@ def main() -> None:
     parser.add_argument("--presets", nargs="+", default=["fast", "paper"],
                         choices=["fast", "paper"])
     parser.add_argument("--frequencies", type=int, default=NUM_FREQUENCIES,
-                        help=f"L of the geometry encoding (default {NUM_FREQUENCIES}; format 1.0 files: 16)")
+                        help=f"L of the geometry encoding (default {NUM_FREQUENCIES}, with the encoder's other "
+                             "defaults; 16: format 1.0's encoding, β 1.4, d* 0.1 and 60 fast epochs)")
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--no-draco", action="store_true", help="skip the Draco runs")
     parser.add_argument("--tmc3", type=Path,
