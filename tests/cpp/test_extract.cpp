@@ -490,11 +490,21 @@ TEST(Extract, MatchesPythonReferenceMeshExactly) {
 
 // Surface following on learned fields (grid.h): every sign change of the dense grid is found on
 // the golden SDF vectors, at a power of two and at a resolution whose last cell reaches past
-// u = 1, from at most 4 evaluations per active cell (the coarsest level's 33^3 weighs at 128).
-// bench/keep_rule.cpp runs the same check at 256 and 512 on more shapes.
+// u = 1, from at most 5 evaluations per active cell there (the coarse levels weigh most at low
+// resolutions, and more for a field truncated at d* = 0.05, the encoder's default since
+// 2026-12-07: a coarse cell wider than 2 d* that reads d* may still hold the surface; the
+// armadillo L7 vector: 4.4 at 128), and from fewer than 3 at 256 (issue 11's bound).
+// bench/keep_rule.cpp runs the dense check at 256 and 512 on more shapes.
 TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
     const std::vector<GoldenVector> sdf = golden_vectors(FieldType::Sdf);
     for (const auto& [name, g] : sdf) {
+        MeshData fine;
+        ExtractStats fine_stats;
+        ASSERT_EQ(extract_mesh_cpu(g, 256, &fine, &fine_stats), NFD_SUCCESS) << name;
+        const double fine_per_cell =
+            double(fine_stats.points_evaluated) / double(fine_stats.active_cells);
+        std::printf("%s at 256: %.2f evaluations per active cell\n", name.c_str(), fine_per_cell);
+        EXPECT_LT(fine_per_cell, 3.0) << name << " at 256";
         for (uint32_t r : {128u, 150u}) {
             MeshData mesh;
             ExtractStats stats;
@@ -505,7 +515,7 @@ TEST(Extract, GoldenSdfVectorsLoseNoCellAgainstTheDenseGrid) {
             EXPECT_EQ(mesh.triangle_count(), triangles) << name << " at " << r;
             const double per_cell = double(stats.points_evaluated) / double(stats.active_cells);
             std::printf("%s at %u: %.2f evaluations per active cell\n", name.c_str(), r, per_cell);
-            EXPECT_LT(per_cell, 4.0) << name << " at " << r;
+            EXPECT_LT(per_cell, 5.0) << name << " at " << r;
         }
     }
     EXPECT_GE(sdf.size(), 4u) << "the SDF vectors are missing";

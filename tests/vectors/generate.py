@@ -60,6 +60,9 @@ VECTORS = [  # name, shape, field, width, bits, frequencies L, β, epochs, colou
     # to the first layer): an L that is no multiple of the GPU kernel's blocks of 4, a β other than
     # 1.4, on a garment UDF (value and gradient kernels).
     ("v1_0_pants_udf_w16_L5", "garments/Pants1.obj.gz", "udf", 16, 8, 5, 1.8, 30, None),
+    # The encoder's default since 2026-12-07: 7 frequencies at β = 1.5 (45 inputs to the first
+    # layer; an L that is no multiple of 4 on an SDF) and an SDF's d* = 0.05.
+    ("v1_0_armadillo_sdf_w24_L7", "stanford/armadillo_remeshed_odedstein.obj.gz", "sdf", 24, 8, 7, 1.5, 40, None),
 ]
 GEO_OFFSETS = {"v1_2_bunny_scans_geo_udf_w16": (600123.456, 200654.321, 0.0)}  # added to the shape
 COLOR_EPOCHS = 30  # the colour schedule's epochs for the v1_1 vectors (short, as the geometry's)
