@@ -107,10 +107,10 @@ def setting_name(preset: str, width: int, frequencies: int) -> str:
 def encode_config(field: str, width: int, preset: str, frequencies: int) -> EncodeConfig:
     """The encoder's defaults at `frequencies`; at 16, format 1.0's whole encoding (β = 1.4, d* =
     0.1, the fast preset's 60 epochs of then), so that `fast w32` rows stay format 1.0's."""
-    if frequencies != 16:
-        return EncodeConfig(field=field, width=width, frequencies=frequencies, preset=preset, seed=SEED, quiet=True)
-    return EncodeConfig(field=field, width=width, frequencies=16, frequency_base=1.4, truncation=0.1,
-                        epochs=60 if preset == "fast" else None, preset=preset, seed=SEED, quiet=True)
+    format_1_0 = ({"frequency_base": 1.4, "truncation": 0.1, "epochs": 60 if preset == "fast" else None}
+                  if frequencies == 16 else {})
+    return EncodeConfig(field=field, width=width, frequencies=frequencies, preset=preset, seed=SEED, quiet=True,
+                        **format_1_0)
 
 
 def run_nfc(gt: Shape, field: str, width: int, preset: str, frequencies: int, resolution: int,

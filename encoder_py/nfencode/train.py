@@ -115,7 +115,7 @@ def optimize(
     parameters = list(model.parameters())
     optimizer = torch.optim.Adam(parameters, lr=lr)
     total_steps = max(1, epochs * steps_per_epoch)
-    device = next(model.parameters()).device
+    device = parameters[0].device
     step = 0
     epoch_loss = float("nan")
     # disable=None: tqdm draws only on a terminal, so logs and CI output stay free of bar frames.
