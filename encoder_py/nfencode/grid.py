@@ -19,7 +19,9 @@ Below it (grid.h has the rules and their reasons):
   SDF_NEAR_ZERO_CELL * h of zero, inside the region of those cells and their 26 neighbours, plus
   every child of the isolated cells above (no sign change, no sign-change neighbour, kept by the
   keep rule, or above the finest level a corner within SDF_NEAR_ZERO_CELL * the finest step of
-  zero: isolated_threshold()); in visit_order().
+  zero: isolated_threshold()); then, above the finest level, flooded again from the children
+  around each vertex above within SDF_NEAR_ZERO_VERTEX * h of zero none of which the flood
+  visited (inside the region); in visit_order().
 * UDF, surface following with the mesher's valid edges (f_a + f_b <= udf_edge_limit(h)) in place
   of sign changes: seeded at the children holding a valid half of each valid edge of the cells
   above, and at every child of a cell above with a valid edge but no seed in itself or its 26
@@ -53,6 +55,7 @@ MIN_COARSE = 32  # refinement stops before a level coarser than this (grid.h, re
 SDF_KEEP_MARGIN = np.float32(1.0)  # kSdfKeepMargin
 UDF_KEEP_MARGIN = np.float32(1.5)  # kUdfKeepMargin
 SDF_NEAR_ZERO_CELL = np.float32(0.5)  # kSdfNearZeroCell
+SDF_NEAR_ZERO_VERTEX = np.float32(0.5)  # kSdfNearZeroVertex
 HALF_DIAGONAL = np.float32(0.8660254)  # sqrt(3) / 2 as the f32 constant of grid.h
 UDF_EDGE_FACTOR = np.float32(1.5)  # kUdfEdgeFactor
 UDF_FLOOD_EDGE = np.float32(2.0)  # kUdfFloodEdge
@@ -440,7 +443,27 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     # above the finest level every face of a cell near zero; UDF, across faces holding an edge
     # with f_a + f_b <= UDF_FLOOD_EDGE * h.
     near_zero_limit = SDF_NEAR_ZERO_CELL * h if level > 0 and not udf else np.float32(0)
-    while len(frontier):
+    # SDF above the finest level, once the flood is done: the children around each vertex above
+    # within SDF_NEAR_ZERO_VERTEX * h of zero none of whose children around it was visited,
+    # inside the region, then the flood from them (grid.h, step 1).
+    near_vertices = (parent.vertices[np.abs(parent.values) <= SDF_NEAR_ZERO_VERTEX * h]
+                     if not udf and level > 0 else np.zeros((0, 3), dtype=np.int64))
+    while len(frontier) or len(near_vertices):
+        if not len(frontier):
+            around = 2 * near_vertices[:, None, :] - CORNER_OFFSET[None]  # (V, 8, 3)
+            inside = ((around >= 0) & (around < n)).all(axis=2)
+            seen = np.zeros(inside.shape, dtype=bool)
+            slots = visited.slots(cell_keys(around[inside], n))
+            seen[inside] = visited.flags[slots]
+            around = around[inside & ~seen.any(axis=1)[:, None]]
+            near_vertices = near_vertices[:0]
+            around = around[np.isin(cell_keys(around // 2, parent.cells_per_axis), region)]
+            keys = np.unique(cell_keys(around, n))
+            slots = visited.slots(keys)
+            visited.flags[slots] = True
+            waves.append(keys)
+            frontier = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
+            continue
         corners = vertex_keys(frontier[:, None, :] + CORNER_OFFSET[None], side)
         fetch(corners.ravel())
         values = value_at(corners)

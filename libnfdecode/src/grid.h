@@ -89,7 +89,15 @@ uint32_t refinement_levels(uint32_t resolution);
 //   of a band about twice as thick (bench/RESULTS.md, "0.11: ..."). From the level above:
 //   1. Seeds: each crossed edge (one end negative) of a cell with a sign change gets its midpoint
 //      evaluated; the half that the sign change falls in is an edge of one child of that cell,
-//      which has a sign change.
+//      which has a sign change. Above the finest level, once the flood (step 2) is done, also
+//      the eight children around each vertex of the level above within kSdfNearZeroVertex * h
+//      (this level's edge) of zero none of which was visited, inside the region, and the flood
+//      from them: a void or sliver that nearly touches a vertex above and first shows at this
+//      level crosses no edge above, and beside the surface it is no isolated cell (step 3)
+//      either; where a child around such a vertex was visited, the surface it nearly touches
+//      passes there. The dragon's files of the 2026-12-07 encoder lost 8-16 cells at 64 this
+//      way, and their children at 128, 256 and 512: holes that the band did not have
+//      (bench/RESULTS.md, "0.13.17"). Evaluations: the same within 0.4%.
 //   2. Flood: each visited cell visits the neighbours behind its faces whose four corners change
 //      sign (those have a sign change too), and above the finest level a cell whose eight corners
 //      all lie within kSdfNearZeroCell * h of zero visits all six, wave after wave, inside the
@@ -120,7 +128,8 @@ uint32_t refinement_levels(uint32_t resolution);
 //      0.02 coarse cells of one.
 //   What the schedule gives up is the keep rule's band: a component of the surface that crosses
 //   no crossed edge of the level above, lies within one cell of its sign-change cells and is
-//   reached from them through no near-zero cell above the finest level, or a thin sheet that runs
+//   reached from them through no near-zero cell or unreached near-zero vertex above the finest
+//   level (the dragon's w96 file at 256: 50 cells), or a thin sheet that runs
 //   farther than one coarse cell from them between its vertices, is not found; nor is a component
 //   under two fine cells across that first shows at the finest level and passes no vertex of the
 //   level above within half a fine cell (a sphere of radius 0.6 fine cells in the middle of a
@@ -140,6 +149,9 @@ constexpr float kHalfDiagonal = 0.8660254f;  // sqrt(3) / 2
 // Surface following's near-zero cells (step 2 above), in cell edges: half a cell, the largest
 // bound that a distance field's slope never stays under at all eight corners.
 constexpr float kSdfNearZeroCell = 0.5f;
+// Step 1's near-zero vertices above, in this level's cell edges: the same half cell (a whole
+// cell found no more of the dragon's lost cells).
+constexpr float kSdfNearZeroVertex = 0.5f;
 // The keep rule's threshold (SDF: for isolated cells, step 3 above).
 inline float keep_threshold(FieldType field, float h) {
     return (field == FieldType::Udf ? kUdfKeepMargin : kSdfKeepMargin) * h * kHalfDiagonal;

@@ -502,9 +502,10 @@ uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
 uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices,
                                     bool with_gradients, unsigned threads) {
     // The flood's store, its two frontiers (each at most the level's cells, grown by doubling),
-    // a wave's face masks, a UDF's seeded-parent bits, the parents' edge masks and seeds (a
-    // parent cell's lowest corner is one of its vertices: no more cells than vertices); with
-    // gradients, their records (at most one per vertex), the level's flags and gradients.
+    // a wave's face masks, a UDF's seeded-parent bits (an SDF's unreached near-zero vertices'),
+    // the parents' edge masks and seeds (a parent cell's lowest corner is one of its vertices:
+    // no more cells than vertices); with gradients, their records (at most one per vertex), the
+    // level's flags and gradients.
     const uint64_t gradients =
         with_gradients ? GradientRecords::bytes_bound(next.vertices, threads) + 13 * next.vertices : 0;
     return FloodStore::bytes_bound(next.cells_per_axis + 1, next.blocks) + 17 * next.cells +
@@ -701,65 +702,103 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     // an edge with f_a + f_b <= kUdfFloodEdge * h (which the neighbour shares), inside the region.
     const float near_zero = l > 0 && !udf ? kSdfNearZeroCell * out->cell_size : 0.0f;
     const float flood_limit = kUdfFloodEdge * out->cell_size;
-    while (!wave.empty()) {
-        parallel_slices(wave.size(), kClaimGrain, threads, [&](size_t t, size_t begin, size_t end) {
-            for (size_t i = begin; i < end; ++i) {
-                uint32_t c[3], s[8];
-                unpack_coords(wave[i], c);
-                const bool in_block = store.cell_slots(c[0], c[1], c[2], s);
-                store.claim_corners(s, in_block, [&](int k) {
-                    const uint8_t* o = mc::kCornerOffset[k];
-                    fetch(slices[t], s[k], c[0] + o[0], c[1] + o[1], c[2] + o[2]);
-                });
-            }
-            slices[t].evaluator.finish();
-        });
-        // Which faces each cell of the wave floods through (reading the store only), then the
-        // visits.
-        through.assign(wave.size(), 0);
-        parallel_for(wave.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
-            const FloodStore& known = store;
-            for (size_t i = begin; i < end; ++i) {
-                uint32_t c[3], s[8], r;
-                unpack_coords(wave[i], c);
-                known.known_cell_slots(c[0], c[1], c[2], s);
-                float f[8];
-                for (int k = 0; k < 8; ++k) f[k] = known.value(s[k]);
-                const bool every_face = is_near_zero(f, near_zero);
-                const uint32_t floodable = udf ? edges_within(f, flood_limit) : 0;
-                if (udf ? floodable == 0 : !every_face && !has_sign_change(f)) continue;
-                for (int face = 0; face < 6; ++face) {
-                    if (udf ? !(floodable & kFaceEdges[face])
-                            : !every_face && !face_changes_sign(f, face))
-                        continue;
-                    uint32_t nb[3] = {c[0], c[1], c[2]};
-                    const int axis = face / 2;
-                    if (face & 1) {
-                        ++nb[axis];
-                    } else if (nb[axis]-- == 0) {
-                        continue;
+    auto flood = [&] {
+        while (!wave.empty()) {
+            parallel_slices(wave.size(), kClaimGrain, threads, [&](size_t t, size_t begin, size_t end) {
+                for (size_t i = begin; i < end; ++i) {
+                    uint32_t c[3], s[8];
+                    unpack_coords(wave[i], c);
+                    const bool in_block = store.cell_slots(c[0], c[1], c[2], s);
+                    store.claim_corners(s, in_block, [&](int k) {
+                        const uint8_t* o = mc::kCornerOffset[k];
+                        fetch(slices[t], s[k], c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+                    });
+                }
+                slices[t].evaluator.finish();
+            });
+            // Which faces each cell of the wave floods through (reading the store only), then the
+            // visits.
+            through.assign(wave.size(), 0);
+            parallel_for(wave.size(), kFloodGrain, threads, [&](size_t begin, size_t end) {
+                const FloodStore& known = store;
+                for (size_t i = begin; i < end; ++i) {
+                    uint32_t c[3], s[8], r;
+                    unpack_coords(wave[i], c);
+                    known.known_cell_slots(c[0], c[1], c[2], s);
+                    float f[8];
+                    for (int k = 0; k < 8; ++k) f[k] = known.value(s[k]);
+                    const bool every_face = is_near_zero(f, near_zero);
+                    const uint32_t floodable = udf ? edges_within(f, flood_limit) : 0;
+                    if (udf ? floodable == 0 : !every_face && !has_sign_change(f)) continue;
+                    for (int face = 0; face < 6; ++face) {
+                        if (udf ? !(floodable & kFaceEdges[face])
+                                : !every_face && !face_changes_sign(f, face))
+                            continue;
+                        uint32_t nb[3] = {c[0], c[1], c[2]};
+                        const int axis = face / 2;
+                        if (face & 1) {
+                            ++nb[axis];
+                        } else if (nb[axis]-- == 0) {
+                            continue;
+                        }
+                        // Most neighbours were visited already: that test first, the region's after.
+                        if (nb[axis] < n && !known.visited(nb[0], nb[1], nb[2]) &&
+                            region.parents.find(nb[0] / 2, nb[1] / 2, nb[2] / 2, &r))
+                            through[i] |= uint8_t(1u << face);
                     }
-                    // Most neighbours were visited already: that test first, the region's after.
-                    if (nb[axis] < n && !known.visited(nb[0], nb[1], nb[2]) &&
-                        region.parents.find(nb[0] / 2, nb[1] / 2, nb[2] / 2, &r))
-                        through[i] |= uint8_t(1u << face);
                 }
-            }
+            });
+            parallel_slices(wave.size(), kFloodGrain, threads, [&](size_t t, size_t begin, size_t end) {
+                for (size_t i = begin; i < end; ++i) {
+                    if (!through[i]) continue;
+                    uint32_t c[3];
+                    unpack_coords(wave[i], c);
+                    for (int face = 0; face < 6; ++face) {
+                        if (!(through[i] >> face & 1)) continue;
+                        uint32_t nb[3] = {c[0], c[1], c[2]};
+                        nb[face / 2] += face & 1 ? 1 : -1;
+                        visit(slices[t], nb[0], nb[1], nb[2]);
+                    }
+                }
+            });
+            gather();
+        }
+    };
+    flood();
+    // SDF above the finest level, once the flood is done: the eight children around each vertex
+    // above within kSdfNearZeroVertex * h of zero none of which was visited, inside the region,
+    // then the flood from them (grid.h, step 1). Which vertices, first (reading the visits only).
+    if (!udf && l > 0) {
+        const float vertex_near_zero = kSdfNearZeroVertex * out->cell_size;
+        nfd::vector<uint64_t> unreached((parent.vertices.size() + 63) / 64);
+        auto for_each_child_around = [n](uint32_t x, uint32_t y, uint32_t z, auto&& fn) {
+            for (const auto& o : mc::kCornerOffset)
+                if (o[0] <= 2 * x && o[1] <= 2 * y && o[2] <= 2 * z && 2 * x - o[0] < n &&
+                    2 * y - o[1] < n && 2 * z - o[2] < n)
+                    fn(2 * x - o[0], 2 * y - o[1], 2 * z - o[2]);
+        };
+        parallel_for(parent.vertices.blocks(), 1, threads, [&](size_t begin, size_t end) {
+            const FloodStore& known = store;
+            parent.vertices.for_each_in_blocks(begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+                if (!(std::fabs(parent.values[r]) <= vertex_near_zero)) return;  // NaN: not near
+                bool reached = false;
+                for_each_child_around(x, y, z, [&](uint32_t cx, uint32_t cy, uint32_t cz) {
+                    reached = reached || known.visited(cx, cy, cz);
+                });
+                if (!reached) __atomic_fetch_or(&unreached[r / 64], uint64_t(1) << (r % 64), __ATOMIC_RELAXED);
+            });
         });
-        parallel_slices(wave.size(), kFloodGrain, threads, [&](size_t t, size_t begin, size_t end) {
-            for (size_t i = begin; i < end; ++i) {
-                if (!through[i]) continue;
-                uint32_t c[3];
-                unpack_coords(wave[i], c);
-                for (int face = 0; face < 6; ++face) {
-                    if (!(through[i] >> face & 1)) continue;
-                    uint32_t nb[3] = {c[0], c[1], c[2]};
-                    nb[face / 2] += face & 1 ? 1 : -1;
-                    visit(slices[t], nb[0], nb[1], nb[2]);
-                }
-            }
+        parallel_slices(parent.vertices.blocks(), 1, threads, [&](size_t t, size_t begin, size_t end) {
+            parent.vertices.for_each_in_blocks(begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
+                if (!(unreached[r / 64] >> (r % 64) & 1)) return;
+                for_each_child_around(x, y, z, [&](uint32_t cx, uint32_t cy, uint32_t cz) {
+                    uint32_t found;
+                    if (region.parents.find(cx / 2, cy / 2, cz / 2, &found)) visit(slices[t], cx, cy, cz);
+                });
+            });
         });
         gather();
+        flood();
     }
     for (Slice& slice : slices) *evaluated += slice.evaluator.finish();
     slices = nfd::vector<Slice>();

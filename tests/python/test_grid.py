@@ -259,7 +259,8 @@ def test_a_void_where_the_field_hovers_at_zero_is_found_through_near_zero_cells(
     with a bump to +0.001 at one vertex of the level above the finest that the level above it
     does not have, 6 fine cells under the surface. No crossed edge leads to it; the flood of that
     level reaches it through the shell's near-zero cells (|f| < SDF_NEAR_ZERO_CELL * h at all
-    eight corners), and the finest level seeds from it. Without them its 8 fine cells are lost."""
+    eight corners), and the finest level seeds from it; so do the children around the shell's
+    near-zero vertices. Without both its 8 fine cells are lost."""
     resolution = 256
     centre = grid_coordinates(np.array([130, 130, 186]), resolution).astype(np.float64)
 
@@ -277,8 +278,47 @@ def test_a_void_where_the_field_hovers_at_zero_is_found_through_near_zero_cells(
 
     expected = set(map(tuple, dense_sign_change_cells(hovering, resolution).tolist()))
     assert found() == expected
+    # The shell's vertices, within SDF_NEAR_ZERO_VERTEX * h of zero with no child around them
+    # reached, seed it too (step 1).
     monkeypatch.setattr(grid_module, "SDF_NEAR_ZERO_CELL", np.float32(0))
+    assert found() == expected
+    monkeypatch.setattr(grid_module, "SDF_NEAR_ZERO_VERTEX", np.float32(0))
     assert len(expected - found()) == 8
+
+
+def test_a_void_beside_the_surface_that_nearly_touches_a_vertex_above_is_seeded_there(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A void of radius 0.02 inside a ball of radius 0.5, one coarse cell under its surface (cells
+    0.0625 wide at 256), its boundary 0.0006 from a vertex of the coarsest level: it crosses no
+    coarse edge, and its coarse cells lie beside the ball's sign-change cells, so no isolated-cell
+    rule sees them. It first shows at the level below (vertices 0.031 apart), where that vertex
+    lies within SDF_NEAR_ZERO_VERTEX * h of zero and the flood reached none of the children
+    around it, so they seed a second flood (grid.h, step 1): found down to the finest level as
+    the dense grid has it, and lost without them (the dragon's holes of bench/RESULTS.md,
+    "0.13.17")."""
+    resolution = 256
+    vertex = grid_coordinates(np.array([128, 128, 128 + 56]), resolution).astype(np.float64)
+    radius, gap = 0.02, 0.0006
+    centre = vertex + np.array([radius + gap, 0.0, 0.0])
+
+    def ball_with_void(points: np.ndarray) -> np.ndarray:
+        p = points.astype(np.float64)
+        return np.maximum(np.linalg.norm(p, axis=1) - 0.5, radius - np.linalg.norm(p - centre, axis=1))
+
+    def void_cells() -> tuple[set, set]:
+        fine = build_grid(ball_with_void, resolution).finest
+        negative = fine.corner_values() < 0
+        found = fine.cells[negative.any(axis=1) & ~negative.all(axis=1)]
+        expected = dense_sign_change_cells(ball_with_void, resolution)
+        near = lambda cells: {tuple(c) for c in cells.tolist()
+                              if np.linalg.norm(grid_coordinates(np.array(c), resolution) - centre) < 0.05}
+        return near(found), near(expected)
+
+    found, expected = void_cells()
+    assert len(expected) > 100 and found == expected
+    monkeypatch.setattr(grid_module, "SDF_NEAR_ZERO_VERTEX", np.float32(0))
+    found, expected = void_cells()
+    assert len(expected) > 100 and not found
 
 
 def test_each_vertex_is_evaluated_once_and_even_ones_are_copied() -> None:

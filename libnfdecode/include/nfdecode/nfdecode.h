@@ -55,7 +55,7 @@ extern "C" {
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
 #define NFD_VERSION_MINOR 13
-#define NFD_VERSION_PATCH 16
+#define NFD_VERSION_PATCH 17
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
