@@ -292,7 +292,9 @@ def plot(shape: str, floor: float, ours: list[Point], draco: list[Point], gpcc: 
     for name, pts in sorted(curves.items()):
         pts.sort(key=lambda p: p.bytes)
         marker = "s--" if name.startswith("paper") else "o-"
-        ax.plot([p.bytes for p in pts], [p.cd for p in pts], marker, label=f"nfc ({name})")
+        preset, _, frequencies = name.partition(" L")  # "fast" is format 1.0's encoding (setting_name)
+        encoding = f"L = {frequencies}" if frequencies else "format 1.0's encoding"
+        ax.plot([p.bytes for p in pts], [p.cd for p in pts], marker, label=f"nfc ({preset}, {encoding})")
     for name, pts in (("Draco envelope", lower_envelope(draco)),
                       ("G-PCC envelope", lower_envelope(gpcc))):
         if pts:
