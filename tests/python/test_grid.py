@@ -310,9 +310,11 @@ def test_a_void_beside_the_surface_that_nearly_touches_a_vertex_above_is_seeded_
         negative = fine.corner_values() < 0
         found = fine.cells[negative.any(axis=1) & ~negative.all(axis=1)]
         expected = dense_sign_change_cells(ball_with_void, resolution)
-        near = lambda cells: {tuple(c) for c in cells.tolist()
-                              if np.linalg.norm(grid_coordinates(np.array(c), resolution) - centre) < 0.05}
-        return near(found), near(expected)
+        return near_the_void(found), near_the_void(expected)
+
+    def near_the_void(cells: np.ndarray) -> set:
+        return {tuple(c) for c in cells.tolist()
+                if np.linalg.norm(grid_coordinates(np.array(c), resolution) - centre) < 0.05}
 
     found, expected = void_cells()
     assert len(expected) > 100 and found == expected
