@@ -63,6 +63,11 @@ VECTORS = [  # name, shape, field, width, bits, frequencies L, β, epochs, colou
     # The encoder's default since 2026-12-07: 7 frequencies at β = 1.5 (45 inputs to the first
     # layer; an L that is no multiple of 4 on an SDF) and an SDF's d* = 0.05.
     ("v1_0_armadillo_sdf_w24_L7", "stanford/armadillo_remeshed_odedstein.obj.gz", "sdf", 24, 8, 7, 1.5, 40, None),
+    # The dragon's thin parts at the same default: at 128 some vertices above the finest level lie
+    # within half a cell of zero with no child around them reached by the flood, so the flood goes
+    # on from them (grid.h, step 1, since 0.13.17; here without new cells): C++ and numpy seed and
+    # evaluate the same points.
+    ("v1_0_dragon_sdf_w32_L7", "stanford/dragon_vrip_res3.ply.gz", "sdf", 32, 8, 7, 1.5, 40, None),
 ]
 GEO_OFFSETS = {"v1_2_bunny_scans_geo_udf_w16": (600123.456, 200654.321, 0.0)}  # added to the shape
 COLOR_EPOCHS = 30  # the colour schedule's epochs for the v1_1 vectors (short, as the geometry's)
