@@ -430,61 +430,57 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
         lone = ~seeded & ~np.isin(cell_keys(cells, pn), near_seeded)
         seeds.append((2 * cells[lone][:, None, :] + CORNER_OFFSET[None]).reshape(-1, 3))
     seeds.append((2 * isolated[:, None, :] + CORNER_OFFSET[None]).reshape(-1, 3))
-    frontier = np.concatenate(seeds)
-    frontier = frontier[(frontier < n).all(axis=1)]
-    keys = np.unique(cell_keys(frontier, n))
+    first = np.concatenate(seeds)
     visited = _Blocks(n, with_values=False)  # flags: the cell was visited
-    slots = visited.slots(keys)
-    visited.flags[slots] = True
-    waves = [keys]
-    frontier = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
+    waves: list[np.ndarray] = []
+
+    def visit(keys: np.ndarray) -> np.ndarray:
+        """Marks the cells of `keys` not visited yet as the next wave; their coordinates."""
+        keys = np.unique(keys)
+        slots = visited.slots(keys)
+        new = ~visited.flags[slots]
+        keys = keys[new]
+        visited.flags[slots[new]] = True
+        waves.append(keys)
+        return np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
 
     # The flood, a wave at a time, inside the region: SDF, across faces with a sign change, and
     # above the finest level every face of a cell near zero; UDF, across faces holding an edge
     # with f_a + f_b <= UDF_FLOOD_EDGE * h.
     near_zero_limit = SDF_NEAR_ZERO_CELL * h if level > 0 and not udf else np.float32(0)
-    # SDF above the finest level, once the flood is done: the children around each vertex above
-    # within SDF_NEAR_ZERO_VERTEX * h of zero none of whose children around it was visited,
-    # inside the region, then the flood from them (grid.h, step 1).
-    near_vertices = (parent.vertices[np.abs(parent.values) <= SDF_NEAR_ZERO_VERTEX * h]
-                     if not udf and level > 0 else np.zeros((0, 3), dtype=np.int64))
-    while len(frontier) or len(near_vertices):
-        if not len(frontier):
-            around = 2 * near_vertices[:, None, :] - CORNER_OFFSET[None]  # (V, 8, 3)
-            inside = ((around >= 0) & (around < n)).all(axis=2)
-            seen = np.zeros(inside.shape, dtype=bool)
-            slots = visited.slots(cell_keys(around[inside], n))
-            seen[inside] = visited.flags[slots]
-            around = around[inside & ~seen.any(axis=1)[:, None]]
-            near_vertices = near_vertices[:0]
-            around = around[np.isin(cell_keys(around // 2, parent.cells_per_axis), region)]
-            keys = np.unique(cell_keys(around, n))
-            slots = visited.slots(keys)
-            visited.flags[slots] = True
-            waves.append(keys)
-            frontier = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
-            continue
-        corners = vertex_keys(frontier[:, None, :] + CORNER_OFFSET[None], side)
-        fetch(corners.ravel())
-        values = value_at(corners)
-        near_zero = (np.abs(values) < near_zero_limit).all(axis=1)
-        floodable = edges_within(values, UDF_FLOOD_EDGE * h) if udf else None
-        grown = []
-        for axis, face, corner_ids, edge_ids in _FACES:
-            if udf:
-                through = floodable[:, edge_ids].any(axis=1)
-            else:
-                through = _sign_change(values[:, corner_ids]) | near_zero
-            neighbour = frontier[through].copy()
-            neighbour[:, axis] += 1 if face else -1
-            neighbour = neighbour[((neighbour >= 0) & (neighbour < n)).all(axis=1)]
-            grown.append(neighbour[np.isin(cell_keys(neighbour // 2, (n + 1) // 2), region)])
-        keys = np.unique(cell_keys(np.concatenate(grown), n))
-        slots = visited.slots(keys)
-        keys, slots = keys[~visited.flags[slots]], slots[~visited.flags[slots]]
-        visited.flags[slots] = True
-        waves.append(keys)
-        frontier = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
+
+    def flood(frontier: np.ndarray) -> None:
+        while len(frontier):
+            corners = vertex_keys(frontier[:, None, :] + CORNER_OFFSET[None], side)
+            fetch(corners.ravel())
+            values = value_at(corners)
+            near_zero = (np.abs(values) < near_zero_limit).all(axis=1)
+            floodable = edges_within(values, UDF_FLOOD_EDGE * h) if udf else None
+            grown = []
+            for axis, face, corner_ids, edge_ids in _FACES:
+                if udf:
+                    through = floodable[:, edge_ids].any(axis=1)
+                else:
+                    through = _sign_change(values[:, corner_ids]) | near_zero
+                neighbour = frontier[through].copy()
+                neighbour[:, axis] += 1 if face else -1
+                neighbour = neighbour[((neighbour >= 0) & (neighbour < n)).all(axis=1)]
+                grown.append(neighbour[np.isin(cell_keys(neighbour // 2, (n + 1) // 2), region)])
+            frontier = visit(cell_keys(np.concatenate(grown), n))
+
+    flood(visit(cell_keys(first[(first < n).all(axis=1)], n)))
+    if not udf and level > 0:
+        # SDF above the finest level, once the flood is done: the children around each vertex
+        # above within SDF_NEAR_ZERO_VERTEX * h of zero none of which was visited, inside the
+        # region, then the flood from them (grid.h, step 1).
+        near = parent.vertices[np.abs(parent.values) <= SDF_NEAR_ZERO_VERTEX * h]
+        around = 2 * near[:, None, :] - CORNER_OFFSET[None]  # (vertices, 8, 3)
+        inside = ((around >= 0) & (around < n)).all(axis=2)
+        reached = np.zeros(inside.shape, dtype=bool)
+        slots = visited.slots(cell_keys(around[inside], n))
+        reached[inside] = visited.flags[slots]
+        around = around[inside & ~reached.any(axis=1)[:, None]]
+        flood(visit(cell_keys(around[np.isin(cell_keys(around // 2, parent.cells_per_axis), region)], n)))
 
     keys = np.concatenate(waves)
     cells = np.stack([keys % n, keys // n % n, keys // (n * n)], axis=1)
