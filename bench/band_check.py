@@ -15,22 +15,20 @@ from __future__ import annotations
 
 import argparse
 import re
-import subprocess
 import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-NFC_DECODE = REPO / "build" / "samples" / "nfc-decode"
+from evaluations import NFC_DECODE, run
+
 STATS = re.compile(r"\((\d+) active cells, ([\d.]+) points evaluated per cell\)")
 
 
 def active_cells(decoder: Path, path: Path, resolution: int, band: bool) -> tuple[int, float]:
     """(active cells, evaluations per active cell) of one CPU-path decode."""
     with tempfile.TemporaryDirectory() as tmp:
-        run = subprocess.run([str(decoder), str(path), "-o", f"{tmp}/m.ply", "--device", "cpu", "--stats",
-                              "--resolution", str(resolution)] + (["--sample-band"] if band else []),
-                             check=True, capture_output=True, text=True)
-    match = STATS.search(run.stdout + run.stderr)
+        stats = run(decoder, path, f"{tmp}/m.ply", "--stats", "--resolution", str(resolution),
+                    *(["--sample-band"] if band else []))
+    match = STATS.search(stats)
     if match is None:
         raise RuntimeError(f"{decoder} printed no mesh statistics for {path}")
     return int(match.group(1)), float(match.group(2))
