@@ -18,7 +18,7 @@
 #define NFD_FIELD_LANES 8         // field_eval_lanes.comp's subgroup, its local size
 #define NFD_FIELD_LOCAL_SIZE_ID 15 // constant_id of local_size_x (after the network and POINTS)
 #define NFD_B_FIELD_COUNTERS 11    // the job's counters (counters.glsl)
-#define NFD_FIELD_PUSH_BYTES 12    // capacity, the first result's index, the count's slot
+#define NFD_FIELD_PUSH_BYTES 20    // capacity, the first result's index, the count's slot, the ball
 
 // ---- scan.comp ----------------------------------------------------------------------------------
 #define NFD_B_SCAN_IN 0

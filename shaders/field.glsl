@@ -51,7 +51,21 @@ WEIGHT_BLOCK(NFD_B_FIELD_LAYER0 + 7, layer7)
 
 // Point i of the input is result first + i: a long list is evaluated in chunks of points. The
 // chunk holds push.count points at most, and fewer when counter push.count_slot says so.
-layout(push_constant) uniform Push { uint count; uint first; uint count_slot; } push;
+// ball_radius_sq and ball_floor: the shape's ball where the field is gridded (network.h,
+// ShapeBall), an infinite radius elsewhere.
+layout(push_constant) uniform Push {
+    uint count;
+    uint first;
+    uint count_slot;
+    float ball_radius_sq;
+    float ball_floor;
+} push;
+
+// A value at point u, raised to the floor beyond the ball (ShapeBall::bound; a NaN stays).
+float bounded(float value, vec3 u) {
+    precise float s = u.x * u.x + u.y * u.y + u.z * u.z;
+    return s > push.ball_radius_sq && value < push.ball_floor ? push.ball_floor : value;
+}
 
 float activate_output(float y) {
     if (OUTPUT_ACTIVATION == 1) return abs(y);

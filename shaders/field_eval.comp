@@ -215,8 +215,10 @@ void main() {
 #ifndef WITH_GRADIENT
     for (uint p = 0; p < POINTS && first + p < count; ++p) {
         vec4 y = (NUM_LAYERS & 1) == 1 ? pong[p * MAX4] : ping[p * MAX4];
+        uint i = first + p;
+        vec3 u = vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
         for (uint k = 0; k < OUTPUTS; ++k)
-            values[(push.first + first + p) * OUTPUTS + k] = activate_output(y[k]);
+            values[(push.first + i) * OUTPUTS + k] = bounded(activate_output(y[k]), u);
     }
 #else
     // Backward from the output (one unit in lane x of vec4 0) down to the inputs of layer 1; the
@@ -256,8 +258,11 @@ void main() {
             }
         }
     }
-    for (uint p = 0; p < POINTS && first + p < count; ++p)
-        values[push.first + first + p] = vec4(activate_output(y[p]), gradient[p]);
+    for (uint p = 0; p < POINTS && first + p < count; ++p) {
+        uint i = first + p;
+        vec3 u = vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+        values[push.first + i] = vec4(bounded(activate_output(y[p]), u), gradient[p]);
+    }
 #endif
 }
 

@@ -247,7 +247,8 @@ void main() {
         LAYER(7, HIDDEN_INPUT, a6, a7, ROWS_7, ROWS_6, OUT4_6)
 #ifndef WITH_GRADIENT
         // The output layer's row `lane` is output `lane` (row r = 0 of each lane).
-        if (lane < OUTPUTS) values[(push.first + p) * OUTPUTS + lane] = activate_output(y);
+        if (lane < OUTPUTS)
+            values[(push.first + p) * OUTPUTS + lane] = bounded(activate_output(y), u);
 #else
         // Backward from the output (lane 0's y) to layer 0's outputs, then through layer 0 and
         // the encoding: sin(f u_a) has derivative f cos(f u_a), cos(f u_a) has -f sin(f u_a).
@@ -279,7 +280,7 @@ void main() {
         [[unroll]] for (uint l = 0; l < LANES; ++l) gradient += subgroupShuffle(partial, l);
         if (lane == 0) {
             uint o = 4 * (push.first + p);
-            values[o] = activate_output(y);
+            values[o] = bounded(activate_output(y), u);
             values[o + 1] = gradient.x;
             values[o + 2] = gradient.y;
             values[o + 3] = gradient.z;

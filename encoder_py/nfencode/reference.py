@@ -170,10 +170,25 @@ def color_bytes(colors: np.ndarray) -> np.ndarray:
     return np.minimum(255.0, np.floor(255.0 * np.asarray(colors, dtype=np.float64) + 0.5)).astype(np.uint8)
 
 
+def shape_ball_bound(values: np.ndarray, unit_points: np.ndarray, truncation: float) -> np.ndarray:
+    """Grid values as decoders read them (FORMAT.md, "The shape's ball"; network.h, ShapeBall): an
+    encoder puts the shape inside the unit ball, so at points with x*x + y*y + z*z > (1 + 2 d*)^2
+    (f32, in that order) a value below d* is raised to d* and no surface is extracted there. A NaN
+    stays NaN."""
+    floor = np.float32(truncation)
+    radius = np.float32(1.0) + np.float32(2.0) * floor
+    u = np.asarray(unit_points, dtype=np.float32)
+    beyond = (u[:, 0] * u[:, 0] + u[:, 1] * u[:, 1]) + u[:, 2] * u[:, 2] > radius * radius
+    values = np.asarray(values, dtype=np.float32)  # as the grid holds them
+    return np.where(beyond & (values < floor), floor, values)
+
+
 def field_function(file: NfcFile) -> FieldFn:
-    """The geometry field of a file as a function of unit-frame points."""
+    """The geometry field of a file as its grid reads it (shape_ball_bound), a function of
+    unit-frame points."""
     net = dequantize(file.geometry.network)
-    return lambda points: evaluate(net, points)
+    truncation = file.geometry.truncation
+    return lambda points: shape_ball_bound(evaluate(net, points), points, truncation)
 
 
 def gradient_function(file: NfcFile) -> GradientFn:

@@ -267,7 +267,9 @@ OutputActivation geometry_activation(FieldType field) {
 
 nfd_result read_geometry(Reader& r, Geometry* g) {
     NFD_TRY(read_geometry_frame(r, g));
-    return read_network(r, geometry_activation(g->field), 1, &g->network);
+    NFD_TRY(read_network(r, geometry_activation(g->field), 1, &g->network));
+    g->network.ball = ShapeBall::of_truncation(g->truncation);
+    return NFD_SUCCESS;
 }
 
 // FORMAT.md "`fram` payload": the exact frame, of which GEOM holds the nearest f32 values (so

@@ -307,6 +307,7 @@ uint64_t evaluate_coarsest_level(const Network& net, FieldType field, uint32_t r
                 }
         nfd::vector<float> out(slots.size());
         evaluate_cpu(net, xyz.data(), slots.size(), out.data(), threads);
+        net.ball.bound(xyz.data(), slots.size(), out.data());
         for (size_t k = 0; k < slots.size(); ++k) {
             values[slots[k]] = out[k];
             state[slots[k]] = 2;

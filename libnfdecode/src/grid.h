@@ -6,6 +6,8 @@
 // from about 2 (UDF) to 2.5 (SDF) times the evaluations; but a UDF's finest level, where most of
 // them are, follows the surface within the kept cells of level 1 (GridBuilder's
 // `follow_finest`, gpu/levels.h's evaluate_finest_flood: 0.63-0.74 of the band's evaluations).
+// Every value the grid holds is the field bounded to the shape's ball (network.h, ShapeBall),
+// wherever it was evaluated (grid_eval.h, the GPU's field kernels).
 #pragma once
 #include <cstdint>
 #include <cstring>

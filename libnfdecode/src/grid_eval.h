@@ -12,7 +12,7 @@ namespace nfd {
 
 constexpr size_t kEvalChunk = size_t(1) << 20;  // points per evaluate call: bounds scratch
 
-// Evaluates points as they are pushed, `chunk` (kEvalChunk unless given) at a time, so that
+// Evaluates grid points as they are pushed, `chunk` (kEvalChunk unless given) at a time, so that
 // scratch memory does not grow with the level: push(slot, xyz) queues a point, and
 // `store(slot, value, gradient)` takes its result at the next flush (gradient null unless
 // `gradients`). make_slice_evaluator gives one per slice of a parallel pass.
@@ -49,6 +49,7 @@ private:
             evaluate_gradient_cpu(net_, xyz_.data(), n, values_.data(), grad_.data(), threads_);
         else
             evaluate_cpu(net_, xyz_.data(), n, values_.data(), threads_);
+        net_.ball.bound(xyz_.data(), n, values_.data());  // grid values (network.h, ShapeBall)
         for (size_t k = 0; k < n; ++k) store_(slots_[k], values_[k], gradients_ ? &grad_[3 * k] : nullptr);
         total_ += n;
         slots_.clear();

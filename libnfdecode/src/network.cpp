@@ -378,6 +378,20 @@ unsigned set_cpu_evaluator_lanes(unsigned max_lanes) {
     return b->lanes;
 }
 
+ShapeBall ShapeBall::of_truncation(float truncation) {
+    const float radius = 1.0f + 2.0f * truncation;
+    return {radius * radius, truncation};
+}
+
+void ShapeBall::bound(const float* unit_xyz, size_t n, float* values, size_t stride) const {
+    for (size_t i = 0; i < n; ++i, unit_xyz += 3) {
+        const float x = unit_xyz[0], y = unit_xyz[1], z = unit_xyz[2];
+        float& value = values[i * stride];
+        // Not std::max: a NaN stays NaN, as the meshers expect it.
+        if (x * x + y * y + z * z > radius_sq && value < floor) value = floor;
+    }
+}
+
 size_t evaluate_scratch_bytes(const Network& network, bool gradients, unsigned threads) {
     // Per thread its Scratch, its std::thread state and exception slot (1 KB covers).
     const size_t per_thread = scratch_floats(network, gradients) * sizeof(float);

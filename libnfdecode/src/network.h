@@ -1,5 +1,6 @@
 // Dequantized neural field and its CPU reference evaluator (FORMAT.md, "Evaluation").
 #pragma once
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -18,12 +19,28 @@ struct Layer {
     nfd::vector<float> bias;     // out
 };
 
+// The shape's ball (FORMAT.md, "The shape's ball"): an encoder puts the shape inside the unit ball
+// of its frame, so a surface that a geometry field shows farther than 2 d* outside that ball is
+// the fit's error (a loosely held corner of [-1, 1]^3), not the shape. Wherever a decoder grids the
+// field (the grid's values, which the schedule, the meshers and the VDB output read) it reads
+// max(f, d*) at the points with x*x + y*y + z*z > (1 + 2 d*)^2 (f32, in that order, no fused
+// multiply-add), so no surface is extracted there. The field itself (nfd_asset_evaluate) is not
+// bounded.
+struct ShapeBall {
+    float radius_sq = INFINITY;  // (1 + 2 d*)^2; infinity: unbounded (colour networks)
+    float floor = 0.0f;          // d*
+    static ShapeBall of_truncation(float truncation);
+    // Raises values[i * stride] to the floor at the points beyond the ball.
+    void bound(const float* unit_xyz, size_t n, float* values, size_t stride = 1) const;
+};
+
 struct Network {
     nfd::vector<float> frequencies;  // f[k] of FORMAT.md, already rounded to f32
     float omega0 = 30.0f;
     OutputActivation output = OutputActivation::Identity;
     uint32_t bits = 8;
     nfd::vector<Layer> layers;       // hidden sine layers then one linear output layer
+    ShapeBall ball;                  // where a geometry field is gridded; unbounded otherwise
 
     uint32_t input_width() const { return 3u + 6u * uint32_t(frequencies.size()); }
     uint32_t output_width() const { return layers.empty() ? 0u : layers.back().out; }

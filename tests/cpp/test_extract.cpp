@@ -246,7 +246,8 @@ std::vector<GoldenVector> golden_vectors(FieldType field) {
     return vectors;
 }
 
-// The field at every vertex of the dense grid of r cells per axis, x fastest.
+// The field at every vertex of the dense grid of r cells per axis, x fastest, as grids hold it
+// (bounded to the shape's ball).
 std::vector<float> dense_values(const Network& net, uint32_t r) {
     const size_t side = r + 1;
     std::vector<float> p(3 * side * side * side), v(side * side * side);
@@ -255,6 +256,7 @@ std::vector<float> dense_values(const Network& net, uint32_t r) {
         for (int a = 0; a < 3; ++a) p[3 * i + a] = -1.0f + float(idx[a]) * (2.0f / float(r));
     }
     evaluate_cpu(net, p.data(), v.size(), v.data());
+    net.ball.bound(p.data(), v.size(), v.data());
     return v;
 }
 
@@ -283,6 +285,28 @@ void dense_reference(const Network& net, uint32_t r, uint64_t* active, uint64_t*
         *active += index != 0 && index != 255;
         *triangles += mc::tables().triangle_count[index];
     });
+}
+
+// FORMAT.md "The shape's ball": the grid reads the field as at least d* beyond 1 + 2 d*, so a
+// surface the network puts there (offset_blob's corner) is not extracted; without the bound it is.
+TEST(Extract, NothingIsExtractedBeyondTheShapesBall) {
+    Geometry g = parse_or_throw(geom_file(offset_blob(1.2f)));
+    const float corner[3] = {1.0f, 1.0f, 1.0f};
+    float f = 0;
+    evaluate_cpu(g.network, corner, 1, &f);
+    ASSERT_LT(f, 0.0f) << "the network has a surface in the corner";
+    for (bool band : {false, true}) {
+        MeshData mesh;
+        ExtractStats stats;
+        ASSERT_EQ(extract_mesh_cpu(g, 64, &mesh, &stats, 0, band), NFD_SUCCESS);
+        EXPECT_EQ(mesh.triangle_count(), 0u) << "band " << band;
+        EXPECT_EQ(stats.active_cells, 0u);
+    }
+    g.network.ball = ShapeBall{};  // unbounded: the corner blob is meshed
+    MeshData mesh;
+    ExtractStats stats;
+    ASSERT_EQ(extract_mesh_cpu(g, 64, &mesh, &stats), NFD_SUCCESS);
+    EXPECT_GT(mesh.triangle_count(), 100u);
 }
 
 TEST(Extract, ClosedFieldGivesWatertightOutwardMeshOnTheZeroSet) {
@@ -770,6 +794,7 @@ TEST(Extract, FloodGradientsAreTheGradientPassOnes) {
                     std::vector<float> values(known.size()), gradients(3 * known.size());
                     evaluate_gradient_cpu(g.network, points.data(), known.size(), values.data(),
                                           gradients.data(), 1);
+                    g.network.ball.bound(points.data(), known.size(), values.data());
                     for (size_t i = 0; i < known.size(); ++i) {
                         ASSERT_EQ(values[i], b.values[known[i]]) << known[i];
                         for (int k = 0; k < 3; ++k)

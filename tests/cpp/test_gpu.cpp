@@ -659,6 +659,21 @@ TEST_F(Gpu, MeshMatchesCpuOnRandomSiren) {
     expect_same_mesh(m, g, 64);
 }
 
+// The shape's ball on the device (field_eval.comp's push constants): as on the CPU, nothing in
+// offset_blob's corner; unbounded, the same mesh as the CPU's (a second upload: the ball is part
+// of the network's identity).
+TEST_F(Gpu, NothingIsExtractedBeyondTheShapesBall) {
+    Geometry g = parse_or_throw(geom_file(offset_blob(1.2f)));
+    MeshData mesh;
+    ExtractStats stats;
+    ASSERT_EQ(gpu::extract_mesh(device(), g, 64, &mesh, &stats), NFD_SUCCESS);
+    EXPECT_EQ(mesh.triangle_count(), 0u);
+    g.network.ball = ShapeBall{};
+    const MeshPair m = extract_both(device(), g, 64);
+    ASSERT_GT(m.gpu.triangle_count(), 100u);
+    expect_same_mesh(m, g, 64);
+}
+
 TEST_F(Gpu, FieldWithoutSurfaceGivesEmptyMesh) {
     GeomSpec s = closed_blob();
     s.levels.back() = 32767;  // output bias: f = g + 1 > 0 everywhere

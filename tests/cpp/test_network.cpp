@@ -7,6 +7,7 @@
 // larger than at initialisation.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 
@@ -151,6 +152,24 @@ TEST(Network, MatchesF64ReferenceOnRandomSirens) {
         EXPECT_LE(err, kTolerance);
         EXPECT_LE(gradient_err, kGradientTolerance);
     }
+}
+
+// network.h, ShapeBall (and reference.py's shape_ball_bound, tested on the same points): on the
+// sphere of radius 1 + 2 d* a value stays; beyond it a value below d* is raised to d*; a NaN stays.
+TEST(ShapeBall, RaisesValuesBeyondTheShapesBallOnly) {
+    const ShapeBall ball = ShapeBall::of_truncation(0.1f);
+    const float points[] = {1.2f, 0, 0, 1.21f, 0, 0, 0.7f, 0.7f, 0.72f, 0.7f, 0.7f, 0.6f, 2, 0, 0, 2, 0, 0};
+    float values[] = {-1, -1, 0.05f, 0.05f, NAN, 0.5f};
+    ball.bound(points, 6, values);
+    EXPECT_EQ(values[0], -1.0f);
+    EXPECT_EQ(values[1], 0.1f);
+    EXPECT_EQ(values[2], 0.1f);
+    EXPECT_EQ(values[3], 0.05f);
+    EXPECT_TRUE(std::isnan(values[4]));
+    EXPECT_EQ(values[5], 0.5f);
+    float unbounded = -1;
+    ShapeBall{}.bound(points + 12, 1, &unbounded);
+    EXPECT_EQ(unbounded, -1.0f);
 }
 
 TEST(Network, OutputActivations) {

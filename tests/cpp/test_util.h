@@ -265,6 +265,19 @@ inline GeomSpec closed_blob(float scale = 1.0f, const float* center = nullptr) {
     return s;
 }
 
+// closed_blob centred at (o, o, o) of the unit frame instead of the origin: h_j = cos(2 (u_j - o)).
+// At o = 1.2 it fills a corner of [-1, 1]^3 and lies 1.5 and more from the origin: beyond the
+// shape's ball (network.h, ShapeBall; 1.2 at the truncation 0.1), where no shape an encoder writes
+// has a surface.
+inline GeomSpec offset_blob(float o) {
+    GeomSpec s = closed_blob();
+    const double bias = (M_PI / 2.0 - 2.0 * o) / s.omega0;
+    s.steps[1] = float(std::fabs(bias) / 32767);
+    const uint32_t in = s.input_width();
+    for (uint32_t j = 0; j < 3; ++j) s.levels[3 * in + j] = bias < 0 ? -32767 : 32767;
+    return s;
+}
+
 inline Geometry parse_or_throw(const Bytes& bytes) {
     ParsedFile f;
     if (parse_file(bytes.data(), bytes.size(), &f) != NFD_SUCCESS)

@@ -64,15 +64,16 @@ def random_color_file(field_type: int = FIELD_SDF, widths: tuple[int, ...] = (8,
 COS_BLOB_LEVEL = 3.0 - 0.18  # zero set of g(u) = c - sum(cos u_i): nearly a sphere of radius ~0.6
 
 
-def cos_blob(u: np.ndarray) -> np.ndarray:
-    """The field the hand-built `cos_blob_file` network computes: c - (cos u0 + cos u1 + cos u2)."""
-    return COS_BLOB_LEVEL - np.cos(np.asarray(u, dtype=np.float64)).sum(axis=-1)
+def cos_blob(u: np.ndarray, blob_center: float = 0.0) -> np.ndarray:
+    """The field the hand-built `cos_blob_file` network computes: c - sum_i cos(u_i - blob_center)."""
+    return COS_BLOB_LEVEL - np.cos(np.asarray(u, dtype=np.float64) - blob_center).sum(axis=-1)
 
 
-def cos_blob_file(center=(0.5, -1.0, 2.0), scale: float = 3.0) -> NfcFile:
+def cos_blob_file(center=(0.5, -1.0, 2.0), scale: float = 3.0, blob_center: float = 0.0) -> NfcFile:
     """An SDF file whose network is exactly cos_blob, up to f32 rounding of the weights:
-    no positional encoding, omega0 = 1, hidden h_i = sin(u_i + pi/2) = cos(u_i),
-    output c - (h0 + h1 + h2). Negative inside, like an SDF."""
+    no positional encoding, omega0 = 1, hidden h_i = sin(u_i - blob_center + pi/2) = cos(u_i -
+    blob_center), output c - (h0 + h1 + h2). Negative inside, like an SDF; the blob is centred at
+    (blob_center,) * 3 in the unit frame (0 <= blob_center < pi / 2)."""
     net = NetworkBlock(
         num_frequencies=0,
         frequency_base=1.0,
@@ -80,7 +81,7 @@ def cos_blob_file(center=(0.5, -1.0, 2.0), scale: float = 3.0) -> NfcFile:
         output=OUTPUT_IDENTITY,
         bits=8,
         out_features=[3, 1],
-        steps=[(1.0, math.pi / 2), (1.0, COS_BLOB_LEVEL)],
+        steps=[(1.0, math.pi / 2 - blob_center), (1.0, COS_BLOB_LEVEL)],
         levels=[(np.eye(3, dtype=np.int64), np.ones(3, dtype=np.int64)),
                 (-np.ones((1, 3), dtype=np.int64), np.ones(1, dtype=np.int64))],
     )

@@ -37,6 +37,7 @@ from nfencode.reference import (
     extract_mesh_from_field,
     field_function,
     sample_points,
+    shape_ball_bound,
 )
 
 
@@ -239,6 +240,30 @@ def test_field_without_surface_gives_an_empty_mesh() -> None:
     with pytest.raises(NfcError):
         extract_mesh_from_field(lambda p: np.ones(len(p)), 1025)  # above NFD_MAX_RESOLUTION
     assert len(extract_mesh_from_field(lambda p: np.full(len(p), 0.5), 1024).faces) == 0
+
+
+def test_a_surface_beyond_the_shapes_ball_is_not_extracted() -> None:
+    """FORMAT.md "The shape's ball": a blob that a network puts in a corner of [-1, 1]^3, 1.5 and
+    more from the origin (beyond 1 + 2 d* = 1.2), lies outside every shape an encoder writes; the
+    grid reads it as d* and nothing is extracted there. The network itself still has it."""
+    f = cos_blob_file(blob_center=1.2)
+    net = dequantize(f.geometry.network)
+    corner = np.array([[1.0, 1.0, 1.0]])
+    assert evaluate(net, corner)[0] == pytest.approx(cos_blob(corner, 1.2)[0], abs=1e-6)
+    assert evaluate(net, corner)[0] < 0
+    assert len(extract_mesh_from_field(lambda p: evaluate(net, p), 64).faces) > 0  # unbounded
+    assert len(extract_mesh(f, 64).faces) == 0
+    assert field_function(f)(corner)[0] == np.float32(f.geometry.truncation)
+
+
+def test_the_shapes_ball_bound_keeps_values_inside_it_and_nans() -> None:
+    """Radius 1 + 2 * 0.1: on the sphere itself a value stays; beyond it, below 0.1, it is raised."""
+    points = np.array([[1.2, 0, 0], [1.21, 0, 0], [0.7, 0.7, 0.72], [0.7, 0.7, 0.6], [2, 0, 0]],
+                      dtype=np.float32)
+    values = np.array([-1, -1, 0.05, 0.05, np.nan], dtype=np.float32)
+    bounded = shape_ball_bound(values, points, 0.1)
+    np.testing.assert_array_equal(bounded[:4], np.float32([-1, 0.1, 0.1, 0.05]))
+    assert np.isnan(bounded[4])
 
 
 def test_extract_mesh_of_a_hand_built_file() -> None:

@@ -55,7 +55,7 @@ extern "C" {
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
 #define NFD_VERSION_MINOR 13
-#define NFD_VERSION_PATCH 17
+#define NFD_VERSION_PATCH 18
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
@@ -340,7 +340,8 @@ NFD_API nfd_result nfd_asset_get_frame(const nfd_asset* asset, nfd_asset_frame* 
  * floats), writing `count` distances in the unit frame (multiply by info.scale for original
  * units). Runs on the context's device. count == 0 succeeds without touching the pointers;
  * otherwise NULL points/out_values give NFD_ERROR_INVALID_ARGUMENT. Memory used inside is bounded
- * (points are processed in blocks), whatever `count` is. */
+ * (points are processed in blocks), whatever `count` is. The field as the network computes it,
+ * not bounded by the shape's ball (nfd_mesh_extract). */
 NFD_API nfd_result nfd_asset_evaluate(nfd_context* context, const nfd_asset* asset, const float* points,
                               size_t count, float* out_values);
 
@@ -601,7 +602,9 @@ typedef struct nfd_decode_stats {
  * consistently wound, normals outward. UDF (open surfaces, point clouds): MeshUDF-style pseudo-
  * signed marching cubes from the field's gradients; the surface may be open, and as an unsigned
  * field has no inside, winding and normals agree with each other but are not globally oriented.
- * options may be NULL. An empty mesh (field without a surface) is a success. */
+ * Only the surface within 2 d* of the unit ball is extracted (FORMAT.md, "The shape's ball": the
+ * shape lies in it; since 0.13.18), as for every output gridded from the field (levels, points,
+ * grids). options may be NULL. An empty mesh (field without a surface) is a success. */
 NFD_API nfd_result nfd_mesh_extract(nfd_context* context, const nfd_asset* asset,
                             const nfd_mesh_options* options, nfd_mesh** out_mesh);
 NFD_API void nfd_mesh_destroy(nfd_mesh* mesh);

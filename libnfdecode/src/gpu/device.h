@@ -212,6 +212,7 @@ struct DeviceNetwork {
     bool transposed = false;               // blocks end in field_eval_lanes.comp's transposes
     VkDeviceSize bytes = 0;                // of `weights`, the aligned blocks
     std::vector<uint32_t> specialization;  // field_eval.comp's constants 0-13
+    ShapeBall ball;                        // the network's: what its grid evaluations pass
     struct Variant {
         const Pipeline* pipeline = nullptr;  // created on first use
         uint32_t points_per_invocation = 1;
@@ -229,9 +230,10 @@ struct DeviceNetwork {
 nfd_result device_network(Device& d, const Network& net, std::shared_ptr<DeviceNetwork>* out);
 // Records the evaluation of `count`'s points (xyz, from index 0 of `points`) into `results` from
 // index count.first on: output_width() floats each, or with `gradient` (one output) one vec4
-// each (value, d/dx, d/dy, d/dz).
+// each (value, d/dx, d/dy, d/dz); values beyond `ball` raised to its floor (grid points pass the
+// network's, net.ball; the field itself an unbounded one).
 nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, const Buffer& results,
-                        Count count, bool gradient);
+                        Count count, bool gradient, const ShapeBall& ball);
 // Creates the pipeline record_field will use (it does so itself on first use): compiling on a
 // CPU implementation takes tens of MB for a while, better spent before the big buffers exist.
 nfd_result prepare_field(Device& d, DeviceNetwork& net, bool gradient);

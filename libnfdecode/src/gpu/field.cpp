@@ -32,6 +32,7 @@ constexpr size_t kMaxWarmers = 8;
 
 bool same_network(const Network& a, const Network& b) {
     if (a.frequencies != b.frequencies || a.omega0 != b.omega0 || a.output != b.output ||
+        a.ball.radius_sq != b.ball.radius_sq || a.ball.floor != b.ball.floor ||
         a.layers.size() != b.layers.size())
         return false;
     for (size_t l = 0; l < a.layers.size(); ++l) {
@@ -118,7 +119,7 @@ nfd_result evaluate_in_chunks(Device& device, const Network& network, const floa
         const uint32_t count = uint32_t(std::min(chunk, n - begin));
         std::memcpy(points->data, unit_xyz + 3 * begin, size_t(count) * 12);
         NFD_TRY(job.begin());
-        NFD_TRY(record_field(job, net, *points, *results, Count{count}, gradient));
+        NFD_TRY(record_field(job, net, *points, *results, Count{count}, gradient, ShapeBall{}));
         NFD_TRY(job.submit());
         take(begin, count, results->as<float>());
     }
@@ -229,6 +230,7 @@ nfd_result network_layout(const Device& d, const Network& net, DeviceNetwork* ou
 nfd_result upload_network(Device& d, const Network& net, DeviceNetwork* out) {
     LayerVec4s v;
     NFD_TRY(network_layout(d, net, out, &v));
+    out->ball = net.ball;
     const uint32_t layers = uint32_t(net.layers.size());
     for (const Layer& layer : net.layers)
         if (layer.weights.size() != size_t(layer.in) * layer.out || layer.bias.size() != layer.out)
@@ -433,20 +435,23 @@ void warm_field_pipelines(Device& d, const Network& shape, FieldType field) {
 }
 
 nfd_result record_field(Job& job, DeviceNetwork& net, const Buffer& points, const Buffer& results,
-                        Count count, bool gradient) {
+                        Count count, bool gradient, const ShapeBall& ball) {
     NFD_TRY(prepare_field(job.device, net, gradient));
     const DeviceNetwork::Variant& variant = gradient ? net.gradients : net.values;
     const Buffer& w = net.weights;
     auto layer = [&](uint32_t l) -> Bind {
         return {NFD_B_FIELD_LAYER0 + l, BufferRange(w, net.offset[l], net.range[l])};
     };
-    const uint32_t push[3] = {count.capacity, count.first, count.slot};
+    const struct {
+        uint32_t capacity, first, slot;
+        float ball_radius_sq, ball_floor;
+    } push = {count.capacity, count.first, count.slot, ball.radius_sq, ball.floor};
     static_assert(sizeof(push) == NFD_FIELD_PUSH_BYTES, "field_eval.comp's Push");
     return job.dispatch(*variant.pipeline,
                         {{NFD_B_FIELD_POINTS, points}, {NFD_B_FIELD_VALUES, results},
                          {NFD_B_FIELD_FREQUENCIES, net.frequencies}, layer(0), layer(1), layer(2),
                          layer(3), layer(4), layer(5), layer(6), layer(7)},
-                        push, count, variant.points_per_invocation);
+                        &push, count, variant.points_per_invocation);
 }
 
 nfd_result evaluate(Device& device, const Network& network, const float* unit_xyz, size_t n,

@@ -109,6 +109,7 @@ nfd_result evaluate_top_gradients(const HostTop& top, const nfd::vector<uint8_t>
         nfd::vector<float> values(index.size()), g(3 * index.size());
         evaluate_gradient_cpu(*top.network, xyz.data(), index.size(), values.data(), g.data(),
                               top.threads);
+        top.network->ball.bound(xyz.data(), index.size(), values.data());
         for (size_t k = 0; k < index.size(); ++k) {
             float* o = out + 4 * size_t(index[k]);
             o[0] = values[k];
@@ -175,7 +176,7 @@ nfd_result record_list(Job& job, DeviceNetwork& net, const Level& parents, const
                               {NFD_B_OFFSETS, offsets},
                               {NFD_B_POINTS, *points}},
                              &chunk, parents.count()));
-        NFD_TRY(record_field(job, net, *points, results, c, gradient));
+        NFD_TRY(record_field(job, net, *points, results, c, gradient, net.ball));
     }
     return NFD_SUCCESS;
 }
@@ -502,7 +503,7 @@ nfd_result LevelBuilder::evaluate_finest_flood(const LevelPush& push, Buffers& s
         for (uint32_t first = from; first < to; first += std::min(chunk, to - first)) {
             const Count c{std::min(chunk, to - first), NFD_NO_COUNTER, first};
             NFD_TRY(run(Kernel::UdfFloodListPoints, c));
-            NFD_TRY(record_field(job_, net_, *points, *results, Count{c.capacity}, true));
+            NFD_TRY(record_field(job_, net_, *points, *results, Count{c.capacity}, true, net_.ball));
             NFD_TRY(run(Kernel::UdfFloodStoreValues, c));
         }
         return NFD_SUCCESS;
