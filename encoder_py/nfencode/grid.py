@@ -21,7 +21,8 @@ Below it (grid.h has the rules and their reasons):
   keep rule, or above the finest level a corner within SDF_NEAR_ZERO_CELL * the finest step of
   zero: isolated_threshold()); then, above the finest level, flooded again from the children
   around each vertex above within SDF_NEAR_ZERO_VERTEX * h of zero none of which the flood
-  visited (inside the region); in visit_order().
+  visited, or within SDF_SECOND_SHEET_VERTEX * h whether or not (inside the region); in
+  visit_order().
 * UDF, surface following with the mesher's valid edges (f_a + f_b <= udf_edge_limit(h)) in place
   of sign changes: seeded at the children holding a valid half of each valid edge of the cells
   above, and at every child of a cell above with a valid edge but no seed in itself or its 26
@@ -56,6 +57,7 @@ SDF_KEEP_MARGIN = np.float32(1.0)  # kSdfKeepMargin
 UDF_KEEP_MARGIN = np.float32(1.5)  # kUdfKeepMargin
 SDF_NEAR_ZERO_CELL = np.float32(0.5)  # kSdfNearZeroCell
 SDF_NEAR_ZERO_VERTEX = np.float32(0.5)  # kSdfNearZeroVertex
+SDF_SECOND_SHEET_VERTEX = np.float32(0.15)  # kSdfSecondSheetVertex
 HALF_DIAGONAL = np.float32(0.8660254)  # sqrt(3) / 2 as the f32 constant of grid.h
 UDF_EDGE_FACTOR = np.float32(1.5)  # kUdfEdgeFactor
 UDF_FLOOD_EDGE = np.float32(2.0)  # kUdfFloodEdge
@@ -471,15 +473,18 @@ def _follow_surface(field_fn: FieldFn, resolution: int, level: int, parent: Grid
     flood(visit(cell_keys(first[(first < n).all(axis=1)], n)))
     if not udf and level > 0:
         # SDF above the finest level, once the flood is done: the children around each vertex
-        # above within SDF_NEAR_ZERO_VERTEX * h of zero none of which was visited, inside the
-        # region, then the flood from them (grid.h, step 1).
-        near = parent.vertices[np.abs(parent.values) <= SDF_NEAR_ZERO_VERTEX * h]
+        # above within SDF_NEAR_ZERO_VERTEX * h of zero none of which was visited, or within
+        # SDF_SECOND_SHEET_VERTEX * h whether or not, inside the region, then the flood from them
+        # (grid.h, step 1).
+        distance = np.abs(parent.values)
+        close = distance <= SDF_NEAR_ZERO_VERTEX * h
+        near, second_sheet = parent.vertices[close], distance[close] <= SDF_SECOND_SHEET_VERTEX * h
         around = 2 * near[:, None, :] - CORNER_OFFSET[None]  # (vertices, 8, 3)
         inside = ((around >= 0) & (around < n)).all(axis=2)
         reached = np.zeros(inside.shape, dtype=bool)
         slots = visited.slots(cell_keys(around[inside], n))
         reached[inside] = visited.flags[slots]
-        around = around[inside & ~reached.any(axis=1)[:, None]]
+        around = around[inside & (second_sheet | ~reached.any(axis=1))[:, None]]
         flood(visit(cell_keys(around[np.isin(cell_keys(around // 2, parent.cells_per_axis), region)], n)))
 
     keys = np.concatenate(waves)

@@ -97,7 +97,8 @@ uint32_t refinement_levels(uint32_t resolution);
 //      from them: a void or sliver that nearly touches a vertex above and first shows at this
 //      level crosses no edge above, and beside the surface it is no isolated cell (step 3)
 //      either; where a child around such a vertex was visited, the surface it nearly touches
-//      passes there. The dragon's files of the 2026-12-07 encoder lost 8-16 cells at 64 this
+//      mostly passes there, but within kSdfSecondSheetVertex * h of zero the children not
+//      visited are seeded too (0.13.18): the other sheet of a sliver thinner than a cell. The dragon's files of the 2026-12-07 encoder lost 8-16 cells at 64 this
 //      way, and their children at 128, 256 and 512: holes that the band did not have
 //      (bench/RESULTS.md, "0.13.17"). Evaluations: the same within 0.4%.
 //   2. Flood: each visited cell visits the neighbours behind its faces whose four corners change
@@ -154,6 +155,11 @@ constexpr float kSdfNearZeroCell = 0.5f;
 // Step 1's near-zero vertices above, in this level's cell edges: the same half cell (a whole
 // cell found no more of the dragon's lost cells).
 constexpr float kSdfNearZeroVertex = 0.5f;
+// Step 1's vertices above so close to zero (in this level's cell edges) that the children around
+// them the flood did not visit are seeded even where it visited some: a second sheet of a thin
+// sliver beside the first. 0.15 found the dragon's slivers of bench/RESULTS.md "0.13.18" for +0.4%
+// evaluations (0.25: no more cells, +0.8%; 0.1 missed one).
+constexpr float kSdfSecondSheetVertex = 0.15f;
 // The keep rule's threshold (SDF: for isolated cells, step 3 above).
 inline float keep_threshold(FieldType field, float h) {
     return (field == FieldType::Udf ? kUdfKeepMargin : kSdfKeepMargin) * h * kHalfDiagonal;

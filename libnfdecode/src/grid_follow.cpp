@@ -502,7 +502,7 @@ uint64_t follow_region_bytes_bound(const LevelSize& level, uint32_t child_cells,
 uint64_t follow_surface_bytes_bound(const LevelSize& next, uint64_t parent_vertices,
                                     bool with_gradients, unsigned threads) {
     // The flood's store, its two frontiers (each at most the level's cells, grown by doubling),
-    // a wave's face masks, a UDF's seeded-parent bits (an SDF's unreached near-zero vertices'),
+    // a wave's face masks, a UDF's seeded-parent bits (an SDF's near-zero vertices to seed around),
     // the parents' edge masks and seeds (a parent cell's lowest corner is one of its vertices:
     // no more cells than vertices); with gradients, their records (at most one per vertex), the
     // level's flags and gradients.
@@ -766,11 +766,13 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
     };
     flood();
     // SDF above the finest level, once the flood is done: the eight children around each vertex
-    // above within kSdfNearZeroVertex * h of zero none of which was visited, inside the region,
-    // then the flood from them (grid.h, step 1). Which vertices, first (reading the visits only).
+    // above within kSdfNearZeroVertex * h of zero none of which was visited, or within
+    // kSdfSecondSheetVertex * h whether or not, inside the region, then the flood from them
+    // (grid.h, step 1). Which vertices, first (reading the visits only).
     if (!udf && l > 0) {
         const float vertex_near_zero = kSdfNearZeroVertex * out->cell_size;
-        nfd::vector<uint64_t> unreached((parent.vertices.size() + 63) / 64);
+        const float second_sheet = kSdfSecondSheetVertex * out->cell_size;
+        nfd::vector<uint64_t> seed_around((parent.vertices.size() + 63) / 64);
         auto for_each_child_around = [n](uint32_t x, uint32_t y, uint32_t z, auto&& fn) {
             for (const auto& o : mc::kCornerOffset)
                 if (o[0] <= 2 * x && o[1] <= 2 * y && o[2] <= 2 * z && 2 * x - o[0] < n &&
@@ -780,17 +782,19 @@ void follow_surface(const Network& net, const SparseGrid& grid, const GridLevel&
         parallel_for(parent.vertices.blocks(), 1, threads, [&](size_t begin, size_t end) {
             const FloodStore& known = store;
             parent.vertices.for_each_in_blocks(begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-                if (!(std::fabs(parent.values[r]) <= vertex_near_zero)) return;  // NaN: not near
+                const float f = std::fabs(parent.values[r]);
+                if (!(f <= vertex_near_zero)) return;  // NaN: not near
                 bool reached = false;
-                for_each_child_around(x, y, z, [&](uint32_t cx, uint32_t cy, uint32_t cz) {
-                    reached = reached || known.visited(cx, cy, cz);
-                });
-                if (!reached) __atomic_fetch_or(&unreached[r / 64], uint64_t(1) << (r % 64), __ATOMIC_RELAXED);
+                if (f > second_sheet)
+                    for_each_child_around(x, y, z, [&](uint32_t cx, uint32_t cy, uint32_t cz) {
+                        reached = reached || known.visited(cx, cy, cz);
+                    });
+                if (!reached) __atomic_fetch_or(&seed_around[r / 64], uint64_t(1) << (r % 64), __ATOMIC_RELAXED);
             });
         });
         parallel_slices(parent.vertices.blocks(), 1, threads, [&](size_t t, size_t begin, size_t end) {
             parent.vertices.for_each_in_blocks(begin, end, [&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
-                if (!(unreached[r / 64] >> (r % 64) & 1)) return;
+                if (!(seed_around[r / 64] >> (r % 64) & 1)) return;
                 for_each_child_around(x, y, z, [&](uint32_t cx, uint32_t cy, uint32_t cz) {
                     uint32_t found;
                     if (region.parents.find(cx / 2, cy / 2, cz / 2, &found)) visit(slices[t], cx, cy, cz);

@@ -323,6 +323,34 @@ def test_a_void_beside_the_surface_that_nearly_touches_a_vertex_above_is_seeded_
     assert len(expected) > 100 and not found
 
 
+def test_children_around_a_vertex_above_very_near_zero_are_visited_beside_the_surface_too(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A sphere that passes 0.1 h above a vertex of the 64 level (h: the 128 level's cell edge):
+    the flood at 128 visits the four children above that vertex, which the surface crosses, and
+    not the four below, which it does not (no sign change, no face with one, corners 0.9 h from
+    zero above). Within SDF_SECOND_SHEET_VERTEX * h of zero the children not visited are seeded
+    too (grid.h, step 1): a second sheet of a sliver thinner than a cell may pass there (the
+    dragon's of bench/RESULTS.md, "0.13.18")."""
+    resolution = 256
+    fine = np.array([128, 128, 128 + 4 * 16])  # a vertex of the 64 level on the +z axis
+    h = grid_step(128)
+    radius = np.float64(grid_coordinates(fine, resolution)[2]) + 0.1 * np.float64(h)
+
+    def ball(points: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(points.astype(np.float64), axis=1) - radius
+
+    vertex = fine // 2  # in the 128 level's indices
+    below = {tuple(vertex - o) for o in CORNER_OFFSET if o[2] == 1}
+
+    def visited_below() -> set:
+        level = build_grid(ball, resolution).levels[1]
+        return below & {tuple(c) for c in level.cells.tolist()}
+
+    assert visited_below() == below
+    monkeypatch.setattr(grid_module, "SDF_SECOND_SHEET_VERTEX", np.float32(0))
+    assert not visited_below()
+
+
 def test_each_vertex_is_evaluated_once_and_even_ones_are_copied() -> None:
     seen: list[np.ndarray] = []
 

@@ -569,9 +569,10 @@ typedef struct nfd_mesh_options {
      * though a component of the surface that no crossing above and no near-zero cell leads to is
      * missed; on fields that are no shape's distance field (random networks) it misses more.
      * (0.13.17) Above the finest level it also follows from the vertices within half a cell of
-     * zero that no crossing led to: on 113 fits of real shapes at 256 and 512, 214 of 226 decodes
-     * give the band's cells, and the rest miss 2-124 of 100k-560k (bench/RESULTS.md, "0.13.17"),
-     * where the Vulkan path, which samples an SDF's band, finds them. A
+     * zero that no crossing led to, and (0.13.18) from those within 0.15 of a cell whether or
+     * not: on 113 fits of real shapes at 256 and 512, 217 of 226 decodes give the band's cells,
+     * and the rest miss 2-44 of 100k-570k (bench/RESULTS.md, "0.13.17", "0.13.18"), where the
+     * Vulkan path, which samples an SDF's band, finds them. A
      * UDF (0.12) likewise samples the cells that can carry a triangle, found from the coarser
      * level's cells that can: about half the evaluations, the band's mesh on the files measured
      * (bench/RESULTS.md, "0.12"). The Vulkan path samples the band, but for a UDF's finest level
