@@ -98,9 +98,10 @@ uint32_t refinement_levels(uint32_t resolution);
 //      level crosses no edge above, and beside the surface it is no isolated cell (step 3)
 //      either; where a child around such a vertex was visited, the surface it nearly touches
 //      mostly passes there, but within kSdfSecondSheetVertex * h of zero the children not
-//      visited are seeded too (0.13.18): the other sheet of a sliver thinner than a cell. The dragon's files of the 2026-12-07 encoder lost 8-16 cells at 64 this
-//      way, and their children at 128, 256 and 512: holes that the band did not have
-//      (bench/RESULTS.md, "0.13.17"). Evaluations: the same within 0.4%.
+//      visited are seeded too (0.13.18): the other sheet of a sliver thinner than a cell. The
+//      dragon's files of the 2026-12-07 encoder lost 8-40 cells at 64 or 128 this way, and their
+//      children at 256 and 512: holes that the band did not have (bench/RESULTS.md, "0.13.17",
+//      "0.13.18"). Evaluations: the same within 0.4% (0.13.17), +0.43% (0.13.18).
 //   2. Flood: each visited cell visits the neighbours behind its faces whose four corners change
 //      sign (those have a sign change too), and above the finest level a cell whose eight corners
 //      all lie within kSdfNearZeroCell * h of zero visits all six, wave after wave, inside the

@@ -6,7 +6,9 @@
 // 2^l divides r, its cells, corner values and f32 vertex positions are those of the finest level of
 // a one-shot decode at r / 2^l (the same schedule in h, the same refinement below it, and
 // -1 + v * h equal to -1 + (v << l) * 2 / r: grid.h, GridLevel::coord), so its mesh is byte for
-// byte that decode's. When 2^l does not divide r (r = 130: levels 33, 65, 130) the level is no
+// byte that decode's, but for an SDF's cells that surface following above the finest level finds
+// from cells and vertices near zero (grid.h, steps 1 and 2), which that decode's finest level
+// does not look for (nfdecode.h, "The meshes"). When 2^l does not divide r (r = 130: levels 33, 65, 130) the level is no
 // one-shot's finest level: its last cells reach past u = 1 (grid.h), and its mesh is marching cubes
 // on exactly the cells and values the decode at r visits there, extending up to h past the cube.
 #pragma once

@@ -678,7 +678,13 @@ NFD_API nfd_result nfd_points_write_placed_ply(const float* points, const float*
  *
  * The meshes: the final level's mesh is byte-identical (positions, normals, indices) to
  * nfd_mesh_extract's at r on the same device kind. A level whose resolution r / 2^k is exact is
- * byte-identical to nfd_mesh_extract's at r / 2^k (256's 32, 64, 128; all of 200's). A level
+ * byte-identical to nfd_mesh_extract's at r / 2^k (256's 32, 64, 128; all of 200's), with one
+ * exception on the CPU path's SDFs: a level above the finest also follows the surface from cells
+ * and vertices near zero (nfd_mesh_options.sample_band above), which a decode at r / 2^k does
+ * not do at its finest level, so the level may hold cells of a sliver that that decode misses;
+ * then its triangles are that decode's and those cells' (closer to the dense grid's mesh). On
+ * 113 fits of real shapes, 12 of the 226 levels at 64 and 128 of a 256 ladder (bench/RESULTS.md,
+ * "0.13.18"). A level
  * where r / 2^k is rounded up (130's 33 and 65) is no decode's own: it is marching cubes on that
  * level's cells as sampled for r, with cells 2^k * 2 / r wide, its last cells reaching up to one
  * cell past the unit cube. SDF and UDF alike; a UDF level's mesh needs the field's gradients at
