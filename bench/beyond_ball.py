@@ -28,9 +28,11 @@ from nfencode.io import load_shape
 from nfencode.reference import frame_of
 
 
-def beyond(decoder: Path, path: Path, resolution: int, radius: float) -> tuple[int, int, str, float]:
-    """(components, faces of those entirely beyond `radius`, their norm range, largest norm)."""
-    center, scale = frame_of(read_nfc(path.read_bytes()).geometry)
+def beyond(decoder: Path, path: Path, frame: tuple[np.ndarray, float], resolution: int,
+           radius: float) -> tuple[int, int, str, float]:
+    """(components, faces of those entirely beyond `radius`, their norm range, largest norm) of the
+    mesh `decoder` extracts from `path`, whose unit frame is `frame` (center, scale)."""
+    center, scale = frame
     with tempfile.TemporaryDirectory() as tmp:
         run(decoder, path, f"{tmp}/m.ply", "--resolution", str(resolution))
         mesh = load_shape(f"{tmp}/m.ply")
@@ -63,7 +65,8 @@ def main() -> None:
     print("|---" * (1 + len(builds)) + "|")
     with_floaters = {name: 0 for name, _ in builds}
     for path in args.files:
-        rows = [beyond(decoder, path, args.resolution, args.radius) for _, decoder in builds]
+        frame = frame_of(read_nfc(path.read_bytes()).geometry)
+        rows = [beyond(decoder, path, frame, args.resolution, args.radius) for _, decoder in builds]
         for (name, _), row in zip(builds, rows):
             with_floaters[name] += row[1] > 0
         if any(row[1] for row in rows):
