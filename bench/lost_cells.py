@@ -47,8 +47,9 @@ def main() -> None:
     for path in args.files:
         field = dense_field(path, args.resolution)
         dense = sign_change_cells(field)
-        fn = reference.field_function(bitstream.read_nfc(path.read_bytes()))
-        found = grid.build_grid(fn, args.resolution).finest.cells
+        nfc = bitstream.read_nfc(path.read_bytes())
+        found = grid.build_grid(reference.field_function(nfc), args.resolution,
+                                truncation=nfc.geometry.truncation).finest.cells
         side = args.resolution + 1
         lost = dense[~np.isin(grid.vertex_keys(dense, side), grid.vertex_keys(found, side))]
         pockets, outside, peak = classify(field, lost)

@@ -18,8 +18,8 @@ Below it (grid.h has the rules and their reasons):
   above the finest level, across every face of a cell whose corners all lie within
   SDF_NEAR_ZERO_CELL * h of zero, inside the region of those cells and their 26 neighbours, plus
   every child of the isolated cells above (no sign change, no sign-change neighbour, kept by the
-  keep rule, or above the finest level a corner within SDF_NEAR_ZERO_CELL * the finest step of
-  zero: isolated_threshold()); then, above the finest level, flooded again from the children
+  keep rule held to SDF_ISOLATED_TRUNCATION * the file's d*, or above the finest level a corner
+  within SDF_NEAR_ZERO_CELL * the finest step of zero: isolated_threshold()); then, above the finest level, flooded again from the children
   around each vertex above within SDF_NEAR_ZERO_VERTEX * h of zero none of which the flood
   visited, or within SDF_SECOND_SHEET_VERTEX * h whether or not (inside the region); in
   visit_order().
@@ -37,6 +37,7 @@ is taken on the same numbers.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -58,6 +59,7 @@ UDF_KEEP_MARGIN = np.float32(1.5)  # kUdfKeepMargin
 SDF_NEAR_ZERO_CELL = np.float32(0.5)  # kSdfNearZeroCell
 SDF_NEAR_ZERO_VERTEX = np.float32(0.5)  # kSdfNearZeroVertex
 SDF_SECOND_SHEET_VERTEX = np.float32(0.15)  # kSdfSecondSheetVertex
+SDF_ISOLATED_TRUNCATION = np.float32(0.9)  # kSdfIsolatedTruncation
 HALF_DIAGONAL = np.float32(0.8660254)  # sqrt(3) / 2 as the f32 constant of grid.h
 UDF_EDGE_FACTOR = np.float32(1.5)  # kUdfEdgeFactor
 UDF_FLOOD_EDGE = np.float32(2.0)  # kUdfFloodEdge
@@ -95,13 +97,17 @@ def keep_threshold(udf: bool, h: np.float32) -> np.float32:
     return (UDF_KEEP_MARGIN if udf else SDF_KEEP_MARGIN) * h * HALF_DIAGONAL
 
 
-def isolated_threshold(udf: bool, level: int, step: np.float32) -> np.float32:
-    """grid.h's isolated_threshold: the keep rule's at the level's edge step * 2^level, but for an
-    SDF level whose children are the finest, SDF_NEAR_ZERO_CELL times the finest cell's edge `step`
-    (f32)."""
-    if not udf and level == 1:
+def isolated_threshold(udf: bool, level: int, step: np.float32, truncation: float = math.inf) -> np.float32:
+    """grid.h's isolated_threshold: the keep rule's at the level's edge step * 2^level, for an SDF
+    at most SDF_ISOLATED_TRUNCATION times the field's truncation d* (a truncated fit reads about d*
+    wherever the surface is farther), and for an SDF level whose children are the finest,
+    SDF_NEAR_ZERO_CELL times the finest cell's edge `step` (f32)."""
+    keep = keep_threshold(udf, step * np.float32(1 << level))
+    if udf:
+        return keep
+    if level == 1:
         return SDF_NEAR_ZERO_CELL * step
-    return keep_threshold(udf, step * np.float32(1 << level))
+    return min(keep, SDF_ISOLATED_TRUNCATION * np.float32(truncation))
 
 
 def cell_may_contain_surface(corner_values: np.ndarray, threshold: np.float32) -> np.ndarray:
@@ -316,7 +322,8 @@ def _followed(corner_values: np.ndarray, h: np.float32, udf: bool) -> np.ndarray
     return udf_valid_edges(corner_values, h).any(axis=1) if udf else _sign_change(corner_values)
 
 
-def _follow_region(level: GridLevel, step: np.float32, udf: bool) -> tuple[np.ndarray, np.ndarray]:
+def _follow_region(level: GridLevel, step: np.float32, udf: bool,
+                   truncation: float) -> tuple[np.ndarray, np.ndarray]:
     """grid_follow.cpp's follow_region: the sorted cell keys of the region (the followed cells of
     `level` and their 26 neighbours) and its isolated cells."""
     n = level.cells_per_axis
@@ -325,7 +332,7 @@ def _follow_region(level: GridLevel, step: np.float32, udf: bool) -> tuple[np.nd
     active = _followed(f, h, udf)
     around = (level.cells[active][:, None, :] + _AROUND[None]).reshape(-1, 3)
     region = np.unique(cell_keys(around[((around >= 0) & (around < n)).all(axis=1)], n))
-    threshold = isolated_threshold(udf, level.level, step)
+    threshold = isolated_threshold(udf, level.level, step, truncation)
     candidates = ~active & cell_may_contain_surface(f, threshold)
     isolated = level.cells[candidates]
     return region, isolated[~np.isin(cell_keys(isolated, n), region)]
@@ -509,11 +516,12 @@ def _udf_gradients(gradient_fn: GradientFn, grid: SparseGrid) -> tuple[np.ndarra
 
 
 def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | None = None,
-               band: bool = False) -> SparseGrid:
+               band: bool = False, truncation: float = math.inf) -> SparseGrid:
     """The sparse grid of `field_fn` at `resolution` (MIN_RESOLUTION..MAX_RESOLUTION); with
     `udf_gradient` the field is a UDF (its keep margin) and the gradients at the corners of the
     finest near cells are evaluated too. An SDF's levels follow the surface, or with `band` the
-    keep rule (nfd_mesh_options.sample_band)."""
+    keep rule (nfd_mesh_options.sample_band); `truncation` is the file's d* (infinity: a field
+    that is not truncated)."""
     if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
         raise InputError(f"resolution {resolution} outside {MIN_RESOLUTION}..{MAX_RESOLUTION}")
     top = refinement_levels(resolution)
@@ -524,7 +532,7 @@ def build_grid(field_fn: FieldFn, resolution: int, udf_gradient: GradientFn | No
     for lower in range(top - 1, -1, -1):
         if not band:
             udf = udf_gradient is not None
-            region, isolated = _follow_region(levels[0], grid_step(resolution), udf)
+            region, isolated = _follow_region(levels[0], grid_step(resolution), udf, truncation)
             level, new = _follow_surface(field_fn, resolution, lower, levels[0], region, isolated,
                                          udf)
         else:

@@ -11,6 +11,7 @@ rounded to f32 on the grid); C++ accumulates in f32, ~1e-7 away.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -199,7 +200,7 @@ def gradient_function(file: NfcFile) -> GradientFn:
 
 def extract_mesh_from_field(
     field_fn: FieldFn, resolution: int = 256, udf_gradient: GradientFn | None = None,
-    band: bool = False,
+    band: bool = False, truncation: float = math.inf,
 ) -> ExtractedMesh:
     """The surface of a field over [-1, 1]^3, in the unit frame, as libnfdecode extracts it.
 
@@ -207,9 +208,9 @@ def extract_mesh_from_field(
     by marching cubes (mesh_sdf). With it the field is unsigned, `udf_gradient` is its gradient, and
     the pseudo-signed mesher (mesh_udf) runs. Either way the coarse-to-fine grid (grid.build_grid)
     evaluates the field only near the surface (an SDF's only where it crosses cells, unless `band`:
-    nfd_mesh_options.sample_band).
+    nfd_mesh_options.sample_band). `truncation` is the field's d* (infinity: not truncated).
     """
-    grid = build_grid(field_fn, resolution, udf_gradient, band)
+    grid = build_grid(field_fn, resolution, udf_gradient, band, truncation)
     mesh = mesh_sdf(grid) if udf_gradient is None else mesh_udf(grid)
     return ExtractedMesh(mesh.vertices, mesh.faces, mesh.normals, grid.points_evaluated,
                          grid.gradients_evaluated, mesh.active_cells)
@@ -219,7 +220,8 @@ def extract_unit_mesh(file: NfcFile, resolution: int = 256, band: bool = False) 
     """Mesh of an SDF or UDF file in its unit frame, as the extractor produces it (no colours);
     `band` as for extract_mesh_from_field."""
     udf_gradient = None if file.geometry.field_type == FIELD_SDF else gradient_function(file)
-    return extract_mesh_from_field(field_function(file), resolution, udf_gradient, band)
+    return extract_mesh_from_field(field_function(file), resolution, udf_gradient, band,
+                                   file.geometry.truncation)
 
 
 def frame_of(g: GeometryChunk) -> tuple[np.ndarray, float]:

@@ -380,6 +380,7 @@ GridBuilder::GridBuilder(const Geometry& geometry, uint32_t resolution, unsigned
     grid_.resolution = resolution;
     grid_.step = 2.0f / float(resolution);
     grid_.field = geometry.field;
+    grid_.truncation = geometry.truncation;
     current_ = refinement_levels(resolution);
     grid_.levels.resize(current_ + 1);
 }

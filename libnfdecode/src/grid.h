@@ -9,6 +9,8 @@
 // Every value the grid holds is the field bounded to the shape's ball (network.h, ShapeBall),
 // wherever it was evaluated (grid_eval.h, the GPU's field kernels).
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <vector>
@@ -129,7 +131,14 @@ uint32_t refinement_levels(uint32_t resolution);
 //      (lion at 512: 20,086 parents, 160k cells, none with a sign change, 0.49 evaluations per
 //      active cell). What the finest level still finds this way is a component that nearly
 //      touches a vertex of the level above: the voids of suzanne at 256 and happy at 512, within
-//      0.02 coarse cells of one.
+//      0.02 coarse cells of one. Where the keep rule's threshold exceeds the file's truncation d*
+//      (the 32 level, half-diagonal 0.054, of a fit at d* = 0.05), the threshold is
+//      kSdfIsolatedTruncation * d* instead: a truncated fit reads about d* wherever the surface is
+//      farther (its loss stops there), so a threshold over d* made every far cell whose corners
+//      sit at the clamp an isolated candidate and visited all its children (up to 0.3 evaluations
+//      per active cell of real shapes at 256, 1.3 of a thin rod's). What this gives up is
+//      a closed component farther than 0.9 d* from every corner of its coarse cell: at d* = 0.05
+//      on the 32 level, one within 0.009 of the cell's centre (bench/RESULTS.md, "0.13.19").
 //   What the schedule gives up is the keep rule's band: a component of the surface that crosses
 //   no crossed edge of the level above, lies within one cell of its sign-change cells and is
 //   reached from them through no near-zero cell or unreached near-zero vertex above the finest
@@ -161,17 +170,23 @@ constexpr float kSdfNearZeroVertex = 0.5f;
 // sliver beside the first. 0.15 found the dragon's slivers of bench/RESULTS.md "0.13.18" for +0.4%
 // evaluations (0.25: no more cells, +0.8%; 0.1 missed one).
 constexpr float kSdfSecondSheetVertex = 0.15f;
+// Step 3's cap on an SDF's isolated-cell threshold, in units of the file's truncation d*: under
+// the clamp that a fit's far field sits at (d* and a little over), over its fitting error.
+constexpr float kSdfIsolatedTruncation = 0.9f;
 // The keep rule's threshold (SDF: for isolated cells, step 3 above).
 inline float keep_threshold(FieldType field, float h) {
     return (field == FieldType::Udf ? kUdfKeepMargin : kSdfKeepMargin) * h * kHalfDiagonal;
 }
-// Step 3's threshold for the isolated cells of `level` (0 = finest) in a grid of step `finest_h`:
-// the keep rule's at the level's edge (finest_h * 2^level, as GridBuilder computes it), but the
-// finest level's near-zero bound for an SDF's parents of the finest level.
-inline float isolated_threshold(FieldType field, uint32_t level, float finest_h) {
-    return field == FieldType::Sdf && level == 1
-               ? kSdfNearZeroCell * finest_h
-               : keep_threshold(field, finest_h * float(1u << level));
+// Step 3's threshold for the isolated cells of `level` (0 = finest) in a grid of step `finest_h`
+// of a field truncated at `truncation` (infinity: not truncated): the keep rule's at the level's
+// edge (finest_h * 2^level, as GridBuilder computes it), for an SDF at most
+// kSdfIsolatedTruncation * truncation, and the finest level's near-zero bound for an SDF's
+// parents of the finest level.
+inline float isolated_threshold(FieldType field, uint32_t level, float finest_h, float truncation) {
+    if (field == FieldType::Udf) return keep_threshold(field, finest_h * float(1u << level));
+    if (level == 1) return kSdfNearZeroCell * finest_h;
+    return std::min(keep_threshold(field, finest_h * float(1u << level)),
+                    kSdfIsolatedTruncation * truncation);
 }
 bool cell_may_contain_surface(const float corner_values[8], float threshold);
 
@@ -479,6 +494,7 @@ struct SparseGrid {
     uint32_t resolution = 0;
     float step = 0;                 // fine cell edge in the unit frame, 2.0f / resolution
     FieldType field = FieldType::Sdf;
+    float truncation = INFINITY;    // the file's d* (Geometry::truncation); infinity: not truncated
     nfd::vector<GridLevel> levels;  // levels[l] is level l: levels[0] is the finest
     GridStats stats;
 

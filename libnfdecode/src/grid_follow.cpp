@@ -416,7 +416,7 @@ void follow_region(const SparseGrid& grid, const GridLevel& level, FollowRegion*
                    LevelSize* next, bool within_kept, unsigned threads,
                    nfd::vector<uint8_t>* near) {
     const uint32_t n = level.cells_per_axis;
-    const float threshold = isolated_threshold(grid.field, level.level, grid.step);
+    const float threshold = isolated_threshold(grid.field, level.level, grid.step, grid.truncation);
     const bool udf = grid.field == FieldType::Udf;
     // Each cell's verdict on threads: followed, or a candidate of step 3 (not followed, may hold
     // the surface); the followed cells (with `within_kept`, also the candidates: `kept`) as bits.

@@ -16,6 +16,7 @@ from nfencode.grid import (
     coarsest_values,
     grid_coordinates,
     grid_step,
+    isolated_threshold,
     keep_threshold,
     refinement_levels,
     udf_cell_is_near,
@@ -210,6 +211,33 @@ def test_a_component_inside_one_coarse_cell_is_found_by_the_isolated_cell_rule()
     assert len(expected) > 100 and grid.finest.cells.tolist() == expected.tolist()
 
 
+def test_a_truncated_fields_far_cells_are_not_isolated_cells() -> None:
+    """A truncated fit reads about d* wherever the surface is farther: at d* = 0.05 the coarsest
+    level's keep threshold at 128 (0.054) took every far cell at the clamp for an isolated one and
+    visited all its children. Given the field's d*, isolated cells are held to
+    SDF_ISOLATED_TRUNCATION * d* (isolated_threshold): the dense grid's cells either way, a third
+    of the evaluations; a sphere of radius 0.02 in the middle of a coarse cell (0.034 from its
+    corners) away from the rest is still found as an isolated cell's."""
+    resolution = 128
+    truncation = 0.05
+    small = grid_coordinates(np.array([98, 98, 66]), resolution).astype(np.float64)  # a coarse cell's centre
+
+    def clamped(points: np.ndarray) -> np.ndarray:
+        p = points.astype(np.float64)
+        d = np.minimum(np.linalg.norm(p, axis=1) - 0.5, np.linalg.norm(p - small, axis=1) - 0.02)
+        return np.clip(d, -truncation, truncation)
+
+    expected = dense_sign_change_cells(clamped, resolution).tolist()
+    with_truncation = build_grid(clamped, resolution, truncation=truncation)
+    without = build_grid(clamped, resolution)
+    assert with_truncation.finest.cells.tolist() == expected == without.finest.cells.tolist()
+    assert any(np.linalg.norm(grid_coordinates(c, resolution) - small) < 0.04 for c in np.array(expected))
+    assert with_truncation.points_evaluated < 0.5 * without.points_evaluated
+    assert isolated_threshold(False, 2, grid_step(resolution), truncation) == np.float32(0.9) * np.float32(0.05)
+    assert isolated_threshold(False, 2, grid_step(resolution)) == keep_threshold(False, grid_step(32))
+    assert isolated_threshold(True, 2, grid_step(resolution), truncation) == keep_threshold(True, grid_step(32))
+
+
 def test_the_finest_level_refines_isolated_cells_that_nearly_touch_zero(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """At the finest level the isolated-cell rule asks for a corner within SDF_NEAR_ZERO_CELL fine
@@ -240,11 +268,11 @@ def test_the_finest_level_refines_isolated_cells_that_nearly_touch_zero(
     assert len(expected) == 8 and not found
     keep_rule = grid_module.keep_threshold
     monkeypatch.setattr(grid_module, "isolated_threshold",
-                        lambda udf, level, step: keep_rule(udf, step * np.float32(1 << level)))
+                        lambda udf, level, step, truncation: keep_rule(udf, step * np.float32(1 << level)))
     found, expected = found_and_expected(middle)
     assert found == expected
     # The touching sphere is found by this rule, not by a seed: without it, it is lost too.
-    def none_at_the_finest(udf: bool, level: int, step: np.float32) -> np.float32:
+    def none_at_the_finest(udf: bool, level: int, step: np.float32, truncation: float) -> np.float32:
         return np.float32(0) if level == 1 else keep_rule(udf, step * np.float32(1 << level))
 
     monkeypatch.setattr(grid_module, "isolated_threshold", none_at_the_finest)

@@ -106,7 +106,8 @@ def grid_summary(data: bytes) -> str:
     """The `.grid128.txt` text of a vector's `.nfc` bytes."""
     nfc = read_nfc(data)
     udf = nfc.geometry.field_type != FIELD_SDF
-    grid = build_grid(field_function(nfc), GRID_RESOLUTION, gradient_function(nfc) if udf else None)
+    grid = build_grid(field_function(nfc), GRID_RESOLUTION, gradient_function(nfc) if udf else None,
+                      truncation=nfc.geometry.truncation)
     lines = [f"level {lv.level} cells {len(lv.cells)} vertices {len(lv.values)}"
              for lv in reversed(grid.levels)]
     lines.append(f"evaluated {grid.points_evaluated}")

@@ -55,7 +55,7 @@ extern "C" {
  * header's when linking a shared build: compare them to detect a mismatch. */
 #define NFD_VERSION_MAJOR 0
 #define NFD_VERSION_MINOR 13
-#define NFD_VERSION_PATCH 18
+#define NFD_VERSION_PATCH 19
 #define NFD_MAKE_VERSION(major, minor, patch) (((major) << 16) | ((minor) << 8) | (patch))
 #define NFD_VERSION NFD_MAKE_VERSION(NFD_VERSION_MAJOR, NFD_VERSION_MINOR, NFD_VERSION_PATCH)
 
@@ -572,7 +572,9 @@ typedef struct nfd_mesh_options {
      * zero that no crossing led to, and (0.13.18) from those within 0.15 of a cell whether or
      * not: on 113 fits of real shapes at 256 and 512, 217 of 226 decodes give the band's cells,
      * and the rest miss 2-44 of 100k-570k (bench/RESULTS.md, "0.13.17", "0.13.18"), where the
-     * Vulkan path, which samples an SDF's band, finds them. A
+     * Vulkan path, which samples an SDF's band, finds them. (0.13.19) A cell far from the surface
+     * whose corners read the file's truncation d* is no small closed component to refine: 2.5%
+     * fewer evaluations on average, up to 11% for fits at d* = 0.05, the same 226 meshes. A
      * UDF (0.12) likewise samples the cells that can carry a triangle, found from the coarser
      * level's cells that can: about half the evaluations, the band's mesh on the files measured
      * (bench/RESULTS.md, "0.12"). The Vulkan path samples the band, but for a UDF's finest level
