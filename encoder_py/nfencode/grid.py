@@ -19,10 +19,10 @@ Below it (grid.h has the rules and their reasons):
   SDF_NEAR_ZERO_CELL * h of zero, inside the region of those cells and their 26 neighbours, plus
   every child of the isolated cells above (no sign change, no sign-change neighbour, kept by the
   keep rule held to SDF_ISOLATED_TRUNCATION * the file's d*, or above the finest level a corner
-  within SDF_NEAR_ZERO_CELL * the finest step of zero: isolated_threshold()); then, above the finest level, flooded again from the children
-  around each vertex above within SDF_NEAR_ZERO_VERTEX * h of zero none of which the flood
-  visited, or within SDF_SECOND_SHEET_VERTEX * h whether or not (inside the region); in
-  visit_order().
+  within SDF_NEAR_ZERO_CELL * the finest step of zero: isolated_threshold()); then, above the
+  finest level, flooded again from the children around each vertex above within
+  SDF_NEAR_ZERO_VERTEX * h of zero none of which the flood visited, or within
+  SDF_SECOND_SHEET_VERTEX * h whether or not (inside the region); in visit_order().
 * UDF, surface following with the mesher's valid edges (f_a + f_b <= udf_edge_limit(h)) in place
   of sign changes: seeded at the children holding a valid half of each valid edge of the cells
   above, and at every child of a cell above with a valid edge but no seed in itself or its 26
@@ -97,7 +97,8 @@ def keep_threshold(udf: bool, h: np.float32) -> np.float32:
     return (UDF_KEEP_MARGIN if udf else SDF_KEEP_MARGIN) * h * HALF_DIAGONAL
 
 
-def isolated_threshold(udf: bool, level: int, step: np.float32, truncation: float = math.inf) -> np.float32:
+def isolated_threshold(udf: bool, level: int, step: np.float32,
+                       truncation: float = math.inf) -> np.float32:
     """grid.h's isolated_threshold: the keep rule's at the level's edge step * 2^level, for an SDF
     at most SDF_ISOLATED_TRUNCATION times the field's truncation d* (a truncated fit reads about d*
     wherever the surface is farther), and for an SDF level whose children are the finest,
