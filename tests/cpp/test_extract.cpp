@@ -309,6 +309,24 @@ TEST(Extract, NothingIsExtractedBeyondTheShapesBall) {
     EXPECT_GT(mesh.triangle_count(), 100u);
 }
 
+// The file's truncation d* reaches the grid's schedule (grid.h, isolated_threshold: an SDF's
+// isolated cells held to 0.9 d*, 0.13.19) and the shape's ball. Hostile values that the parser
+// accepts (any 0 < d* <= 1, a subnormal one included) decode, and a surface that crosses the
+// coarse levels' edges is found whatever d* says: the same mesh at 128, whose 32 level is capped.
+TEST(Extract, AnyAcceptedTruncationGivesTheSameMeshOfASurfaceThatCrossesCoarseEdges) {
+    const Extracted reference = extract(closed_blob(), 128);
+    ASSERT_GT(reference.mesh.triangle_count(), 1000u);
+    for (float truncation : {1.0f, 0.05f, 1.17549435e-38f, 1.4e-45f}) {
+        GeomSpec spec = closed_blob();
+        spec.truncation = truncation;
+        const Extracted e = extract(spec, 128);
+        EXPECT_EQ(e.geometry.truncation, truncation);
+        EXPECT_EQ(e.mesh.positions, reference.mesh.positions) << "d* " << truncation;
+        EXPECT_EQ(e.mesh.indices, reference.mesh.indices) << "d* " << truncation;
+        EXPECT_LE(e.stats.points_evaluated, reference.stats.points_evaluated) << "d* " << truncation;
+    }
+}
+
 TEST(Extract, ClosedFieldGivesWatertightOutwardMeshOnTheZeroSet) {
     const uint32_t r = 64;
     const Extracted e = extract(closed_blob(), r);
