@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-30}
 [ $# -gt 0 ] && shift
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(fuzz_asset fuzz_decode fuzz_stream)
+[ ${#targets[@]} -eq 0 ] && targets=(fuzz_asset fuzz_decode fuzz_progressive fuzz_stream)
 command -v clang++ >/dev/null || { echo "clang++ not found (Debian: clang libclang-rt-14-dev)" >&2; exit 1; }
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" \

@@ -15,7 +15,7 @@ cmake -S . -B build-cov -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DNFD_BUILD_FUZZERS=ON \
   -DNFD_WITH_VULKAN=OFF -DNFD_BUILD_SAMPLES=OFF -DNFD_BUILD_TESTS=ON \
   -DCMAKE_C_FLAGS="$flags" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" >/dev/null
-targets=(fuzz_asset fuzz_decode fuzz_stream)
+targets=(fuzz_asset fuzz_decode fuzz_progressive fuzz_stream)
 cmake --build build-cov -j"${NFD_FUZZ_JOBS:-2}" --target "${targets[@]}"
 rm -rf build-cov/profiles && mkdir -p build-cov/profiles
 for t in "${targets[@]}"; do

@@ -680,13 +680,20 @@ NFD_API nfd_result nfd_points_write_placed_ply(const float* points, const float*
  *
  * The meshes: the final level's mesh is byte-identical (positions, normals, indices) to
  * nfd_mesh_extract's at r on the same device kind. A level whose resolution r / 2^k is exact is
- * byte-identical to nfd_mesh_extract's at r / 2^k (256's 32, 64, 128; all of 200's), with one
- * exception on the CPU path's SDFs: a level above the finest also follows the surface from cells
+ * byte-identical to nfd_mesh_extract's at r / 2^k (256's 32, 64, 128; all of 200's), with two
+ * exceptions. On the CPU path's SDFs a level above the finest also follows the surface from cells
  * and vertices near zero (nfd_mesh_options.sample_band above), which a decode at r / 2^k does
  * not do at its finest level, so the level may hold cells of a sliver that that decode misses;
  * then its triangles are that decode's and those cells' (closer to the dense grid's mesh). On
  * 113 fits of real shapes, 12 of the 226 levels at 64 and 128 of a 256 ladder (bench/RESULTS.md,
- * "0.13.18"). A level
+ * "0.13.18"). And on a field steeper than the keep rule's margin (no fit of a real shape
+ * measured; hostile networks: tests/fuzz, fuzz_progressive), the coarsest level of a ladder of
+ * several levels is sampled as the decode at r samples it: a probe twice as coarse goes first,
+ * and the vertices inside a probe cell that changes no sign and whose corners all lie farther
+ * from zero than its keep threshold (its half-diagonal; UDF: 1.5 times) are not evaluated,
+ * where a decode at r / 2^k, whose only level it is, evaluates every vertex; the level then
+ * holds that decode's triangles but those of a surface hidden in such a cell, and normals beside
+ * one may differ. Both devices alike. A level
  * where r / 2^k is rounded up (130's 33 and 65) is no decode's own: it is marching cubes on that
  * level's cells as sampled for r, with cells 2^k * 2 / r wide, its last cells reaching up to one
  * cell past the unit cube. SDF and UDF alike; a UDF level's mesh needs the field's gradients at
