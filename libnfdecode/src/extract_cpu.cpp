@@ -10,14 +10,14 @@
 namespace nfd {
 
 uint64_t mesh_bytes_bound(const LevelSize& level) {
-    // march_cells (marching.h): a case and an emitted-triangle mask per visited cell, three
-    // counts per run of them; an owner slot per edge of the level's vertices (3 per vertex); the
-    // indices at the table's most triangles per cell; positions and normals, one vertex per grid
-    // edge at most.
+    // march_cells (marching.h): a case and an emitted-triangle mask per visited cell (and on a
+    // probed coarsest level the cells meshed, GridLevel::meshed_cells), three counts per run of
+    // them; an owner slot per edge of the level's vertices (3 per vertex); the indices at the
+    // table's most triangles per cell; positions and normals, one vertex per grid edge at most.
     const mc::Tables& t = mc::tables();
     const uint64_t most_triangles = *std::max_element(t.triangle_count, t.triangle_count + 256);
     const uint64_t runs = level.cells / marching_detail::kOrderRun + 1;
-    return 2 * level.cells + 24 * (runs + 1) + 12 * level.vertices +
+    return 3 * level.cells + 24 * (runs + 1) + 12 * level.vertices +
            12 * most_triangles * level.cells + 2 * 12 * level.edges;
 }
 

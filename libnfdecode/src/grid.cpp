@@ -43,7 +43,8 @@ void evaluate_level(const Network& net, const SparseGrid& grid, const GridLevel&
     *evaluated += evaluator.finish();
 }
 
-// The coarsest level: every cell, and the values evaluate_coarsest_level gives its vertices.
+// The coarsest level: every cell, the values evaluate_coarsest_level gives its vertices, and
+// above the finest level its probe's verdicts.
 void evaluate_coarsest(const Network& net, const SparseGrid& grid, unsigned threads, GridLevel* out,
                        uint64_t* evaluated) {
     const uint32_t n = out->cells_per_axis, side = n + 1;
@@ -53,8 +54,13 @@ void evaluate_coarsest(const Network& net, const SparseGrid& grid, unsigned thre
             for (uint32_t x = 0; x < n; ++x) out->cells.push_back(pack_coords(x, y, z));
     out->collect_corners();
     nfd::vector<float> raster(size_t(side) * side * side);
+    if (out->level > 0) {
+        out->probe_cells = cells_at_level(grid.resolution, out->level + 1);
+        out->probe_kept.assign(size_t(out->probe_cells) * out->probe_cells * out->probe_cells, 0);
+    }
     *evaluated += evaluate_coarsest_level(net, grid.field, grid.resolution, out->level, threads,
-                                          raster.data());
+                                          raster.data(),
+                                          out->probe_kept.empty() ? nullptr : out->probe_kept.data());
     out->vertices.for_each([&](uint32_t r, uint32_t x, uint32_t y, uint32_t z) {
         out->values[r] = raster[(size_t(z) * side + y) * side + x];
     });
@@ -168,6 +174,18 @@ void GridLevel::collect_corners() {
     }
     vertices.finish();
     values.assign(vertices.size(), 0.0f);
+}
+
+const uint8_t* GridLevel::meshed_cells(const uint8_t* among, nfd::vector<uint8_t>* storage) const {
+    if (probe_kept.empty()) return among;
+    storage->assign(cells.size(), 0);
+    for (size_t i = 0; i < cells.size(); ++i) {
+        uint32_t c[3];
+        unpack_coords(cells[i], c);
+        const size_t probe = (size_t(c[2] / 2) * probe_cells + c[1] / 2) * probe_cells + c[0] / 2;
+        (*storage)[i] = probe_kept[probe] && (!among || among[i]);
+    }
+    return storage->data();
 }
 
 // ---- levels and rules ---------------------------------------------------------------------
@@ -366,8 +384,9 @@ uint64_t evaluate_coarsest_level(const Network& net, FieldType field, uint32_t r
 
 uint64_t evaluate_coarsest_level_bytes(const Network& net, uint32_t side, unsigned threads) {
     const uint64_t vertices = uint64_t(side) * side * side;
-    // The marks, and at most every vertex's slot, point and value.
-    return vertices + 20 * vertices + evaluate_scratch_bytes(net, false, threads);
+    // The marks, at most every vertex's slot, point and value, and the probe's verdicts (GridLevel
+    // keeps them: fewer than one a vertex).
+    return 2 * vertices + 20 * vertices + evaluate_scratch_bytes(net, false, threads);
 }
 
 // ---- the builder ---------------------------------------------------------------------------

@@ -49,9 +49,13 @@ uint32_t refinement_levels(uint32_t resolution);
 // and flood edges, near-zero cells): those cells stay out of every schedule below, as they would
 // with their true values wherever the field's slope is within the keep margin. A surface point
 // inside such a cell is what the keep rule gives up at any level. Every cell whose corners include
-// a mean lies in a probe cell that is not kept, so no triangle or normal is made from one where
-// that slope holds. On thin shapes, whose surface crosses few cells, the dense coarsest level was
-// most of the evaluations (bench/RESULTS.md, "0.13.10").
+// a mean lies in a probe cell that is not kept, and a mesher of such a level (a progressive
+// extraction's coarsest) skips those cells (GridLevel::probe_kept; the GPU path never lists
+// them), so no triangle is made from a mean, nor a normal where that slope holds. (A mutated
+// network whose outputs reach 1e29 showed both: 56 cells of its 32 level hidden from the probe,
+// and, before the skip, CPU triangles made from means beside kept probe cells; tests/fuzz.)
+// On thin shapes, whose surface crosses few cells, the dense coarsest level was most of the
+// evaluations (bench/RESULTS.md, "0.13.10").
 //
 // Below the coarsest level, two schedules:
 //
@@ -427,6 +431,16 @@ struct GridLevel {
     nfd::vector<uint8_t> near;
     nfd::vector<uint8_t> gradient_flags;
     nfd::vector<float> gradients;
+    // A coarsest level above the finest (evaluate_coarsest_level's probe): each probe cell's
+    // verdict (probe_cells^3, raster order), 1 where its children's corners were all evaluated.
+    // Empty on other levels. Meshing such a level (a progressive extraction) takes only those
+    // children, as the GPU path does (it lists only them): a cell of a probe cell left out has
+    // corners the probe filled in.
+    nfd::vector<uint8_t> probe_kept;
+    uint32_t probe_cells = 0;
+    // The cells a mesher of this level takes: those `among` marks (per cell, non-zero; null: every
+    // cell) but those of probe cells left out, in `storage`; `among` itself without a probe.
+    const uint8_t* meshed_cells(const uint8_t* among, nfd::vector<uint8_t>* storage) const;
     // vertices := the corners of `cells`; values sized to match, zero.
     void collect_corners();
     // The values at the eight corners of a cell of this level, mc::kCornerOffset order.

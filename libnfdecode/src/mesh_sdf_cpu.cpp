@@ -55,8 +55,9 @@ void edge_normal(const GridLevel& level, const CrossedEdge& e, float t, float n[
 
 nfd_result mesh_sdf_cpu(const GridLevel& level, const OutputFrame& frame, unsigned threads,
                         MeshData* mesh, uint64_t* active_cells) {
+    nfd::vector<uint8_t> meshed;
     *active_cells = march_cells(
-        level, threads, nullptr,
+        level, threads, level.meshed_cells(nullptr, &meshed),
         [](const uint32_t*, const float* f, const uint32_t*, int* index) {
             for (int k = 0; k < 8; ++k) *index |= int(f[k] < 0.0f) << k;
             return true;

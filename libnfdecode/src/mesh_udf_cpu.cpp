@@ -34,8 +34,9 @@ nfd_result mesh_udf_cpu(const GridLevel& level, const OutputFrame& frame, unsign
         return NFD_ERROR_INTERNAL;  // the level's gradients were not evaluated
     auto gradient = [&](uint32_t rank) { return level.gradients.data() + size_t(3) * rank; };
     const float max_edge_sum = udf_edge_limit(level.cell_size);
+    nfd::vector<uint8_t> meshed;
     *active_cells = march_cells(
-        level, threads, level.near.data(),  // step 1
+        level, threads, level.meshed_cells(level.near.data(), &meshed),  // step 1
         [&](const uint32_t*, const float* f, const uint32_t* r, int* index) {
             int nearest = 0;
             for (int k = 1; k < 8; ++k)

@@ -199,6 +199,54 @@ TEST_P(Progressive, MeshesOnlyTheLevelsAsked) {
     nfd_extraction_destroy(ex);
 }
 
+// A field far steeper than the keep rule's margin (no fit of a shape): a sphere of radius 0.04
+// around the centre of a cell of the 16 probe, whose corners read about 30 (the blob's field times
+// 3000). A ladder to 128 samples its coarsest level (32) through that probe (nfdecode.h, "The
+// meshes"), which leaves the cell out, where the decode at 32 evaluates every vertex and finds the
+// sphere at the one inside it. The level meshes only cells whose corners were all evaluated, on
+// every device (the GPU lists only those; the CPU skips the others), as many triangles on the CPU
+// as here; the final level is still the one-shot's.
+TEST_P(Progressive, ASteepFieldsCoarsestLevelMeshesOnlyEvaluatedCells) {
+    GeomSpec steep = offset_blob(0.0625f);  // a probe cell's centre, a vertex of the 32 level
+    const double threshold = 3.0 - 2.0 * 0.04 * 0.04;  // sum_j cos(2 x_j) > it: |x| < 0.04
+    steep.steps[3] = float(0.01 * threshold / 32767);   // layer 1's bias, a * T
+    steep.steps[4] *= 3000.0f;                          // the output layer's weights
+    Asset asset(geom_file(steep));
+    Context cpu(NFD_DEVICE_CPU);
+    auto coarsest_triangles = [&](nfd_context* context) -> size_t {
+        nfd_extraction_options eo{};
+        eo.struct_size = sizeof eo;
+        eo.resolution = 128;
+        eo.mesh_levels = 0b101;  // 32 and 128
+        nfd_extraction* ex = nullptr;
+        EXPECT_EQ(nfd_extraction_create(context, asset.handle, &eo, &ex), NFD_SUCCESS);
+        nfd_mesh* mesh = nullptr;
+        EXPECT_EQ(nfd_extraction_step(ex, &mesh, nullptr), NFD_SUCCESS);
+        nfd_mesh_data d{};
+        EXPECT_EQ(nfd_mesh_get_data(mesh, &d), NFD_SUCCESS);
+        nfd_mesh_destroy(mesh);
+        for (int i = 0; i < 2; ++i) {
+            EXPECT_EQ(nfd_extraction_step(ex, &mesh, nullptr), NFD_SUCCESS);
+            if (i == 1) {
+                nfd_mesh* reference = one_shot(context, asset.handle, 128);
+                expect_same_arrays(mesh, reference);
+                nfd_mesh_destroy(reference);
+            }
+            nfd_mesh_destroy(mesh);
+        }
+        nfd_extraction_destroy(ex);
+        return d.triangle_count;
+    };
+    const size_t here = coarsest_triangles(ctx());
+    nfd_mesh* dense = one_shot(ctx(), asset.handle, 32);
+    nfd_mesh_data d{};
+    ASSERT_EQ(nfd_mesh_get_data(dense, &d), NFD_SUCCESS);
+    nfd_mesh_destroy(dense);
+    EXPECT_GT(d.triangle_count, 0u);
+    EXPECT_EQ(here, 0u);
+    EXPECT_EQ(here, coarsest_triangles(cpu.handle));
+}
+
 TEST_P(Progressive, StopsAtAnyLevel) {
     for (const char* name : {"bunny_sdf_w16", "tshirt_udf_w16"}) {
         Asset asset(read_bytes(golden_path(name, ".nfc")));
