@@ -693,8 +693,8 @@ NFD_API nfd_result nfd_points_write_placed_ply(const float* points, const float*
  * from zero than its keep threshold (its half-diagonal; UDF: 1.5 times) are not evaluated,
  * where a decode at r / 2^k, whose only level it is, evaluates every vertex; the level then
  * holds that decode's triangles but those of a surface hidden in such a cell, and normals beside
- * one may differ. Both devices alike (0.13.20: the CPU path also meshed cells of a skipped probe
- * cell beside a kept one from the values the probe filled in). A level
+ * one may differ. Both devices alike (before 0.13.20 the CPU path also meshed cells of a skipped
+ * probe cell beside a kept one from the values the probe filled in). A level
  * where r / 2^k is rounded up (130's 33 and 65) is no decode's own: it is marching cubes on that
  * level's cells as sampled for r, with cells 2^k * 2 / r wide, its last cells reaching up to one
  * cell past the unit cube. SDF and UDF alike; a UDF level's mesh needs the field's gradients at
