@@ -16,11 +16,6 @@
 
 namespace {
 
-void require_finite(const float* v, size_t n, bool unit_interval = false) {
-    for (size_t i = 0; i < n; ++i)
-        require(std::isfinite(v[i]) && (!unit_interval || (v[i] >= 0.0f && v[i] <= 1.0f)));
-}
-
 void require_finite_f64(const double* v, size_t n) {
     for (size_t i = 0; i < n; ++i) require(std::isfinite(v[i]));
 }

@@ -11,7 +11,6 @@
 // Anything else aborts.
 #include <nfdecode/nfdecode.h>
 
-#include <cmath>
 #include <cstdint>
 #include <cstring>
 
@@ -29,12 +28,10 @@ struct Mesh {
         require(nfd_mesh_get_data(handle, &data) == NFD_SUCCESS);
         require(nfd_mesh_get_colours(handle, &colours) == NFD_SUCCESS);
         require(nfd_mesh_get_stats(handle, &stats) == NFD_SUCCESS);
-        for (size_t i = 0; i < 3 * data.vertex_count; ++i)
-            require(std::isfinite(data.positions[i]) && std::isfinite(data.normals[i]));
+        require_finite(data.positions, 3 * data.vertex_count);
+        require_finite(data.normals, 3 * data.vertex_count);
         for (size_t i = 0; i < 3 * data.triangle_count; ++i) require(data.indices[i] < data.vertex_count);
-        if (colours)
-            for (size_t i = 0; i < 3 * data.vertex_count; ++i)
-                require(colours[i] >= 0.0f && colours[i] <= 1.0f);
+        if (colours) require_finite(colours, 3 * data.vertex_count, true);
     }
 };
 

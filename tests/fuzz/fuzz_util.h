@@ -2,6 +2,8 @@
 #pragma once
 #include <nfdecode/nfdecode.h>
 
+#include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 
@@ -14,6 +16,12 @@ inline void require_at(bool ok, const char* file, int line) {
     std::abort();
 }
 #define require(ok) require_at((ok), __FILE__, __LINE__)
+
+// Every value finite and, with `unit_interval` (colours), in [0, 1].
+inline void require_finite(const float* v, size_t n, bool unit_interval = false) {
+    for (size_t i = 0; i < n; ++i)
+        require(std::isfinite(v[i]) && (!unit_interval || (v[i] >= 0.0f && v[i] <= 1.0f)));
+}
 
 // A single-threaded CPU context, made once; null if it cannot be (the target then does nothing).
 inline nfd_context* cpu_context() {
