@@ -36,12 +36,7 @@ void decode(const nfd_asset* asset, uint32_t resolution, bool sample_band) {
     require(r == NFD_SUCCESS);
     nfd_mesh_data d{};
     const float* colours = nullptr;
-    require(nfd_mesh_get_data(mesh, &d) == NFD_SUCCESS);
-    require(nfd_mesh_get_colours(mesh, &colours) == NFD_SUCCESS);
-    require_finite(d.positions, 3 * d.vertex_count);
-    require_finite(d.normals, 3 * d.vertex_count);
-    for (size_t i = 0; i < 3 * d.triangle_count; ++i) require(d.indices[i] < d.vertex_count);
-    if (colours) require_finite(colours, 3 * d.vertex_count, true);
+    read_valid_mesh(mesh, &d, &colours);
     if (d.triangle_count > 0) {
         std::vector<float> points(3 * 64), normals(3 * 64), rgb(3 * 64);
         require(nfd_mesh_sample_points(mesh, 64, 1, points.data(), normals.data()) == NFD_SUCCESS);

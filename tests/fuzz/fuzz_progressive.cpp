@@ -25,13 +25,8 @@ struct Mesh {
     nfd_decode_stats stats{};
     ~Mesh() { nfd_mesh_destroy(handle); }
     void read() {
-        require(nfd_mesh_get_data(handle, &data) == NFD_SUCCESS);
-        require(nfd_mesh_get_colours(handle, &colours) == NFD_SUCCESS);
+        read_valid_mesh(handle, &data, &colours);
         require(nfd_mesh_get_stats(handle, &stats) == NFD_SUCCESS);
-        require_finite(data.positions, 3 * data.vertex_count);
-        require_finite(data.normals, 3 * data.vertex_count);
-        for (size_t i = 0; i < 3 * data.triangle_count; ++i) require(data.indices[i] < data.vertex_count);
-        if (colours) require_finite(colours, 3 * data.vertex_count, true);
     }
 };
 
