@@ -77,7 +77,8 @@ with the width. Bunny (fast, L = 8, seed 0, CD at 256) UDF against SDF: w32 +3.2
 suzanne w16 +4.2%, w32 -3.2%, w64 -3.0%."""
 
 AUTO_PROBE_POINTS = 20_000
-"""Probe points of the `auto` test (~0.3 s on the bunny)."""
+"""Probe points of the winding test every mesh gets (sampling.resolve_field: its orientation, and
+`auto`'s choice; ~0.3 s on the bunny)."""
 
 AMBIGUOUS_WINDING = (0.2, 0.8)
 

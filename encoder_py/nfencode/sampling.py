@@ -248,7 +248,9 @@ def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Genera
     is negative.
 
     Point clouds are always UDF. For meshes one probe of winding numbers near the surface serves both
-    decisions: a mesh wound inside-out (w ≈ -1 inside) is flipped, and `auto` picks SDF when at most
+    decisions: a mesh wound inside-out (w ≈ -1 inside) is flipped, whatever the request (so that a
+    UDF's signed start has the same sides, and draws the same numbers afterwards, whether `auto`
+    chose it or the user asked for it: one seed, one file), and `auto` picks SDF when at most
     config.AUTO_SDF_MAX_AMBIGUOUS of the probe is ambiguous (config.AMBIGUOUS_WINDING), i.e. the mesh
     encloses an inside despite small holes or folds, unless it has holes and the network is at least
     config.AUTO_UDF_WIDTH_WITH_HOLES wide (a `width` network's fit is then better than the caps an SDF
@@ -260,13 +262,11 @@ def resolve_field(sampler: SurfaceSampler, requested: str, rng: np.random.Genera
         if requested == "sdf":
             raise InputError("a point cloud has no inside: it can only be encoded as a UDF (--field udf)")
         return FieldChoice("udf", "a point cloud has no inside")
-    if requested == "udf":
-        return FieldChoice("udf", "requested")
     w = sampler.winding_numbers(sampler.near_points(config.AUTO_PROBE_POINTS, config.AUTO_PROBE_SIGMA, rng))
     if np.sum(w < -0.5) > np.sum(w > 0.5):
         sampler.flip_orientation()
-    if requested == "sdf":
-        return FieldChoice("sdf", "requested")
+    if requested != "auto":
+        return FieldChoice(requested, "requested")
     low, high = config.AMBIGUOUS_WINDING
     ambiguous = float(np.mean((np.abs(w) > low) & (np.abs(w) < high)))
     measured = f"{ambiguous:.2%} of the probe points near the surface have an ambiguous winding number"

@@ -67,6 +67,16 @@ def test_same_seed_gives_the_same_bytes_and_another_seed_does_not(small_epochs: 
     assert compress(shape, EncodeConfig(width=16, epochs=2, quiet=True, seed=8)).data != first.data
 
 
+def test_a_field_auto_chose_gives_the_file_asked_for_by_name(small_epochs: None) -> None:
+    # The winding probe orients every mesh and draws its numbers whatever the request, so `auto`
+    # and the field it picks train on the same pool with the same sides: one seed, one file.
+    for path, field in ((GARMENT, "udf"), (BUNNY_RES4, "sdf")):
+        shape = load_shape(path)
+        auto = compress(shape, EncodeConfig(width=8, epochs=1, quiet=True, field="auto"))
+        assert auto.field == field
+        assert compress(shape, EncodeConfig(width=8, epochs=1, quiet=True, field=field)).data == auto.data
+
+
 def test_auto_field_is_sdf_for_scans_with_small_holes_and_udf_for_open_garments() -> None:
     rng = np.random.default_rng(0)
     bunny = resolve_field(_sampler(BUNNY_RES2), "auto", rng, 32)  # 5 small holes
